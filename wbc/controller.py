@@ -1,0 +1,157 @@
+"""Controller: one control cycle, top to bottom.
+
+    robot.update(q, v)           pinocchio, once
+    stack.layout / assemble      task rows, levels
+    solver                       q̈ (and f) by projection, HQP or weighted QP
+    torques                      τ = S_a (M q̈ + h − J_fᵀ f)   (5.26 solved for τ)
+
+Nothing here returns a NaN torque: a non-finite or failed solve is reported in
+``Solution.status`` and the torque falls back to the last good one (or gravity
+compensation on the first cycle).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SolverError
+from .model import RobotModel
+from .rows import Layout, Level
+from .solution import LevelDiagnostics, Solution
+from .solvers.cascade import Damping, violation
+from .solvers.hqp import CascadeResult, HierarchicalQP, WeightedQP
+from .solvers.projection import RecursiveProjection
+from .stack import Stack
+from .tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
+
+SOLVERS = ("hqp", "projection", "weighted")
+
+
+class Controller:
+    """Whole-body controller of ``robot`` for ``stack``.
+
+    ``solver``: ``"hqp"`` (strict, inequalities at any level), ``"projection"``
+    (analytic recursive null-space projection, q̈ only, SNS joint limits) or
+    ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
+    back-end (``"proxqp"``, ``"daqp"`` or any qpsolvers name). ``weighting``:
+    generalised-inverse weight W of the projection solver (``"identity"`` or
+    ``"inertia"``). ``sacrifice_tol``: residual above which a task is reported
+    as sacrificed (units of its rows, m/s² or rad/s²).
+    """
+
+    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str = "daqp",
+                 weighting: str = "identity", damping: Damping | None = None,
+                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3) -> None:
+        if solver not in SOLVERS:
+            raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
+        if not isinstance(stack, Stack):
+            stack = Stack(stack)
+        self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
+        self.sacrifice_tol = sacrifice_tol
+        if solver == "projection":
+            self.solver = RecursiveProjection(weighting=weighting, damping=damping, backend=backend)
+        elif solver == "hqp":
+            self.solver = HierarchicalQP(backend=backend, damping=damping)
+        else:
+            self.solver = WeightedQP(backend=backend, damping=damping, level_weight=level_weight)
+        self._dynamics = FloatingBaseDynamics()
+        self._diff_drive = DifferentialDrive() if robot.differential_drive else None
+        self._last_tau: np.ndarray | None = None
+        self.layout: Layout | None = None
+        self.levels: list[Level] = []
+        # bind every task to the robot now, so a wrong frame fails here, not mid-run
+        self.stack.layout(robot)
+
+    def _internal_constraints(self, layout: Layout) -> list:
+        extra = []
+        if len(self.robot.unactuated_idx) and (self.solver_name != "projection" or layout.nf == 0):
+            extra.append(self._dynamics)
+        if self._diff_drive is not None:
+            extra.append(self._diff_drive)
+        return extra
+
+    def solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
+        """One control cycle at state (q, v); see the module docstring."""
+        robot = self.robot
+        q, v = robot.check_state(q, v)
+        robot.update(q, v)
+        layout = self.stack.layout(robot)
+        levels = self.stack.assemble(robot, layout, self._internal_constraints(layout))
+        self.layout, self.levels = layout, levels
+        nv = layout.nv
+        if self.solver_name == "projection":
+            res = self.solver.solve_accelerations(levels, layout, robot)
+            fres = self.solver.distribute_forces(res.x, levels, layout, robot)
+            x = np.concatenate([res.x, fres.x])
+            ok, message, qp_count = res.ok and fres.ok, res.message or fres.message, fres.qp_count
+            if any(i.relaxed for i in fres.levels[:1]):
+                message = message or "contact forces outside the friction/CoP cones"
+        else:
+            res = self.solver.solve_levels(levels, layout.nx)
+            x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
+        return self._finish(x, res, levels, layout, ok, message, qp_count)
+
+    def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:
+        robot, nv = self.robot, layout.nv
+        qdd, f = x[:nv], x[nv:]
+        tau_full = robot.M @ qdd + robot.h
+        if layout.nf:
+            tau_full -= layout.force_jacobian.T @ f
+        tau_full[robot.unactuated_idx] = 0.0
+        finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau_full))
+        residuals, task_res, diags = [], {}, []
+        relaxed = False
+        for lvl, info in zip(levels, res.levels):
+            e = lvl.A @ x - lvl.b if finite else np.full(lvl.n_eq, np.inf)
+            C, lo, hi = lvl.inequalities(layout.nx)
+            viol = violation(C, lo, hi, x) if finite else np.full(len(lo), np.inf)
+            residuals.append(float(np.sqrt(e @ e + viol @ viol)))
+            sacrificed, active = [], {}
+            for t in lvl.tasks:
+                r2 = 0.0
+                sl = lvl.eq_slices.get(t.name)
+                if sl is not None:
+                    r2 += float(e[sl] @ e[sl])
+                isl = lvl.in_slices.get(t.name)
+                if isl is not None:
+                    r2 += float(viol[isl] @ viol[isl])
+                    y = C[isl] @ x
+                    n_act = int(np.sum((np.abs(y - lo[isl]) < 1e-7) | (np.abs(y - hi[isl]) < 1e-7)))
+                    if n_act:
+                        active[t.name] = n_act
+                task_res[t.name] = float(np.sqrt(r2))
+                if task_res[t.name] > self.sacrifice_tol:
+                    sacrificed.append(t.name)
+            if lvl.box is not None:
+                bi, blo, bhi = lvl.box
+                y = x[bi]
+                n_act = int(np.sum((np.abs(y - blo) < 1e-7) | (np.abs(y - bhi) < 1e-7)))
+                if n_act:
+                    active["joint_limits"] = n_act
+            relaxed |= info.relaxed
+            diags.append(LevelDiagnostics(
+                index=lvl.index, tasks=[t.name for t in lvl.tasks], residual=residuals[-1],
+                rank=info.rank, sigma_min=info.sigma_min, damping=info.damping,
+                dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
+                sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated)))
+        status = "ok" if ok else "failed"
+        if ok and relaxed:
+            status = "relaxed"
+        if not finite:
+            status, message = "failed", "non-finite solution"
+        if status == "failed":
+            tau_full = self._fallback_torque()
+            qdd = np.zeros(nv)
+        else:
+            self._last_tau = tau_full.copy()
+        forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
+        return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx].copy(), tau_full=tau_full, forces=forces,
+                        x=x, residuals=residuals, task_residuals=task_res, status=status, message=message,
+                        diagnostics=diags, qp_count=qp_count)
+
+    def _fallback_torque(self) -> np.ndarray:
+        if self._last_tau is not None:
+            return self._last_tau.copy()
+        tau = self.robot.data.g.copy() if hasattr(self.robot.data, "g") else self.robot.h.copy()
+        tau[self.robot.unactuated_idx] = 0.0
+        return tau

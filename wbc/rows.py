@@ -1,0 +1,90 @@
+"""Plain data passed from tasks to the stack and from the stack to the solvers.
+
+Following TSID's split, a solver never sees a task: it sees levels of affine rows
+over the decision vector x = (q̈, f), q̈ ∈ R^nv the joint accelerations (m/s², rad/s²)
+and f ∈ R^nf the stacked contact forces/wrenches (N, N·m) in each contact's frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Rows:
+    """What one task contributes: ``A x = b`` and/or ``l ≤ C x ≤ u`` and/or box bounds.
+
+    ``box = (idx, lo, hi)`` bounds q̈[idx] (joint limits); solvers treat it either
+    as rows or, in the projection solver, by saturation in the null space.
+    """
+
+    A: np.ndarray | None = None
+    b: np.ndarray | None = None
+    C: np.ndarray | None = None
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+    box: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    @property
+    def n_eq(self) -> int:
+        return 0 if self.A is None else self.A.shape[0]
+
+    @property
+    def n_in(self) -> int:
+        return (0 if self.C is None else self.C.shape[0]) + (0 if self.box is None else len(self.box[0]))
+
+
+@dataclass
+class Layout:
+    """Where each contact's force lives in x, and the force Jacobian J_f (nf × nv).
+
+    J_fᵀ f is the joint torque the contact forces produce, so the equation of
+    motion reads M q̈ + h = Sᵀτ + J_fᵀ f (5.26).
+    """
+
+    nv: int
+    contact_slices: dict[str, slice] = field(default_factory=dict)
+    force_jacobian: np.ndarray | None = None
+
+    @property
+    def nf(self) -> int:
+        return 0 if self.force_jacobian is None else self.force_jacobian.shape[0]
+
+    @property
+    def nx(self) -> int:
+        return self.nv + self.nf
+
+
+@dataclass
+class Level:
+    """All rows of one priority level, stacked; equality rows pre-scaled by √weight."""
+
+    index: int
+    tasks: list
+    A: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    box: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+    eq_slices: dict[str, slice]
+    in_slices: dict[str, slice]
+
+    @property
+    def n_eq(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def n_in(self) -> int:
+        return self.C.shape[0] + (0 if self.box is None else len(self.box[0]))
+
+    def inequalities(self, nx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """All inequality rows (general rows, then box bounds as unit rows): C, lo, hi."""
+        if self.box is None:
+            return self.C, self.lo, self.hi
+        idx, blo, bhi = self.box
+        B = np.zeros((len(idx), nx))
+        B[np.arange(len(idx)), idx] = 1.0
+        return np.vstack([self.C, B]), np.concatenate([self.lo, blo]), np.concatenate([self.hi, bhi])

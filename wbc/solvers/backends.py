@@ -1,0 +1,122 @@
+"""QP back-ends behind one call: minimise ½ zᵀHz + gᵀz subject to l ≤ C z ≤ u.
+
+- ``proxqp`` (proxsuite dense): one problem object per problem shape and call
+  site, reused across cycles; warm-started from the previous solution;
+- ``daqp``: dual active-set, called directly (fast on small dense problems);
+- any other name is handed to ``qpsolvers.solve_qp`` (osqp, quadprog, ...).
+
+Infinite bounds are passed as ±1e20 (both libraries treat that as unbounded).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SolverError
+
+BIG = 1e20
+
+
+@dataclass
+class QPResult:
+    z: np.ndarray | None
+    ok: bool
+    status: str
+    iterations: int = 0
+
+
+class Backend:
+    name = "base"
+    #: accepts a positive semi-definite (singular) Hessian
+    psd_ok = False
+
+    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+class ProxQP(Backend):
+    """proxsuite.proxqp.dense, problems cached by (call-site key, n, m)."""
+
+    name = "proxqp"
+    psd_ok = True
+
+    def __init__(self, eps_abs: float = 1e-9, eps_rel: float = 0.0, max_iter: int = 1000) -> None:
+        import proxsuite
+
+        self._px = proxsuite.proxqp
+        self.eps_abs, self.eps_rel, self.max_iter = eps_abs, eps_rel, max_iter
+        self._qps: dict = {}
+
+    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:
+        n, m = H.shape[0], C.shape[0]
+        k = (key, n, m)
+        qp = self._qps.get(k)
+        lo = np.maximum(lo, -BIG)
+        hi = np.minimum(hi, BIG)
+        if qp is None:
+            qp = self._px.dense.QP(n, 0, m)
+            s = qp.settings
+            s.eps_abs, s.eps_rel, s.max_iter = self.eps_abs, self.eps_rel, self.max_iter
+            s.verbose = False
+            qp.init(H, g, None, None, C, lo, hi)
+            self._qps[k] = qp
+        else:
+            qp.settings.initial_guess = self._px.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+            qp.update(H, g, None, None, C, lo, hi, update_preconditioner=False)
+        qp.solve()
+        st = qp.results.info.status
+        ok = st == self._px.QPSolverOutput.PROXQP_SOLVED
+        return QPResult(qp.results.x.copy() if ok else None, ok, str(st).split(".")[-1], qp.results.info.iter)
+
+
+class DAQP(Backend):
+    """daqp.solve on the dense problem (H must be positive definite)."""
+
+    name = "daqp"
+
+    def __init__(self) -> None:
+        import daqp
+
+        self._daqp = daqp
+
+    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:
+        lo = np.ascontiguousarray(np.maximum(lo, -BIG))
+        hi = np.ascontiguousarray(np.minimum(hi, BIG))
+        sense = np.zeros(C.shape[0], dtype=np.int32)
+        z, _, flag, info = self._daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(g),
+                                            np.ascontiguousarray(C), hi, lo, sense, primal_tol=1e-9)
+        ok = flag in (1, 2)  # 1 optimal, 2 soft optimal
+        it = info.get("iterations", 0) if isinstance(info, dict) else 0
+        return QPResult(np.asarray(z) if ok else None, ok, f"exitflag {flag}", it)
+
+
+class QPSolvers(Backend):
+    """Any solver known to qpsolvers (osqp, quadprog, ...): rows written as G z ≤ h."""
+
+    def __init__(self, solver: str) -> None:
+        import qpsolvers
+
+        if solver not in qpsolvers.available_solvers:
+            raise SolverError(f"QP back-end '{solver}' is not available; expected one of "
+                              f"{sorted(set(qpsolvers.available_solvers) | {'proxqp', 'daqp'})}")
+        self._qps = qpsolvers
+        self.name = solver
+        self.psd_ok = solver in ("osqp", "proxqp", "clarabel", "scs")
+
+    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:
+        up, dn = np.isfinite(hi) & (hi < BIG), np.isfinite(lo) & (lo > -BIG)
+        G = np.vstack([C[up], -C[dn]])
+        h = np.concatenate([hi[up], -lo[dn]])
+        kw = {"eps_abs": 1e-9, "eps_rel": 1e-9} if self.name == "osqp" else {}
+        z = self._qps.solve_qp(H, g, G if len(h) else None, h if len(h) else None, solver=self.name, **kw)
+        return QPResult(z, z is not None, "solved" if z is not None else "failed")
+
+
+def make_backend(name: str) -> Backend:
+    if name in ("proxqp", "proxsuite"):
+        return ProxQP()
+    if name == "daqp":
+        return DAQP()
+    return QPSolvers(name)

@@ -1,0 +1,224 @@
+"""Hierarchical QP: a lexicographic cascade over x = (q̈, f).
+
+Level k minimises its weighted equality residual, then the squared violation of
+its inequalities, while every higher level keeps its optimum:
+
+    min_x ‖A_k x − b_k‖²   then   min_{x, w} ‖w‖²  s.t.  l_k ≤ C_k x + w ≤ u_k,
+    both subject to  A_j x = A_j x*_j              (j < k: rows keep their values)
+                     l_j − w*_j ≤ C_j x ≤ u_j − w*_j  (j < k: inequalities, relaxed by
+                                                    the slack they needed, if any).
+
+Inside one level the equalities come first: a contact's zero acceleration is
+kept even if that forces a torque or friction bound of the same level to be
+relaxed (the relaxation is reported, never hidden).
+
+Equalities never reach the QP: they are eliminated by the null-space cascade
+(:mod:`wbc.solvers.cascade`), so each QP lives in the free directions z of
+x = x̂ + Z z. A level is first solved by least squares alone; only if that point
+violates an inequality (its own or a higher level's) is a QP solved. In the
+common case, no limit active, a whole cycle needs no QP at all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..rows import Level
+from .backends import Backend, make_backend
+from .cascade import Cascade, Damping, violation
+
+
+@dataclass
+class LevelInfo:
+    """What a solver reports for one level (feeds ``Solution.diagnostics``)."""
+
+    index: int
+    rank: int = 0
+    sigma_min: float = np.inf
+    damping: float = 0.0
+    dof_before: int = 0
+    used_qp: bool = False
+    qp_status: str = ""
+    relaxed: bool = False
+    saturated: list = field(default_factory=list)
+
+
+@dataclass
+class CascadeResult:
+    x: np.ndarray
+    levels: list[LevelInfo]
+    ok: bool = True
+    qp_count: int = 0
+    message: str = ""
+
+
+class HierarchicalQP:
+    """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names."""
+
+    name = "hqp"
+
+    def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
+                 regularization: float = 1e-6, slack_regularization: float = 1e-10,
+                 feasibility_tol: float = 1e-7) -> None:
+        self.backend = make_backend(backend) if isinstance(backend, str) else backend
+        self.damping = damping or Damping()
+        self.regularization = regularization
+        self.slack_regularization = slack_regularization
+        self.tol = feasibility_tol
+
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "") -> CascadeResult:
+        cas = Cascade(nx)
+        acc_C: list[np.ndarray] = []
+        acc_lo: list[np.ndarray] = []
+        acc_hi: list[np.ndarray] = []
+        infos, ok, qp_count, msg = [], True, 0, ""
+        for lvl in levels:
+            info = LevelInfo(lvl.index, dof_before=cas.dof)
+            # (1) the level's equalities, in the null space of every higher level
+            step = cas.ls_step(lvl.A, lvl.b, self.damping)
+            info.rank, info.sigma_min, info.damping = step.rank, step.sigma_min, step.damping
+            if acc_C and step.rank:
+                Ca, la, ha = np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
+                v = violation(Ca, la, ha, cas.candidate(step))
+                if v.max() > self.tol:
+                    info.used_qp = True
+                    qp_count += 1
+                    z, _, status = self._qp(cas, step.AZ, step.r, None, None, None, acc_C, acc_lo, acc_hi,
+                                            f"{key}{lvl.index}e")
+                    info.qp_status = status
+                    if z is None:
+                        ok, msg = False, f"level {lvl.index}: QP failed ({status})"
+                        z = np.zeros(cas.dof)
+                    cas.commit(step, z)
+                else:
+                    cas.commit(step)
+            else:
+                cas.commit(step)
+            # (2) its inequalities, with least-squares slack, in what is left
+            C, lo, hi = lvl.inequalities(nx)
+            if len(lo):
+                w = np.zeros(len(lo))
+                Ca = np.vstack(acc_C + [C])
+                v = violation(Ca, np.concatenate(acc_lo + [lo]), np.concatenate(acc_hi + [hi]), cas.x)
+                if v.max() > self.tol:
+                    info.used_qp = True
+                    qp_count += 1
+                    z, w, status = self._qp(cas, None, None, C, lo, hi, acc_C, acc_lo, acc_hi,
+                                            f"{key}{lvl.index}i")
+                    info.qp_status = status
+                    if z is None:
+                        ok, msg = False, f"level {lvl.index}: QP failed ({status})"
+                        w = self._needed_slack(C, lo, hi, cas.x)
+                    else:
+                        cas.x = cas.x + cas.Z @ z
+                        w = np.where(np.abs(w) > self.tol, w, 0.0)
+                    info.relaxed = bool(np.any(w != 0.0))
+                acc_C.append(C)
+                acc_lo.append(lo - w)
+                acc_hi.append(hi - w)
+            infos.append(info)
+        return CascadeResult(cas.x, infos, ok, qp_count, msg)
+
+    def _fallback(self) -> Backend:
+        if getattr(self, "_fb", None) is None:
+            self._fb = make_backend("proxqp" if self.backend.name == "daqp" else "daqp")
+        return self._fb
+
+    @staticmethod
+    def _needed_slack(C, lo, hi, x):
+        """w such that l ≤ C x + w ≤ u holds with the least |w| (row by row)."""
+        y = C @ x
+        return np.where(y < lo, lo - y, np.where(y > hi, hi - y, 0.0))
+
+    def _qp(self, cas: Cascade, AZ, r_eq, C, lo, hi, acc_C, acc_lo, acc_hi, key):
+        """QP in the free directions z of x = x̂ + Z z.
+
+        Equality sub-level (``AZ`` given): min ‖AZ z − r‖² + ε‖z‖² s.t. higher rows.
+        Inequality sub-level (``C`` given): min ‖w‖² + ε‖z‖² s.t. l ≤ C(x̂ + Zz) + w ≤ u
+        and higher rows; ε (``regularization``, relative) picks, among the optima,
+        the point nearest the least-squares one.
+        """
+        r = cas.dof
+        m = 0 if lo is None else len(lo)
+        n = r + m
+        H = np.zeros((n, n))
+        g = np.zeros(n)
+        if AZ is not None:
+            H[:r, :r] = AZ.T @ AZ
+            g[:r] = -AZ.T @ r_eq
+        if AZ is not None:
+            eps = self.regularization * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
+        else:
+            eps = 0.0 if self.backend.psd_ok else self.slack_regularization
+        H[np.arange(r), np.arange(r)] += eps
+        H[np.arange(r, n), np.arange(r, n)] = 1.0
+        rows, los, his = [], [], []
+        if m:
+            Cl = np.zeros((m, n))
+            Cl[:, :r] = C @ cas.Z
+            Cl[:, r:] = np.eye(m)
+            y = C @ cas.x
+            rows.append(Cl)
+            los.append(lo - y)
+            his.append(hi - y)
+        if acc_C:
+            Ca = np.vstack(acc_C)
+            CaZ = Ca @ cas.Z
+            keep = np.abs(CaZ).max(axis=1) > 1e-12 if r else np.zeros(len(Ca), bool)
+            ya = Ca[keep] @ cas.x
+            Cr = np.zeros((int(keep.sum()), n))
+            Cr[:, :r] = CaZ[keep]
+            rows.append(Cr)
+            # z = 0 stays feasible: a higher row at (or a hair past) its bound stays there
+            los.append(np.minimum(np.concatenate(acc_lo)[keep] - ya, 0.0))
+            his.append(np.maximum(np.concatenate(acc_hi)[keep] - ya, 0.0))
+        Cq = np.vstack(rows) if rows else np.zeros((0, n))
+        lq = np.concatenate(los) if los else np.zeros(0)
+        hq = np.concatenate(his) if his else np.zeros(0)
+        res = self.backend.solve(H, g, Cq, lq, hq, key=key)
+        if not res.ok:
+            # z = 0 is feasible by construction, so a failure is numerical: retry once
+            # with the other first-class back-end before reporting it.
+            fb = self._fallback()
+            if not fb.psd_ok and eps == 0.0:
+                H[np.arange(r), np.arange(r)] += self.slack_regularization
+            res2 = fb.solve(H, g, Cq, lq, hq, key=key)
+            if not res2.ok:
+                return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}"
+            res = res2
+        return res.z[:r], res.z[r:], res.status
+
+
+class WeightedQP(HierarchicalQP):
+    """One weighted QP: level 0 kept hard, every lower level k folded into one
+    objective with weight ``level_weight``^(k−1) (a soft hierarchy, as in TSID)."""
+
+    name = "weighted"
+
+    def __init__(self, *args, level_weight: float = 1e-3, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.level_weight = level_weight
+
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "") -> CascadeResult:
+        if len(levels) <= 2:
+            return super().solve_levels(levels, nx, key)
+        rest = levels[1:]
+        w = [np.sqrt(self.level_weight ** k) for k in range(len(rest))]
+        boxes = [l.box for l in rest if l.box is not None]
+        merged = Level(
+            index=1,
+            tasks=[t for l in rest for t in l.tasks],
+            A=np.vstack([wk * l.A for wk, l in zip(w, rest)]),
+            b=np.concatenate([wk * l.b for wk, l in zip(w, rest)]),
+            C=np.vstack([l.C for l in rest]),
+            lo=np.concatenate([l.lo for l in rest]),
+            hi=np.concatenate([l.hi for l in rest]),
+            box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
+            eq_slices={}, in_slices={},
+        )
+        res = super().solve_levels([levels[0], merged], nx, key)
+        # report the merged level's info for every folded level
+        res.levels = res.levels[:1] + [res.levels[1]] * len(rest)
+        return res

@@ -1,0 +1,20 @@
+"""Task library: one task kind per module. Each returns affine rows over x = (q̈, f)."""
+
+from .base import MotionTask, Task
+from .com import CoM
+from .contact import Contact, friction_pyramid, wrench_cone
+from .contact_wrench import ContactWrench
+from .dynamics import DifferentialDrive, FloatingBaseDynamics
+from .frame import Frame
+from .joint_limits import JointLimits
+from .posture import Posture
+from .torque_limits import TorqueLimits
+
+#: task types a YAML stack may name, by their ``type:`` key
+TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench)}
+
+__all__ = [
+    "Task", "MotionTask", "CoM", "Contact", "ContactWrench", "Frame", "JointLimits", "Posture",
+    "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
+    "friction_pyramid",
+]

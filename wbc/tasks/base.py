@@ -1,0 +1,127 @@
+"""The abstract task: a name, gains, a weight, a target, and the rows it adds.
+
+A motion task drives a task vector x_k with the acceleration reference of (5.16),
+
+    a_k = ẍ_k,d + K_d (ẋ_k,d − ẋ_k) + K_p (x_k,d − x_k),
+
+and contributes the rows J_k q̈ = a_k − J̇_k q̇ (the second-order kinematics of
+5.2.3). ``kd`` defaults to critical damping, K_d = 2 √K_p, so that the closed loop
+ë + K_d ė + K_p e = 0 (5.17) has a double real pole at −√K_p.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import TaskDefinitionError, TargetError
+from ..rows import Layout, Rows
+
+if TYPE_CHECKING:
+    from ..model import RobotModel
+
+
+def gain(task_name: str, key: str, value, dim: int | None = None) -> np.ndarray | float:
+    """A non-negative scalar gain, or a vector of per-axis gains (1/s², 1/s)."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim > 1 or (arr.ndim == 1 and dim is not None and arr.shape[0] != dim):
+        raise TaskDefinitionError(
+            f"task '{task_name}': {key} must be a number or a vector of {dim} numbers, got {value!r}"
+        )
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise TaskDefinitionError(f"task '{task_name}': {key} must be finite and >= 0, got {value!r}")
+    return float(arr) if arr.ndim == 0 else arr
+
+
+class Task(ABC):
+    """Base of every task. Subclasses implement :meth:`rows` (and :meth:`error`).
+
+    Parameters: ``name`` (unique in a stack), ``weight`` (relative weight inside
+    its level, dimensionless, > 0).
+    """
+
+    kind: str = "task"
+    #: the task only touches the contact forces (no q̈ columns)
+    on_forces: bool = False
+
+    def __init__(self, name: str, weight: float = 1.0) -> None:
+        if not isinstance(name, str) or not name:
+            raise TaskDefinitionError(f"{type(self).__name__}: name must be a non-empty string, got {name!r}")
+        self.name = name
+        w = float(weight)
+        if not np.isfinite(w) or w <= 0:
+            raise TaskDefinitionError(f"task '{name}': weight must be > 0, got {weight!r}")
+        self.weight = w
+
+    @abstractmethod
+    def rows(self, robot: "RobotModel", layout: Layout) -> Rows:
+        """The task's rows for the robot's current (cached) state."""
+
+    def error(self, robot: "RobotModel") -> np.ndarray | None:
+        """Task-space error x_d − x (m, rad or N) for metrics; None for constraints."""
+        return None
+
+    def params(self) -> dict:
+        """Constructor arguments, for YAML round trips and ``wbc tasks``."""
+        return {"name": self.name, "weight": self.weight}
+
+    # Sugar: (a + b) groups tasks in one level, a / b stacks levels.
+    def __add__(self, other):
+        from ..stack import TaskGroup
+
+        return TaskGroup([self]) + other
+
+    def __truediv__(self, other):
+        from ..stack import TaskGroup
+
+        return TaskGroup([self]) / other
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r})"
+
+
+class MotionTask(Task):
+    """A task with a PD acceleration reference (5.16); ``kp`` in 1/s², ``kd`` in 1/s."""
+
+    def __init__(self, name: str, kp, kd=None, weight: float = 1.0, dim: int | None = None) -> None:
+        super().__init__(name, weight)
+        self._dim = dim
+        self.kp = gain(name, "kp", kp, dim)
+        self.kd = 2.0 * np.sqrt(self.kp) if kd is None else gain(name, "kd", kd, dim)
+        self._kd_default = kd is None
+
+    def set_gains(self, kp, kd=None) -> None:
+        self.kp = gain(self.name, "kp", kp, self._dim)
+        self.kd = 2.0 * np.sqrt(self.kp) if kd is None else gain(self.name, "kd", kd, self._dim)
+        self._kd_default = kd is None
+
+    def params(self) -> dict:
+        p = super().params()
+        p["kp"] = self.kp.tolist() if isinstance(self.kp, np.ndarray) else self.kp
+        if not self._kd_default:
+            p["kd"] = self.kd.tolist() if isinstance(self.kd, np.ndarray) else self.kd
+        return p
+
+
+def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
+    """A float vector of exactly ``dim`` entries, or a TargetError naming the task."""
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise TargetError(f"task '{task_name}': {what} must be {dim} numbers, got {value!r}") from exc
+    if arr.shape != (dim,):
+        raise TargetError(f"task '{task_name}': {what} must have shape ({dim},), got shape {np.shape(value)}")
+    if not np.all(np.isfinite(arr)):
+        raise TargetError(f"task '{task_name}': {what} contains NaN or inf")
+    return arr
+
+
+def eq_buffer(task: Task, m: int, nx: int) -> tuple[np.ndarray, np.ndarray]:
+    """Zeroed (m × nx, m) buffers owned by the task, reallocated only when nx changes."""
+    buf = getattr(task, "_eq_buf", None)
+    if buf is None or buf[0].shape != (m, nx):
+        buf = (np.zeros((m, nx)), np.zeros(m))
+        task._eq_buf = buf
+    return buf

@@ -1,0 +1,70 @@
+"""Centre of mass: drive the CoM position (all axes or a subset) to a target."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import TaskDefinitionError
+from ..rows import Layout, Rows
+from .base import MotionTask, as_vector, eq_buffer
+
+_AXES = "xyz"
+
+
+class CoM(MotionTask):
+    """CoM task: J_com q̈ = a − J̇_com q̇ with a from (5.16).
+
+    ``target`` (m, world frame, 3-vector; default: the CoM at the first cycle),
+    ``target_velocity`` (m/s) and ``target_acceleration`` (m/s²) for tracking,
+    ``axes`` a subset of ``"xyz"`` (``"xy"`` leaves the height free).
+    """
+
+    kind = "com"
+
+    def __init__(self, kp: float = 100.0, kd=None, weight: float = 1.0, name: str = "com",
+                 target=None, axes: str = "xyz") -> None:
+        super().__init__(name, kp, kd, weight)
+        if not axes or any(a not in _AXES for a in axes) or len(set(axes)) != len(axes):
+            raise TaskDefinitionError(f"task '{name}': axes must be a subset of 'xyz', got {axes!r}")
+        self.axes = axes
+        self._sel = np.array([_AXES.index(a) for a in axes])
+        self._target = None if target is None else as_vector(name, "target", target, 3)
+        self.target_velocity = np.zeros(3)
+        self.target_acceleration = np.zeros(3)
+
+    @property
+    def target(self) -> np.ndarray | None:
+        return self._target
+
+    @target.setter
+    def target(self, value) -> None:
+        self._target = as_vector(self.name, "target", value, 3)
+
+    def set_reference(self, position, velocity=None, acceleration=None) -> None:
+        """Set position (m), velocity (m/s) and acceleration (m/s²) references at once."""
+        self.target = position
+        self.target_velocity = np.zeros(3) if velocity is None else as_vector(self.name, "velocity", velocity, 3)
+        self.target_acceleration = (np.zeros(3) if acceleration is None
+                                    else as_vector(self.name, "acceleration", acceleration, 3))
+
+    def error(self, robot) -> np.ndarray:
+        if self._target is None:
+            self._target = robot.com.copy()
+        return (self._target - robot.com)[self._sel]
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        s = self._sel
+        A, b = eq_buffer(self, len(s), layout.nx)
+        A[:, : layout.nv] = robot.com_jacobian[s]
+        e = self.error(robot)
+        de = (self.target_velocity - robot.com_velocity)[s]
+        b[:] = self.target_acceleration[s] + self.kd * de + self.kp * e - robot.com_drift[s]
+        return Rows(A=A, b=b)
+
+    def params(self) -> dict:
+        p = super().params()
+        if self.axes != "xyz":
+            p["axes"] = self.axes
+        if self._target is not None:
+            p["target"] = self._target.tolist()
+        return p

@@ -1,0 +1,163 @@
+"""Rigid unilateral contact with Coulomb friction: a sole on the ground, a hand on a table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import TaskDefinitionError
+from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
+from ..rows import Layout, Rows
+from .base import MotionTask, eq_buffer
+
+
+def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
+    """16 × 6 matrix U with U w ≤ 0 ⇔ the wrench w = (f, τ) (N, N·m, at the centre of a
+    2X × 2Y rectangle, in its frame, normal +z) is the resultant of corner forces inside
+    the linearised friction pyramid |f_x|, |f_y| ≤ μ f_z.
+
+    Rows: friction (4), centre of pressure inside the rectangle |τ_x| ≤ Y f_z,
+    |τ_y| ≤ X f_z (4), and the yaw-torque bounds (8) of the closed-form contact
+    wrench cone of a rectangular support (Caron, Pham, Nakamura, ICRA 2015).
+    """
+    U = np.zeros((16, 6))
+    U[0:4, 2] = -mu
+    U[0, 0], U[1, 0], U[2, 1], U[3, 1] = -1.0, 1.0, -1.0, 1.0
+    U[4:6, 2] = -Y
+    U[4, 3], U[5, 3] = -1.0, 1.0
+    U[6:8, 2] = -X
+    U[6, 4], U[7, 4] = -1.0, 1.0
+    r = 8
+    for sz in (-1.0, 1.0):            # τ_z upper (sz = -1 row: -τ_z ...) and lower bound
+        for sx in (-1.0, 1.0):
+            for sy in (-1.0, 1.0):
+                # sz τ_z ≤ μ(X+Y) f_z − |Y f_x + sz μ τ_x| − |X f_y + sz μ τ_y|, sign-expanded
+                U[r] = [sx * Y, sy * X, -(X + Y) * mu, sz * sx * mu, sz * sy * mu, sz]
+                r += 1
+    return U
+
+
+def friction_pyramid(mu: float) -> np.ndarray:
+    """5 × 3 matrix P with P f ≤ 0 ⇔ |f_x|, |f_y| ≤ μ f_z and f_z ≥ 0 (normal +z)."""
+    return np.array([[-1, 0, -mu], [1, 0, -mu], [0, -1, -mu], [0, 1, -mu], [0, 0, -1.0]])
+
+
+class Contact(MotionTask):
+    """A rigid contact of the robot surface ``contact`` (a name under ``contacts:`` in
+    the robot YAML) with the environment.
+
+    Equality rows: zero contact acceleration with a PD stabilisation towards the
+    placement where the contact was made,
+        J_c q̈ = −J̇_c q̇ + K_p e − K_d v_c,
+    with J_c the LOCAL 6 × nv Jacobian and e = log₆(ᵒM_c⁻¹ ᵒM_ref) for a surface,
+    or the world-aligned 3 × nv linear Jacobian and e = p_ref − p for a point.
+
+    Inequality rows on its force variables (N, N·m, in the contact frame):
+    unilateral normal force f_z ≥ ``fmin``, linearised friction pyramid with
+    ``mu`` (default: the robot's), and for a surface the centre of pressure inside
+    the sole and the yaw-torque bounds (:func:`wrench_cone`). ``bilateral=True``
+    drops the inequalities (a gripped handle, a welded foot).
+    """
+
+    kind = "contact"
+
+    def __init__(self, contact: str, kp: float = 10.0, kd=None, weight: float = 1.0,
+                 name: str | None = None, mu: float | None = None, fmin: float = 0.0,
+                 bilateral: bool = False) -> None:
+        super().__init__(name or f"{contact}_contact", kp, kd, weight)
+        self.contact = contact
+        if mu is not None and (not np.isfinite(mu) or mu <= 0):
+            raise TaskDefinitionError(f"task '{self.name}': mu must be > 0, got {mu!r}")
+        if fmin < 0:
+            raise TaskDefinitionError(f"task '{self.name}': fmin must be >= 0 N, got {fmin!r}")
+        self.mu = mu
+        self.fmin = float(fmin)
+        self.bilateral = bool(bilateral)
+        self.reference: pin.SE3 | None = None
+        self._surface: ContactSurface | None = None
+        self._fid = None
+        self._ineq = None
+
+    def surface(self, robot) -> ContactSurface:
+        if self._surface is None:
+            self._surface = robot.contact(self.contact)
+            self._fid = robot.frame_id(self._surface.frame)
+        return self._surface
+
+    @property
+    def force_dim(self) -> int:
+        if self._surface is None:
+            raise TaskDefinitionError(f"task '{self.name}': not bound to a robot yet")
+        return self._surface.force_dim
+
+    def force_jacobian(self, robot) -> np.ndarray:
+        """J_c (force_dim × nv): J_cᵀ f is the joint torque the contact force produces."""
+        s = self.surface(robot)
+        if s.kind == "surface":
+            return robot.frame_jacobian(self._fid, LOCAL)
+        return robot.frame_jacobian(self._fid, WORLD_ALIGNED)[:3]
+
+    def _errors(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s = self.surface(robot)
+        oMc = robot.frame_placement(self._fid)
+        if self.reference is None:
+            self.reference = oMc.copy()
+        if s.kind == "surface":
+            e = pin.log6(oMc.actInv(self.reference)).vector
+            vel = robot.frame_velocity(self._fid, LOCAL)
+            drift = robot.frame_drift(self._fid, LOCAL, classical=False)
+        else:
+            e = self.reference.translation - oMc.translation
+            vel = robot.frame_velocity(self._fid, WORLD_ALIGNED)[:3]
+            drift = robot.frame_drift(self._fid, WORLD_ALIGNED)[:3]
+        return e, vel, drift
+
+    def error(self, robot) -> np.ndarray:
+        """Drift from the contact placement: (m, rad) for a surface, m for a point."""
+        return self._errors(robot)[0]
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        s = self.surface(robot)
+        m = s.force_dim
+        A, b = eq_buffer(self, m, layout.nx)
+        A[:, : layout.nv] = self.force_jacobian(robot)
+        e, vel, drift = self._errors(robot)
+        b[:] = self.kp * e - self.kd * vel - drift
+        if self.bilateral:
+            return Rows(A=A, b=b)
+        return Rows(A=A, b=b, C=self._friction_rows(layout), lo=self._lo, hi=self._hi)
+
+    def _friction_rows(self, layout: Layout) -> np.ndarray:
+        sl = layout.contact_slices[self.name]
+        key = (layout.nx, sl.start)
+        if self._ineq is None or self._ineq[0] != key:
+            s = self._surface
+            mu = s.mu if self.mu is None else self.mu
+            U = wrench_cone(mu, s.half_length, s.half_width) if s.kind == "surface" else friction_pyramid(mu)[:4]
+            unilateral = np.zeros((1, s.force_dim))
+            unilateral[0, 2] = -1.0
+            U = np.vstack([U, unilateral])
+            C = np.zeros((U.shape[0], layout.nx))
+            C[:, sl] = U
+            self._lo = np.full(U.shape[0], -np.inf)
+            self._hi = np.zeros(U.shape[0])
+            self._hi[-1] = -self.fmin
+            self._ineq = (key, C)
+        return self._ineq[1]
+
+    def normal_force(self, f: np.ndarray) -> float:
+        """Normal component (N) of this contact's force vector."""
+        return float(f[2])
+
+    def params(self) -> dict:
+        p = {"contact": self.contact}
+        p.update(super().params())
+        if p["name"] == f"{self.contact}_contact":
+            del p["name"]
+        if self.mu is not None:
+            p["mu"] = self.mu
+        if self.fmin:
+            p["fmin"] = self.fmin
+        if self.bilateral:
+            p["bilateral"] = True
+        return p

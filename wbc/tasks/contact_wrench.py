@@ -1,0 +1,74 @@
+"""ContactWrench: track a desired force/wrench at a contact (direct force control)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import StackError
+from ..rows import Layout, Rows
+from .base import Task, as_vector, eq_buffer
+
+
+class ContactWrench(Task):
+    """Rows f_c = f_c,d on the force variables of the contact task ``contact``
+    (its name in the stack, e.g. ``"left_foot_contact"``).
+
+    ``target``: 6-vector (f_x, f_y, f_z, τ_x, τ_y, τ_z) in N and N·m for a surface
+    contact, 3-vector (N) for a point, expressed in the contact frame as the
+    force the environment applies to the robot (5.26). Default: zero.
+    """
+
+    kind = "contact_wrench"
+    on_forces = True
+
+    def __init__(self, contact: str, target=None, weight: float = 1.0, name: str | None = None) -> None:
+        super().__init__(name or f"{contact}_wrench", weight)
+        self.contact = contact
+        self._target = None if target is None else np.asarray(target, dtype=float).reshape(-1)
+
+    @property
+    def target(self) -> np.ndarray | None:
+        return self._target
+
+    @target.setter
+    def target(self, value) -> None:
+        self._target = np.asarray(value, dtype=float).reshape(-1)
+        self._checked_dim = None
+
+    def _slice(self, layout: Layout) -> slice:
+        sl = layout.contact_slices.get(self.contact)
+        if sl is None:
+            raise StackError(
+                f"task '{self.name}': the stack has no contact task '{self.contact}'; "
+                f"expected one of {sorted(layout.contact_slices)}"
+            )
+        return sl
+
+    def _ref(self, dim: int) -> np.ndarray:
+        if self._target is None:
+            self._target = np.zeros(dim)
+        if getattr(self, "_checked_dim", None) != dim:
+            self._target = as_vector(self.name, "target", self._target, dim)
+            self._checked_dim = dim
+        return self._target
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        sl = self._slice(layout)
+        dim = sl.stop - sl.start
+        A, b = eq_buffer(self, dim, layout.nx)
+        A[:, sl] = np.eye(dim)
+        b[:] = self._ref(dim)
+        return Rows(A=A, b=b)
+
+    def error_from(self, f: np.ndarray, layout: Layout) -> np.ndarray:
+        sl = self._slice(layout)
+        return self._ref(sl.stop - sl.start) - f[sl.start - layout.nv: sl.stop - layout.nv]
+
+    def params(self) -> dict:
+        p = {"contact": self.contact}
+        p.update(super().params())
+        if p["name"] == f"{self.contact}_wrench":
+            del p["name"]
+        if self._target is not None:
+            p["target"] = self._target.tolist()
+        return p

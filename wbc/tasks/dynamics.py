@@ -1,0 +1,49 @@
+"""Constraints the formulation adds by itself: floating-base dynamics, differential drive."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..rows import Layout, Rows
+from .base import Task
+
+
+class FloatingBaseDynamics(Task):
+    """The unactuated rows of the equation of motion (5.26):
+    S_u (M q̈ + h − J_fᵀ f) = 0, i.e. the root moves only as the contact forces
+    (and gravity) make it. Added at level 0 by the controller for a robot with an
+    unactuated root; the actuated rows then give τ.
+    """
+
+    kind = "dynamics"
+
+    def __init__(self, name: str = "dynamics") -> None:
+        super().__init__(name)
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        u = robot.unactuated_idx
+        A = np.zeros((len(u), layout.nx))
+        A[:, : layout.nv] = robot.M[u]
+        if layout.nf:
+            A[:, layout.nv:] = -layout.force_jacobian[:, u].T
+        return Rows(A=A, b=-robot.h[u])
+
+
+class DifferentialDrive(Task):
+    """Nonholonomic constraint of a differential-drive base on a planar root joint:
+    no lateral velocity in the base frame, v_y = 0. Pinocchio's planar joint
+    velocity is expressed in the base frame, so the constraint is linear in v and
+    its time derivative is the row q̈_y = −v_y / τ_c (τ_c = ``time_constant``, s),
+    which also removes any numerical drift of v_y.
+    """
+
+    kind = "differential_drive"
+
+    def __init__(self, time_constant: float = 1e-3, name: str = "differential_drive") -> None:
+        super().__init__(name)
+        self.time_constant = float(time_constant)
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        A = np.zeros((1, layout.nx))
+        A[0, 1] = 1.0
+        return Rows(A=A, b=np.array([-robot.v[1] / self.time_constant]))

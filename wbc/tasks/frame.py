@@ -1,0 +1,124 @@
+"""Frame: drive a robot frame's pose (or its position or orientation) to a target."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import TargetError, TaskDefinitionError
+from ..model import WORLD_ALIGNED
+from ..rows import Layout, Rows
+from .base import MotionTask, as_vector, eq_buffer
+
+_MASKS = {
+    "pose": (1, 1, 1, 1, 1, 1),
+    "position": (1, 1, 1, 0, 0, 0),
+    "orientation": (0, 0, 0, 1, 1, 1),
+}
+
+
+def to_se3(task_name: str, value, current: pin.SE3 | None) -> pin.SE3:
+    """Accept an SE3, a 4×4 homogeneous matrix, or a 3-vector position (orientation kept)."""
+    if isinstance(value, pin.SE3):
+        return value.copy()
+    arr = np.asarray(value, dtype=float)
+    if arr.shape == (4, 4):
+        R = arr[:3, :3]
+        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+            raise TargetError(f"task '{task_name}': target rotation block is not a rotation matrix")
+        return pin.SE3(R.copy(), arr[:3, 3].copy())
+    if arr.shape == (3,):
+        rot = np.eye(3) if current is None else current.rotation.copy()
+        return pin.SE3(rot, as_vector(task_name, "target", arr, 3))
+    raise TargetError(
+        f"task '{task_name}': target must be a pinocchio.SE3, a 4x4 homogeneous matrix or a "
+        f"3-vector position, got shape {arr.shape}"
+    )
+
+
+class Frame(MotionTask):
+    """SE(3) task on a named frame (5.16 on the pose, error in the world frame).
+
+    Error e = (p_d − p, log₃(R_d Rᵀ)) in m and rad, world-aligned; Jacobian in
+    LOCAL_WORLD_ALIGNED, drift the frame's classical acceleration at q̈ = 0.
+    ``mask`` is ``"pose"``, ``"position"``, ``"orientation"`` or 6 flags
+    (linear x, y, z, angular x, y, z). ``target`` as :func:`to_se3`; default the
+    frame's placement at the first cycle. ``kp`` scalar or 6-vector (1/s²).
+    """
+
+    kind = "frame"
+
+    def __init__(self, frame: str, kp: float = 50.0, kd=None, weight: float = 1.0,
+                 name: str | None = None, target=None, mask="pose") -> None:
+        super().__init__(name or frame, kp, kd, weight, dim=6)
+        self.frame = frame
+        if isinstance(mask, str):
+            if mask not in _MASKS:
+                raise TaskDefinitionError(f"task '{self.name}': mask must be one of {list(_MASKS)} or 6 flags, got {mask!r}")
+            flags = _MASKS[mask]
+        else:
+            flags = tuple(int(bool(f)) for f in mask)
+            if len(flags) != 6 or sum(flags) == 0:
+                raise TaskDefinitionError(f"task '{self.name}': mask must have 6 flags, at least one set, got {mask!r}")
+        self.mask = mask
+        self._sel = np.flatnonzero(flags)
+        self._pending = target
+        self._target: pin.SE3 | None = None
+        self.target_velocity = np.zeros(6)
+        self.target_acceleration = np.zeros(6)
+        self._fid = None
+
+    @property
+    def target(self) -> pin.SE3 | None:
+        return self._target
+
+    @target.setter
+    def target(self, value) -> None:
+        self._target = to_se3(self.name, value, self._target)
+
+    def set_reference(self, placement, velocity=None, acceleration=None) -> None:
+        """Pose, twist (m/s, rad/s; world-aligned) and acceleration references at once."""
+        self.target = placement
+        self.target_velocity = np.zeros(6) if velocity is None else as_vector(self.name, "velocity", velocity, 6)
+        self.target_acceleration = (np.zeros(6) if acceleration is None
+                                    else as_vector(self.name, "acceleration", acceleration, 6))
+
+    def _frame(self, robot) -> int:
+        if self._fid is None:
+            self._fid = robot.frame_id(self.frame)
+        return self._fid
+
+    def full_error(self, robot) -> np.ndarray:
+        oMf = robot.frame_placement(self._frame(robot))
+        if self._target is None:
+            self._target = oMf.copy() if self._pending is None else to_se3(self.name, self._pending, oMf)
+        e = np.empty(6)
+        e[:3] = self._target.translation - oMf.translation
+        e[3:] = pin.log3(self._target.rotation @ oMf.rotation.T)
+        return e
+
+    def error(self, robot) -> np.ndarray:
+        return self.full_error(robot)[self._sel]
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        fid = self._frame(robot)
+        s = self._sel
+        A, b = eq_buffer(self, len(s), layout.nx)
+        A[:, : layout.nv] = robot.frame_jacobian(fid, WORLD_ALIGNED)[s]
+        e = self.full_error(robot)
+        de = self.target_velocity - robot.frame_velocity(fid, WORLD_ALIGNED)
+        a = self.target_acceleration + self.kd * de + self.kp * e - robot.frame_drift(fid, WORLD_ALIGNED)
+        b[:] = a[s]
+        return Rows(A=A, b=b)
+
+    def params(self) -> dict:
+        p = {"frame": self.frame}
+        p.update(super().params())
+        if p["name"] == self.frame:
+            del p["name"]
+        if self.mask != "pose":
+            p["mask"] = self.mask if isinstance(self.mask, str) else list(self.mask)
+        if self._target is not None:
+            p["target"] = {"position": self._target.translation.tolist(),
+                           "rotation": self._target.rotation.tolist()}
+        return p

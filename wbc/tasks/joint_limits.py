@@ -1,0 +1,90 @@
+"""JointLimits: position and velocity limits as viable joint-acceleration bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import TaskDefinitionError
+from ..rows import Layout, Rows
+from .base import Task
+
+
+class JointLimits(Task):
+    """Box l ≤ q̈_i ≤ u for every joint with limits, the tightest of:
+
+    - velocity, reached within one control period ``dt`` (s):
+      (v_min − v)/dt ≤ q̈ ≤ (v_max − v)/dt;
+    - position, over the horizon ``horizon`` (s) with constant acceleration:
+      q + v T + ½ q̈ T² ∈ [q_min + margin, q_max − margin];
+    - viability: after the step the joint can still stop before its limit with
+      the deceleration ``max_acceleration`` ā (rad/s² or m/s²):
+      v + q̈ dt ≤ √(2 ā d), d = q_max − margin − q − v dt (and symmetrically).
+
+    Where the bounds cross (a state already outside), both collapse to their
+    midpoint, the least-violating choice. Units: rad or m per joint.
+    """
+
+    kind = "joint_limits"
+
+    def __init__(self, dt: float = 1e-3, horizon: float = 0.1, max_acceleration: float = 30.0,
+                 margin: float = 0.0, name: str = "joint_limits", weight: float = 1.0) -> None:
+        super().__init__(name, weight)
+        for key, val in (("dt", dt), ("horizon", horizon), ("max_acceleration", max_acceleration)):
+            if not (np.isfinite(val) and val > 0):
+                raise TaskDefinitionError(f"task '{name}': {key} must be > 0, got {val!r}")
+        if margin < 0:
+            raise TaskDefinitionError(f"task '{name}': margin must be >= 0, got {margin!r}")
+        self.dt, self.horizon, self.max_acceleration, self.margin = float(dt), float(horizon), float(max_acceleration), float(margin)
+        self._map = None
+
+    def _indices(self, robot):
+        if self._map is None:
+            m = robot.model
+            qi, vi = [], []
+            for jid in range(1, m.njoints):
+                j = m.joints[jid]
+                if j.nq == 1 and j.nv == 1:
+                    qi.append(j.idx_q)
+                    vi.append(j.idx_v)
+            qi, vi = np.array(qi, dtype=int), np.array(vi, dtype=int)
+            # velocity-only coordinates (e.g. a planar base with finite v_max)
+            extra = np.array([i for i in range(robot.nv) if i not in set(vi) and np.isfinite(robot.v_max[i])], dtype=int)
+            self._map = (qi, vi, extra)
+        return self._map
+
+    def bounds(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(v indices, lower, upper) acceleration bounds in rad/s² or m/s²."""
+        qi, vi, extra = self._indices(robot)
+        dt, T, amax = self.dt, self.horizon, self.max_acceleration
+        q, v = robot.q[qi], robot.v[vi]
+        qmin = robot.q_min[qi] + self.margin
+        qmax = robot.q_max[qi] - self.margin
+        vmax = robot.v_max[vi]
+        with np.errstate(invalid="ignore"):
+            hi = np.minimum((vmax - v) / dt, 2.0 * (qmax - q - v * T) / T**2)
+            lo = np.maximum((-vmax - v) / dt, 2.0 * (qmin - q - v * T) / T**2)
+            d_hi = np.maximum(qmax - q - v * dt, 0.0)
+            d_lo = np.maximum(q + v * dt - qmin, 0.0)
+            hi = np.minimum(hi, (np.sqrt(2.0 * amax * d_hi) - v) / dt)
+            lo = np.maximum(lo, (-np.sqrt(2.0 * amax * d_lo) - v) / dt)
+        crossed = lo > hi
+        if np.any(crossed):
+            mid = 0.5 * (lo[crossed] + hi[crossed])
+            lo[crossed] = hi[crossed] = mid
+        if len(extra):
+            ve = robot.v[extra]
+            vme = robot.v_max[extra]
+            vi = np.concatenate([vi, extra])
+            lo = np.concatenate([lo, (-vme - ve) / dt])
+            hi = np.concatenate([hi, (vme - ve) / dt])
+        return vi, lo, hi
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        return Rows(box=self.bounds(robot))
+
+    def params(self) -> dict:
+        p = super().params()
+        p.update(dt=self.dt, horizon=self.horizon, max_acceleration=self.max_acceleration, margin=self.margin)
+        if p["name"] == "joint_limits":
+            del p["name"]
+        return p

@@ -1,0 +1,79 @@
+"""Posture: drive the joint coordinates (not the root) to a reference configuration."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..rows import Layout, Rows
+from .base import MotionTask, as_vector, eq_buffer
+
+
+class Posture(MotionTask):
+    """Joint-space task q_j → q_j,d for every non-root joint (or a named subset).
+
+    Rows: q̈_j = K_p (q_d ⊖ q)_j − K_d q̇_j  (5.3 with q̇_d = q̈_d = 0), where ⊖ is
+    pinocchio's ``difference`` on the configuration manifold. ``target`` is a full
+    configuration (nq,), default the robot's default posture. Gains in 1/s², 1/s.
+    """
+
+    kind = "posture"
+
+    def __init__(self, kp: float = 10.0, kd=None, weight: float = 1.0, name: str = "posture",
+                 target=None, joints: list[str] | None = None) -> None:
+        super().__init__(name, kp, kd, weight)
+        self._target = None if target is None else np.asarray(target, dtype=float)
+        self.joints = joints
+        self._idx = None
+
+    @property
+    def target(self) -> np.ndarray | None:
+        return self._target
+
+    @target.setter
+    def target(self, q) -> None:
+        self._target = np.asarray(q, dtype=float).reshape(-1).copy()
+        self._checked = False
+
+    def _indices(self, robot) -> np.ndarray:
+        if self._idx is None:
+            if self.joints is None:
+                self._idx = robot.joint_idx
+            else:
+                from ..errors import TaskDefinitionError
+
+                idx = []
+                for j in self.joints:
+                    if not robot.model.existJointName(j):
+                        raise TaskDefinitionError(f"task '{self.name}': robot '{robot.name}' has no joint '{j}'")
+                    jid = robot.model.getJointId(j)
+                    idx.extend(range(robot.model.idx_vs[jid], robot.model.idx_vs[jid] + robot.model.joints[jid].nv))
+                self._idx = np.array(idx, dtype=int)
+        return self._idx
+
+    def _q_ref(self, robot) -> np.ndarray:
+        if self._target is None:
+            self._target = robot.q_default.copy()
+        if not getattr(self, "_checked", False):
+            self._target = as_vector(self.name, "target", self._target, robot.nq)
+            self._checked = True
+        return self._target
+
+    def error(self, robot) -> np.ndarray:
+        return robot.difference(robot.q, self._q_ref(robot))[self._indices(robot)]
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        idx = self._indices(robot)
+        A, b = eq_buffer(self, len(idx), layout.nx)
+        if not getattr(self, "_A_ready", None) == layout.nx:
+            A[:] = 0.0
+            A[np.arange(len(idx)), idx] = 1.0
+            self._A_ready = layout.nx
+        e = self.error(robot)
+        b[:] = self.kp * e - self.kd * robot.v[idx]
+        return Rows(A=A, b=b)
+
+    def params(self) -> dict:
+        p = super().params()
+        if self.joints is not None:
+            p["joints"] = list(self.joints)
+        return p
