@@ -29,6 +29,8 @@ class LevelDiagnostics:
     sacrificed: list[str] = field(default_factory=list)
     active: dict[str, int] = field(default_factory=dict)
     saturated_joints: list[int] = field(default_factory=list)
+    #: violation of rows this solver does not enforce (projection: torque limits, cones)
+    unenforced_violation: float = 0.0
 
 
 @dataclass

@@ -32,7 +32,9 @@ class Backend:
     #: accepts a positive semi-definite (singular) Hessian
     psd_ok = False
 
-    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:  # pragma: no cover - interface
+    def solve(self, H, g, C, lo, hi, key=None, feasible: bool = False) -> QPResult:  # pragma: no cover
+        """``feasible=True``: the caller knows a feasible point exists (the solver may then
+        skip infeasibility detection, which misfires at degenerate vertices)."""
         raise NotImplementedError
 
 
@@ -42,14 +44,14 @@ class ProxQP(Backend):
     name = "proxqp"
     psd_ok = True
 
-    def __init__(self, eps_abs: float = 1e-9, eps_rel: float = 0.0, max_iter: int = 1000) -> None:
+    def __init__(self, eps_abs: float = 1e-9, eps_rel: float = 0.0, max_iter: int = 10000) -> None:
         import proxsuite
 
         self._px = proxsuite.proxqp
         self.eps_abs, self.eps_rel, self.max_iter = eps_abs, eps_rel, max_iter
         self._qps: dict = {}
 
-    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:
+    def solve(self, H, g, C, lo, hi, key=None, feasible: bool = False) -> QPResult:
         n, m = H.shape[0], C.shape[0]
         k = (key, n, m)
         qp = self._qps.get(k)
@@ -65,6 +67,9 @@ class ProxQP(Backend):
         else:
             qp.settings.initial_guess = self._px.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
             qp.update(H, g, None, None, C, lo, hi, update_preconditioner=False)
+        # A problem known to be feasible: an "infeasible" verdict could only be
+        # numerical, at degenerate vertices where many limits are active at once.
+        qp.settings.eps_primal_inf = 1e-14 if feasible else 1e-4
         qp.solve()
         st = qp.results.info.status
         ok = st == self._px.QPSolverOutput.PROXQP_SOLVED
@@ -76,18 +81,24 @@ class DAQP(Backend):
 
     name = "daqp"
 
-    def __init__(self) -> None:
+    def __init__(self, primal_tol: float = 1e-9) -> None:
         import daqp
 
         self._daqp = daqp
+        self.primal_tol = primal_tol
 
-    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:
+    def solve(self, H, g, C, lo, hi, key=None, feasible: bool = False) -> QPResult:
         lo = np.ascontiguousarray(np.maximum(lo, -BIG))
         hi = np.ascontiguousarray(np.minimum(hi, BIG))
         sense = np.zeros(C.shape[0], dtype=np.int32)
-        z, _, flag, info = self._daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(g),
-                                            np.ascontiguousarray(C), hi, lo, sense, primal_tol=1e-9)
-        ok = flag in (1, 2)  # 1 optimal, 2 soft optimal
+        H, g, C = np.ascontiguousarray(H), np.ascontiguousarray(g), np.ascontiguousarray(C)
+        # tight primal tolerance first; at degenerate vertices daqp may then report a
+        # spurious infeasibility, so retry with its default tolerance (1e-6)
+        for tol in (self.primal_tol, max(self.primal_tol, 1e-6)):
+            z, _, flag, info = self._daqp.solve(H, g, C, hi, lo, sense, primal_tol=tol)
+            ok = flag in (1, 2)  # 1 optimal, 2 soft optimal
+            if ok or tol >= 1e-6:
+                break
         it = info.get("iterations", 0) if isinstance(info, dict) else 0
         return QPResult(np.asarray(z) if ok else None, ok, f"exitflag {flag}", it)
 
@@ -105,7 +116,7 @@ class QPSolvers(Backend):
         self.name = solver
         self.psd_ok = solver in ("osqp", "proxqp", "clarabel", "scs")
 
-    def solve(self, H, g, C, lo, hi, key=None) -> QPResult:
+    def solve(self, H, g, C, lo, hi, key=None, feasible: bool = False) -> QPResult:
         up, dn = np.isfinite(hi) & (hi < BIG), np.isfinite(lo) & (lo > -BIG)
         G = np.vstack([C[up], -C[dn]])
         h = np.concatenate([hi[up], -lo[dn]])

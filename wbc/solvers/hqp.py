@@ -43,6 +43,7 @@ class LevelInfo:
     qp_status: str = ""
     relaxed: bool = False
     saturated: list = field(default_factory=list)
+    scale: float = 1.0
 
 
 @dataclass
@@ -60,7 +61,7 @@ class HierarchicalQP:
     name = "hqp"
 
     def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
-                 regularization: float = 1e-6, slack_regularization: float = 1e-10,
+                 regularization: float = 1e-6, slack_regularization: float = 1e-6,
                  feasibility_tol: float = 1e-7) -> None:
         self.backend = make_backend(backend) if isinstance(backend, str) else backend
         self.damping = damping or Damping()
@@ -96,7 +97,8 @@ class HierarchicalQP:
                     cas.commit(step)
             else:
                 cas.commit(step)
-            # (2) its inequalities, with least-squares slack, in what is left
+            # (2) its inequalities in what is left: nearest point to the least-squares
+            # one that meets them; if none does, least-squares slack
             C, lo, hi = lvl.inequalities(nx)
             if len(lo):
                 w = np.zeros(len(lo))
@@ -105,8 +107,11 @@ class HierarchicalQP:
                 if v.max() > self.tol:
                     info.used_qp = True
                     qp_count += 1
-                    z, w, status = self._qp(cas, None, None, C, lo, hi, acc_C, acc_lo, acc_hi,
-                                            f"{key}{lvl.index}i")
+                    z, status = self._nearest_feasible(cas, C, lo, hi, acc_C, acc_lo, acc_hi, f"{key}{lvl.index}h")
+                    if z is None:
+                        qp_count += 1
+                        z, w, status = self._qp(cas, None, None, C, lo, hi, acc_C, acc_lo, acc_hi,
+                                                f"{key}{lvl.index}i")
                     info.qp_status = status
                     if z is None:
                         ok, msg = False, f"level {lvl.index}: QP failed ({status})"
@@ -120,6 +125,34 @@ class HierarchicalQP:
                 acc_hi.append(hi - w)
             infos.append(info)
         return CascadeResult(cas.x, infos, ok, qp_count, msg)
+
+    def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key):
+        """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
+        feasible set nearest its least-squares point (H = I, well conditioned).
+        Returns (None, status) when the rows cannot all hold."""
+        r = cas.dof
+        Cl = C @ cas.Z
+        y = C @ cas.x
+        rows, los, his = [Cl], [lo - y], [hi - y]
+        if acc_C:
+            Cr, lr, hr = self._higher_rows(cas, acc_C, acc_lo, acc_hi)
+            rows.append(Cr)
+            los.append(lr)
+            his.append(hr)
+        res = self.backend.solve(np.eye(r), np.zeros(r), np.vstack(rows), np.concatenate(los),
+                                 np.concatenate(his), key=key, feasible=False)
+        return (res.z, res.status) if res.ok else (None, res.status)
+
+    def _higher_rows(self, cas: Cascade, acc_C, acc_lo, acc_hi):
+        """Higher levels' inequality rows in z; z = 0 stays feasible (a row at, or a hair
+        past, its bound stays there). Rows Z has no say on are dropped."""
+        Ca = np.vstack(acc_C)
+        CaZ = Ca @ cas.Z
+        keep = np.abs(CaZ).max(axis=1) > 1e-12 if cas.dof else np.zeros(len(Ca), bool)
+        ya = Ca[keep] @ cas.x
+        lo = np.minimum(np.concatenate(acc_lo)[keep] - ya, 0.0)
+        hi = np.maximum(np.concatenate(acc_hi)[keep] - ya, 0.0)
+        return CaZ[keep], lo, hi
 
     def _fallback(self) -> Backend:
         if getattr(self, "_fb", None) is None:
@@ -164,29 +197,30 @@ class HierarchicalQP:
             los.append(lo - y)
             his.append(hi - y)
         if acc_C:
-            Ca = np.vstack(acc_C)
-            CaZ = Ca @ cas.Z
-            keep = np.abs(CaZ).max(axis=1) > 1e-12 if r else np.zeros(len(Ca), bool)
-            ya = Ca[keep] @ cas.x
-            Cr = np.zeros((int(keep.sum()), n))
-            Cr[:, :r] = CaZ[keep]
+            CaZ, la, ha = self._higher_rows(cas, acc_C, acc_lo, acc_hi)
+            Cr = np.zeros((CaZ.shape[0], n))
+            Cr[:, :r] = CaZ
             rows.append(Cr)
-            # z = 0 stays feasible: a higher row at (or a hair past) its bound stays there
-            los.append(np.minimum(np.concatenate(acc_lo)[keep] - ya, 0.0))
-            his.append(np.maximum(np.concatenate(acc_hi)[keep] - ya, 0.0))
+            los.append(la)
+            his.append(ha)
         Cq = np.vstack(rows) if rows else np.zeros((0, n))
         lq = np.concatenate(los) if los else np.zeros(0)
         hq = np.concatenate(his) if his else np.zeros(0)
-        res = self.backend.solve(H, g, Cq, lq, hq, key=key)
+        res = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
         if not res.ok:
-            # z = 0 is feasible by construction, so a failure is numerical: retry once
-            # with the other first-class back-end before reporting it.
+            # z = 0 is feasible by construction, so a failure is numerical (a degenerate
+            # vertex, an ill-conditioned H): retry with the other first-class back-end,
+            # then with a stronger regularisation of z.
             fb = self._fallback()
             if not fb.psd_ok and eps == 0.0:
                 H[np.arange(r), np.arange(r)] += self.slack_regularization
-            res2 = fb.solve(H, g, Cq, lq, hq, key=key)
+            res2 = fb.solve(H, g, Cq, lq, hq, key=key, feasible=True)
             if not res2.ok:
-                return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}"
+                H[np.arange(r), np.arange(r)] += 1e-3 * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
+                res3 = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
+                if not res3.ok:
+                    return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}; regularised: {res3.status}"
+                res2 = res3
             res = res2
         return res.z[:r], res.z[r:], res.status
 

@@ -15,8 +15,10 @@ Joint limits: Saturation in the Null Space (SNS, Flacco, De Luca, Khatib 2012):
 when a level's step would push a joint past its acceleration bound
 (:class:`~wbc.tasks.JointLimits`), the most-violating joint is fixed at its
 bound by an equality inserted just above that level, inside the higher levels'
-null space, and the level is solved again. Higher levels are never disturbed,
-and a saturated joint stays saturated below.
+null space, and the level is solved again; when saturating no longer helps, the
+level's step is scaled down (task scaling). Higher levels are never disturbed,
+a saturated joint stays saturated below, and no joint ends outside its bounds
+unless level 0's equalities force it there.
 
 Contact forces and torques (floating base): q̈ satisfies every contact's
 acceleration constraint, so the unactuated rows of the dynamics,
@@ -60,51 +62,87 @@ class RecursiveProjection:
             c, lower = cho_factor(robot.M, lower=True, check_finite=False)
             L = np.tril(c) if lower else np.triu(c).T
             T = solve_triangular(L.T, np.eye(nv), lower=False)  # L⁻ᵀ: q̈ = T y
-        box = [l.box for l in levels if l.box is not None]
-        if box:
-            b_idx, b_lo, b_hi = (np.concatenate(p) for p in zip(*box))
+        boxes = [l.box for l in levels if l.box is not None]
+        if boxes:
+            b_idx, b_lo, b_hi = (np.concatenate(p) for p in zip(*boxes))
         else:
             b_idx = np.zeros(0, dtype=int)
             b_lo = b_hi = np.zeros(0)
         cas = Cascade(nv)
-        saturated: set[int] = set()
-        unfixable: set[int] = set()
+        if len(b_idx):
+            # start from the feasible point nearest q̈ = 0 (a joint braking towards its
+            # limit needs a non-zero acceleration even before any task)
+            x0 = np.zeros(nv)
+            x0[b_idx] = np.clip(0.0, b_lo, b_hi)
+            cas.x = x0 if T is None else L.T @ x0
+        box = (b_idx, b_lo, b_hi)
         infos = []
-
-        def q_of(y):
-            return y if T is None else T @ y
-
         for lvl in levels:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             rows = self._motion_rows(lvl)
             A = lvl.A[rows, :nv]
-            b = lvl.b[rows]
             Ay = A if T is None else A @ T
-            for _ in range(len(b_idx) + 1):
-                step = cas.ls_step(Ay, b, self.damping)
-                if not len(b_idx):
-                    break
-                qdd = q_of(cas.candidate(step))[b_idx]
-                over = np.maximum(b_lo - qdd, 0.0) + np.maximum(qdd - b_hi, 0.0)
-                for j in saturated | unfixable:
-                    over[j] = 0.0
-                j = int(np.argmax(over))
-                if over[j] <= self.box_tol:
-                    break
-                target = b_lo[j] if qdd[j] < b_lo[j] else b_hi[j]
-                e = np.zeros((1, nv))
-                e[0, b_idx[j]] = 1.0
-                sat = cas.ls_step(e if T is None else e @ T, np.array([target]), NO_DAMPING)
-                if sat.rank == 0:           # fully set by higher levels: cannot move it
-                    unfixable.add(j)
-                    continue
-                cas.commit(sat)
-                saturated.add(j)
-                info.saturated.append(int(b_idx[j]))
+            step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
             info.rank, info.sigma_min, info.damping = step.rank, step.sigma_min, step.damping
-            cas.commit(step)
             infos.append(info)
-        return CascadeResult(q_of(cas.x), infos)
+        return CascadeResult(cas.x if T is None else T @ cas.x, infos)
+
+    def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
+        """One level with Saturation in the Null Space, then task scaling if needed.
+
+        Invariant: no joint's box violation grows (x̂ starts inside the box, so it
+        stays inside). A saturation is accepted only if it keeps that invariant;
+        when no saturation helps any more, the level's step is scaled by the largest
+        s ∈ [0, 1] that keeps it (Flacco et al.'s task scaling). Level 0 is never
+        scaled: its equalities (contacts) come first, as in the HQP.
+        """
+        b_idx, b_lo, b_hi = box
+        tol = self.box_tol
+
+        def q_of(y):
+            return (y if T is None else T @ y)[b_idx]
+
+        def over(qb):
+            return np.maximum(b_lo - qb, 0.0) + np.maximum(qb - b_hi, 0.0)
+
+        blocked: set[int] = set()
+        while True:
+            step = cas.ls_step(Ay, b, self.damping)
+            if not len(b_idx):
+                cas.commit(step)
+                return step
+            q_now = q_of(cas.x)
+            v_now = over(q_now)
+            q_new = q_of(cas.candidate(step))
+            excess = over(q_new) - v_now
+            if excess.max() <= tol:
+                cas.commit(step)
+                return step
+            excess[list(blocked)] = -np.inf
+            j = int(np.argmax(excess))
+            if excess[j] <= tol:
+                break
+            blocked.add(j)
+            target = b_lo[j] if q_new[j] < b_lo[j] else b_hi[j]
+            nv = cas.n
+            e = np.zeros((1, nv))
+            e[0, b_idx[j]] = 1.0
+            sat = cas.ls_step(e if T is None else e @ T, np.array([target]), NO_DAMPING)
+            if sat.rank and np.all(over(q_of(cas.candidate(sat))) <= v_now + tol):
+                cas.commit(sat)
+                info.saturated.append(int(b_idx[j]))
+        # no saturation left that helps: scale the step
+        if not scale:
+            cas.commit(step)
+            return step
+        d = q_new - q_now
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_up = np.where(d > 0, (np.maximum(b_hi, q_now) - q_now) / d, np.inf)
+            s_dn = np.where(d < 0, (np.minimum(b_lo, q_now) - q_now) / d, np.inf)
+        s = float(np.clip(min(s_up.min(), s_dn.min(), 1.0), 0.0, 1.0))
+        info.scale = s
+        cas.commit(step, s * step.z)
+        return step
 
     @staticmethod
     def _motion_rows(lvl: Level) -> np.ndarray:
