@@ -60,6 +60,8 @@ class Controller:
         self.layout: Layout | None = None
         self.levels: list[Level] = []
         # bind every task to the robot now, so a wrong frame fails here, not mid-run
+        for task in self.stack:
+            task.bind(robot)
         self.stack.layout(robot)
 
     def _internal_constraints(self, layout: Layout) -> list:

@@ -55,6 +55,9 @@ class Task(ABC):
             raise TaskDefinitionError(f"task '{name}': weight must be > 0, got {weight!r}")
         self.weight = w
 
+    def bind(self, robot: "RobotModel") -> None:
+        """Resolve names (frames, joints, contacts) against ``robot``; raises early."""
+
     @abstractmethod
     def rows(self, robot: "RobotModel", layout: Layout) -> Rows:
         """The task's rows for the robot's current (cached) state."""

@@ -78,6 +78,9 @@ class Contact(MotionTask):
         self._fid = None
         self._ineq = None
 
+    def bind(self, robot) -> None:
+        self.surface(robot)
+
     def surface(self, robot) -> ContactSurface:
         if self._surface is None:
             self._surface = robot.contact(self.contact)

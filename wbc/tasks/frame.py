@@ -83,6 +83,9 @@ class Frame(MotionTask):
         self.target_acceleration = (np.zeros(6) if acceleration is None
                                     else as_vector(self.name, "acceleration", acceleration, 6))
 
+    def bind(self, robot) -> None:
+        self._fid = robot.frame_id(self.frame)
+
     def _frame(self, robot) -> int:
         if self._fid is None:
             self._fid = robot.frame_id(self.frame)

@@ -34,6 +34,13 @@ class Posture(MotionTask):
         self._target = np.asarray(q, dtype=float).reshape(-1).copy()
         self._checked = False
 
+    def bind(self, robot) -> None:
+        self._idx = None
+        self._indices(robot)
+        if self._target is not None:
+            self._target = as_vector(self.name, "target", self._target, robot.nq)
+            self._checked = True
+
     def _indices(self, robot) -> np.ndarray:
         if self._idx is None:
             if self.joints is None:

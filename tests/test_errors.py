@@ -1,0 +1,91 @@
+"""Bad input gets an error that names what was wrong and what was expected."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import wbc
+from wbc.config import build_stack, build_task
+from wbc.tasks import CoM, Contact, Frame, Posture
+
+
+def test_unknown_robot_lists_the_known_ones():
+    with pytest.raises(wbc.RobotNotFound, match=r"unknown robot 'atlas'.*talos.*tiago"):
+        wbc.load_robot("atlas")
+
+
+def test_robot_yaml_with_missing_urdf_names_file_and_key(tmp_path):
+    f = tmp_path / "bot.yaml"
+    f.write_text("name: bot\nurdf: nowhere/bot.urdf\nroot: fixed\n")
+    with pytest.raises(wbc.RobotDefinitionError, match=r"bot.yaml: key 'urdf': file .*nowhere/bot.urdf.* does not exist"):
+        wbc.load_robot(f)
+
+
+def test_robot_yaml_with_bad_root_names_the_choices(tmp_path):
+    f = tmp_path / "bot.yaml"
+    f.write_text("name: bot\nurdf: x.urdf\nroot: floating\n")
+    with pytest.raises(wbc.RobotDefinitionError, match=r"key 'root': expected one of \['free_flyer', 'planar', 'fixed'\]"):
+        wbc.load_robot(f)
+
+
+def test_unknown_frame_names_the_frame_and_lists_aliases(talos):
+    stack = wbc.Stack([[Frame("right_paw")]])
+    with pytest.raises(wbc.FrameNotFound, match=r"no frame 'right_paw'.*left_foot.*right_hand"):
+        wbc.Controller(talos, stack)
+
+
+def test_unknown_contact_surface(talos):
+    with pytest.raises(wbc.FrameNotFound, match=r"no contact surface 'right_hand'.*left_foot"):
+        wbc.Controller(talos, wbc.Stack([[Contact("right_hand")]]))
+
+
+def test_unknown_task_type_in_a_stack_spec():
+    with pytest.raises(wbc.ConfigError, match=r"stack\[1\]\[0\]\.type: unknown task type 'centroid'.*'com'"):
+        build_stack([[{"type": "posture"}], [{"type": "centroid", "kp": 3}]])
+
+
+def test_unknown_task_parameter_names_it():
+    with pytest.raises(wbc.ConfigError, match=r"stack\[0\]\.gain: unknown parameter of a 'com' task"):
+        build_task({"type": "com", "gain": 3}, "stack[0]")
+
+
+@pytest.mark.parametrize("make", [lambda: CoM(kp=-1.0), lambda: Frame("right_hand", kd=-2.0),
+                                  lambda: Posture(kp=float("nan"))])
+def test_negative_or_nan_gain_is_refused(make):
+    with pytest.raises(wbc.TaskDefinitionError, match=r"task '.*': k[pd] must be finite and >= 0"):
+        make()
+
+
+def test_negative_gain_in_a_stack_spec_names_the_key_path():
+    with pytest.raises(wbc.ConfigError, match=r"stack\[0\]\[1\]\.kp: must be >= 0, got -5"):
+        build_stack([[{"type": "posture"}, {"type": "com", "kp": -5}]])
+
+
+def test_wrong_target_shapes_name_the_task(talos):
+    com = CoM()
+    with pytest.raises(wbc.TargetError, match=r"task 'com': target must have shape \(3,\)"):
+        com.target = [0.1, 0.2]
+    hand = Frame("right_hand")
+    with pytest.raises(wbc.TargetError, match=r"task 'right_hand': target must be a pinocchio.SE3, a 4x4"):
+        hand.target = np.zeros((2, 2))
+    posture = Posture(target=np.zeros(5))
+    with pytest.raises(wbc.TargetError, match=r"task 'posture': target must have shape \(39,\)"):
+        wbc.Controller(talos, wbc.Stack([[posture]]))
+
+
+def test_wrong_state_shape_is_refused(talos):
+    ctrl = wbc.Controller(talos, wbc.Stack([[Posture()]]))
+    with pytest.raises(wbc.TargetError, match=r"expected q of shape \(39,\) and v of shape \(38,\)"):
+        ctrl.solve(np.zeros(38), np.zeros(38))
+    q = talos.q_default.copy()
+    q[10] = np.nan
+    with pytest.raises(wbc.TargetError, match="NaN"):
+        ctrl.solve(q, np.zeros(38))
+
+
+def test_duplicate_task_names_and_unknown_solver(talos):
+    with pytest.raises(wbc.StackError, match=r"two tasks are named 'com'"):
+        wbc.Stack([[CoM()], [CoM()]])
+    with pytest.raises(wbc.SolverError, match=r"unknown solver 'lqr'"):
+        wbc.Controller(talos, wbc.Stack([[CoM()]]), solver="lqr")
