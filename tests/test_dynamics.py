@@ -33,10 +33,13 @@ def test_equation_of_motion_holds_and_forces_stay_in_their_cones(talos, solver, 
         S_T_tau[talos.actuated_idx] = sol.tau
         lhs = M @ sol.qdd + h
         err = np.abs(lhs - S_T_tau - Jf.T @ f).max() / max(1.0, np.abs(lhs).max(), np.abs(h).max())
+        if sol.status != "ok" or sol.message:
+            # the projection solver's q̈ asked for forces outside the cones: the forces
+            # stay admissible and the root dynamics give way, and the status says so
+            assert solver == "projection" and sol.status == "relaxed" and "cones" in sol.message
+            continue
         worst_dyn = max(worst_dyn, err)
         assert err < 1e-8
-        if sol.status != "ok" or sol.message:
-            continue        # a relaxed (infeasible) stack: cones/limits may give way, as reported
         n_ok += 1
         for name, w in sol.forces.items():
             s = talos.contact(stack[name].contact)

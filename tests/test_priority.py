@@ -73,7 +73,8 @@ def test_projection_and_hqp_agree_on_equality_stacks(robot_name, request, rng):
         seed = int(rng.integers(2**31))
         qdd = {}
         for solver in ("projection", "hqp"):
-            ctrl = wbc.Controller(robot, _build(robot, make, q, v, seed), solver=solver, damping=NO_DAMPING)
+            ctrl = wbc.Controller(robot, _build(robot, make, q, v, seed), solver=solver, damping=NO_DAMPING,
+                                  weighting="identity")
             sol = ctrl.solve(q, v)
             assert sol.status == "ok", sol.message
             assert sol.qp_count == 0  # equality-only stack: no QP needed

@@ -34,8 +34,9 @@ class Controller:
     (analytic recursive null-space projection, q̈ only, SNS joint limits) or
     ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
     back-end (``"proxqp"``, ``"daqp"`` or any qpsolvers name). ``weighting``:
-    generalised-inverse weight W of the projection solver (``"identity"`` or
-    ``"inertia"``). ``sacrifice_tol``: residual above which a task is reported
+    generalised-inverse weight W of the projection solver (``"identity"``, or
+    ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
+    joints such as grippers are the cheapest to accelerate and saturate first). ``sacrifice_tol``: residual above which a task is reported
     as sacrificed (units of its rows, m/s² or rad/s²).
     """
 
@@ -86,8 +87,14 @@ class Controller:
             fres = self.solver.distribute_forces(res.x, levels, layout, robot)
             x = np.concatenate([res.x, fres.x])
             ok, message, qp_count = res.ok and fres.ok, res.message or fres.message, fres.qp_count
-            if any(i.relaxed for i in fres.levels[:1]):
-                message = message or "contact forces outside the friction/CoP cones"
+            if layout.nf and len(robot.unactuated_idx):
+                A0 = layout.force_jacobian[:, robot.unactuated_idx].T
+                b0 = robot.M[robot.unactuated_idx] @ res.x + robot.h[robot.unactuated_idx]
+                gap = np.abs(A0 @ fres.x - b0).max()
+                if gap > 1e-6 * max(1.0, np.abs(b0).max()):
+                    res.levels[0].relaxed = True
+                    message = message or (f"q̈ needs contact forces outside the friction/CoP cones "
+                                          f"(root dynamics off by {gap:.3g} N or N·m)")
         else:
             res = self.solver.solve_levels(levels, layout.nx)
             x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count

@@ -100,6 +100,45 @@ def _float_map(src: Path, key: str, value, model) -> dict[int, float]:
     return out
 
 
+def _level_on_contacts(model, q, contacts) -> np.ndarray:
+    """Make the surface contacts of the default posture lie flat on the ground z = 0.
+
+    A URDF posture with a slightly rolled ankle would otherwise start on a sole
+    edge. Gauss-Newton on the joints (root fixed), least-norm steps, on the error
+    (height, roll, pitch) of every sole relative to the mean sole height; then the
+    root is shifted so the soles touch z = 0.
+    """
+    import pinocchio as pin
+
+    data = model.createData()
+    surfaces = [c for c in contacts.values() if c.kind == "surface"]
+    if not surfaces:
+        return q
+    q = q.copy()
+    fids = [model.getFrameId(c.frame) for c in surfaces]
+    for _ in range(10):
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        z_mean = np.mean([data.oMf[f].translation[2] for f in fids])
+        err, rows = [], []
+        for f in fids:
+            M = data.oMf[f]
+            J = pin.getFrameJacobian(model, data, f, pin.LOCAL_WORLD_ALIGNED)
+            rpy = pin.rpy.matrixToRpy(M.rotation)
+            err += [M.translation[2] - z_mean, rpy[0], rpy[1]]
+            rows += [J[2], J[3], J[4]]
+        err = np.array(err)
+        if np.abs(err).max() < 1e-10:
+            break
+        A = np.array(rows)[:, 6:]
+        dq = np.zeros(model.nv)
+        dq[6:] = -np.linalg.lstsq(A, err, rcond=None)[0]
+        q = pin.integrate(model, q, dq)
+    pin.framesForwardKinematics(model, data, q)
+    q[2] -= np.mean([data.oMf[f].translation[2] for f in fids])
+    return q
+
+
 def load_robot(name_or_path: str | Path) -> "RobotModel":
     """Load a bundled robot (``"talos"``, ``"tiago"``) or a robot YAML file.
 
@@ -191,6 +230,9 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
         if contacts[cname].mu <= 0 or contacts[cname].half_length <= 0 or contacts[cname].half_width <= 0:
             raise _err(src, f"contacts.{cname}", "mu, half_length and half_width must be positive")
         frames.setdefault(cname, frame)
+
+    if root == "free_flyer" and contacts and cfg.get("level_on_contacts", True):
+        q_ref = _level_on_contacts(model, q_ref, contacts)
 
     nv = model.nv
     n_root = {"free_flyer": 6, "planar": 3, "fixed": 0}[root]

@@ -22,22 +22,26 @@ unless level 0's equalities force it there.
 
 Contact forces and torques (floating base): q̈ satisfies every contact's
 acceleration constraint, so the unactuated rows of the dynamics,
-S_u J_fᵀ f = S_u (M q̈ + h), are solvable in f; among the solutions a small
-force-distribution cascade picks the one inside the friction/CoP cones (slack if
-impossible), then any ContactWrench targets, then the least-norm force. Then
-τ = S_a (M q̈ + h − J_fᵀ f). Torque limits are not enforced by this solver; their
-violation is reported.
+S_u J_fᵀ f = S_u (M q̈ + h), are solvable in f. Force distribution
+(:meth:`RecursiveProjection.distribute_forces`) picks f inside the
+friction/CoP cones (a force the ground cannot give is never commanded), meeting
+the unactuated rows in least squares, then any ContactWrench targets. Then τ = S_a (M q̈ + h − J_fᵀ f).
+When q̈ asks more than the cones allow, the unactuated rows are not met: the
+status is "relaxed" and the robot will not follow q̈ exactly (this solver chooses
+q̈ blind to the cones; the HQP does not have that weakness). Torque limits are
+not enforced by this solver; their violation is reported.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.linalg import cho_factor, solve_triangular
+from scipy.optimize import nnls
 
 from ..errors import SolverError
 from ..rows import Layout, Level
 from .cascade import NO_DAMPING, Cascade, Damping
-from .hqp import CascadeResult, HierarchicalQP, LevelInfo
+from .hqp import CascadeResult, LevelInfo
 
 
 class RecursiveProjection:
@@ -52,7 +56,8 @@ class RecursiveProjection:
         self.weighting = weighting
         self.damping = damping or Damping()
         self.box_tol = box_tol
-        self.forces = HierarchicalQP(backend=backend, damping=NO_DAMPING)
+        self.wrench_weight = 1e-2
+        self.force_regularization = 1e-6
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, robot) -> CascadeResult:
@@ -155,37 +160,44 @@ class RecursiveProjection:
 
     # ----------------------------------------------------------- forces
     def distribute_forces(self, qdd: np.ndarray, levels: list[Level], layout: Layout, robot) -> CascadeResult:
+        """Contact forces for q̈: each contact's force is f₀ + V λ, λ ≥ 0, V the generators
+        of its friction/CoP cone (:meth:`~wbc.tasks.Contact.generators`), so every
+        candidate is admissible by construction. Non-negative least squares (scipy
+        ``nnls``) on, in decreasing weight: the unactuated dynamics rows
+        S_u J_fᵀ f = S_u (M q̈ + h), ContactWrench targets (×``wrench_weight``), and a
+        small least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return CascadeResult(np.zeros(0), [])
-        Jf = layout.force_jacobian
+        contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
+        f0 = np.zeros(nf)
+        blocks = []
+        for c in contacts:
+            sl = layout.contact_slices[c.name]
+            c0, V = c.generators()
+            f0[sl.start - nv: sl.stop - nv] = c0
+            blocks.append((sl.start - nv, V))
+        n_lam = sum(V.shape[1] for _, V in blocks)
+        G = np.zeros((nf, n_lam))
+        k = 0
+        for start, V in blocks:
+            G[start: start + V.shape[0], k: k + V.shape[1]] = V
+            k += V.shape[1]
         u = robot.unactuated_idx
-        f_levels = []
-        # level 0: unactuated dynamics (equality) + friction/CoP cones (inequalities)
-        C_parts, lo_parts, hi_parts, cone_tasks = [], [], [], []
-        wr_A, wr_b, wr_tasks = [], [], []
+        rows, rhs = [], []
+        if len(u):
+            A0 = layout.force_jacobian[:, u].T
+            rows.append(A0)
+            rhs.append(robot.M[u] @ qdd + robot.h[u])
         for lvl in levels:
             for t in lvl.tasks:
-                sl = lvl.in_slices.get(t.name)
-                if sl is not None and t.kind == "contact":
-                    C_parts.append(lvl.C[sl, nv:])
-                    lo_parts.append(lvl.lo[sl])
-                    hi_parts.append(lvl.hi[sl])
-                    cone_tasks.append(t)
                 esl = lvl.eq_slices.get(t.name)
                 if esl is not None and t.on_forces:
-                    wr_A.append(lvl.A[esl, nv:])
-                    wr_b.append(lvl.b[esl])
-                    wr_tasks.append(t)
-        A0 = Jf[:, u].T if len(u) else np.zeros((0, nf))
-        b0 = (robot.M[u] @ qdd + robot.h[u]) if len(u) else np.zeros(0)
-        C0 = np.vstack(C_parts) if C_parts else np.zeros((0, nf))
-        f_levels.append(Level(0, cone_tasks, A0, b0, C0,
-                              np.concatenate(lo_parts) if lo_parts else np.zeros(0),
-                              np.concatenate(hi_parts) if hi_parts else np.zeros(0), None, {}, {}))
-        if wr_A:
-            f_levels.append(Level(1, wr_tasks, np.vstack(wr_A), np.concatenate(wr_b),
-                                  np.zeros((0, nf)), np.zeros(0), np.zeros(0), None, {}, {}))
-        f_levels.append(Level(len(f_levels), [], np.eye(nf), np.zeros(nf),
-                              np.zeros((0, nf)), np.zeros(0), np.zeros(0), None, {}, {}))
-        return self.forces.solve_levels(f_levels, nf, key="forces")
+                    rows.append(self.wrench_weight * lvl.A[esl, nv:])
+                    rhs.append(self.wrench_weight * lvl.b[esl])
+        rows.append(self.force_regularization * np.eye(nf))
+        rhs.append(np.zeros(nf))
+        A = np.vstack(rows)
+        b = np.concatenate(rhs) - A @ f0
+        lam, _ = nnls(A @ G, b, maxiter=50 * n_lam)
+        return CascadeResult(f0 + G @ lam, [LevelInfo(0)])

@@ -2,7 +2,7 @@
 
 from .base import MotionTask, Task
 from .com import CoM
-from .contact import Contact, friction_pyramid, wrench_cone
+from .contact import Contact, friction_pyramid, wrench_cone, wrench_cone_generators
 from .contact_wrench import ContactWrench
 from .dynamics import DifferentialDrive, FloatingBaseDynamics
 from .frame import Frame
@@ -16,5 +16,5 @@ TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM,
 __all__ = [
     "Task", "MotionTask", "CoM", "Contact", "ContactWrench", "Frame", "JointLimits", "Posture",
     "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
-    "friction_pyramid",
+    "friction_pyramid", "wrench_cone_generators",
 ]

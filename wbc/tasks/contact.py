@@ -37,6 +37,19 @@ def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
     return U
 
 
+def wrench_cone_generators(mu: float, X: float, Y: float) -> np.ndarray:
+    """6 × 16 matrix V whose columns span the cone of :func:`wrench_cone`: the wrenches
+    at the rectangle's centre of the edges (±μ, ±μ, 1) of the friction pyramid at its
+    four corners. Every w = V λ with λ ≥ 0 is a feasible contact wrench and back."""
+    V = []
+    for px in (-X, X):
+        for py in (-Y, Y):
+            for fx, fy in ((mu, mu), (-mu, mu), (mu, -mu), (-mu, -mu)):
+                f = np.array([fx, fy, 1.0])
+                V.append(np.concatenate([f, np.cross([px, py, 0.0], f)]))
+    return np.array(V).T
+
+
 def friction_pyramid(mu: float) -> np.ndarray:
     """5 × 3 matrix P with P f ≤ 0 ⇔ |f_x|, |f_y| ≤ μ f_z and f_z ≥ 0 (normal +z)."""
     return np.array([[-1, 0, -mu], [1, 0, -mu], [0, -1, -mu], [0, 1, -mu], [0, 0, -1.0]])
@@ -147,6 +160,20 @@ class Contact(MotionTask):
             self._hi[-1] = -self.fmin
             self._ineq = (key, C)
         return self._ineq[1]
+
+    def generators(self) -> tuple[np.ndarray, np.ndarray]:
+        """(f0, V): every admissible force is f0 + V λ with λ ≥ 0 (f0 carries ``fmin``);
+        a bilateral contact gets V = [I, −I]."""
+        s = self._surface
+        d = s.force_dim
+        f0 = np.zeros(d)
+        if self.bilateral:
+            return f0, np.hstack([np.eye(d), -np.eye(d)])
+        mu = s.mu if self.mu is None else self.mu
+        f0[2] = self.fmin
+        if s.kind == "surface":
+            return f0, wrench_cone_generators(mu, s.half_length, s.half_width)
+        return f0, np.array([[mu, mu, 1.0], [-mu, mu, 1.0], [mu, -mu, 1.0], [-mu, -mu, 1.0]]).T
 
     def normal_force(self, f: np.ndarray) -> float:
         """Normal component (N) of this contact's force vector."""

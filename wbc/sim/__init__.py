@@ -1,0 +1,7 @@
+"""Forward-dynamics simulation: rigid unilateral Coulomb contacts, pushes, sensing."""
+
+from .bodies import box_model
+from .environment import Box, HalfSpace, ground, incline
+from .simulator import Push, Simulator
+
+__all__ = ["Simulator", "Push", "HalfSpace", "Box", "ground", "incline", "box_model"]
