@@ -13,13 +13,14 @@ from .errors import (ConfigError, FrameNotFound, RobotDefinitionError, RobotNotF
                      StackError, TargetError, TaskDefinitionError, WbcError)
 from .model import RobotModel
 from .robots import available_robots, load_robot
+from .scenario import Scenario, load_config
 from .solution import Solution
 from .stack import Stack
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "tasks", "Controller", "Stack", "Solution", "RobotModel", "load_robot", "available_robots",
+    "tasks", "Controller", "load_config", "Scenario", "Stack", "Solution", "RobotModel", "load_robot", "available_robots",
     "WbcError", "RobotNotFound", "RobotDefinitionError", "FrameNotFound", "TaskDefinitionError",
     "TargetError", "StackError", "ConfigError", "SolverError",
 ]
