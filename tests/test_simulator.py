@@ -1,0 +1,251 @@
+"""Physics checks of the contact simulator (wbc.sim) on a passive free-flying box.
+
+The simulator's discrete dynamics (semi-implicit Euler, rigid Coulomb contacts
+solved by PGS, Baumgarte push-out) make these checks sharp: a box at rest has
+no velocity to integrate, so "does not move" is tested at 1e-6 m, and Coulomb
+sliding is reproduced to solver precision, so accelerations are tested against
+the closed-form g (sin θ − μ cos θ) at the brief's 2 %.
+
+Corner positions are computed here from ``sim.q`` with a private pinocchio
+Data: ``Simulator.point_positions()`` returns the kinematics of the start of the
+last step (one step behind ``sim.q``), which would blur penetration checks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from wbc.sim import Simulator, box_model, ground, incline
+
+DT = 1e-3
+CUBE = (0.2, 0.2, 0.2)
+FLAT = (0.3, 0.2, 0.1)
+
+
+# ---------------------------------------------------------------- helpers
+def _gravity(model: pin.Model) -> float:
+    return float(np.linalg.norm(model.gravity.linear))
+
+
+def _corners(model: pin.Model, points, q: np.ndarray) -> np.ndarray:
+    """World positions of the contact points at configuration q (fresh kinematics)."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    return np.array([data.oMi[model.getJointId(j)].act(r) for j, r in points])
+
+
+def _rotation(q: np.ndarray) -> np.ndarray:
+    return pin.Quaternion(np.asarray(q[3:7])).normalized().matrix()
+
+
+def _angle_between(qa: np.ndarray, qb: np.ndarray) -> float:
+    return float(np.linalg.norm(pin.log3(_rotation(qa).T @ _rotation(qb))))
+
+
+def _random_rotation(seed: int) -> np.ndarray:
+    return pin.exp3(np.random.default_rng(seed).normal(size=3))
+
+
+def _drop(size, mass, height, R=np.eye(3), omega=np.zeros(3), mu=0.8):
+    """A box whose lowest corner is ``height`` above the ground, at rest or spinning
+    (``omega`` in the body frame, rad/s)."""
+    m, pts = box_model(size=size, mass=mass)
+    corners_body = np.array([r for _, r in pts])
+    z = height - (corners_body @ R.T)[:, 2].min()
+    q0 = np.r_[0.0, 0.0, z, pin.Quaternion(R).coeffs()]
+    v0 = np.r_[np.zeros(3), omega]
+    return Simulator(m, pts, [ground(mu=mu)], q0, v0=v0, dt=DT), m, pts
+
+
+def _run(sim: Simulator, seconds: float, each=None) -> None:
+    for _ in range(int(round(seconds / sim.dt))):
+        sim.step(np.zeros(6))
+        if each is not None:
+            each(sim)
+
+
+# ---------------------------------------------------------------- (a) drop and settle
+@pytest.mark.parametrize(
+    "size, mass, tilt_seed",
+    [(CUBE, 5.0, None), (CUBE, 5.0, 7), (FLAT, 2.0, 3)],
+    ids=["cube-flat", "cube-random-tilt", "slab-random-tilt"],
+)
+def test_dropped_box_settles_without_penetration_or_drift(size, mass, tilt_seed):
+    R = np.eye(3) if tilt_seed is None else _random_rotation(tilt_seed)
+    sim, m, pts = _drop(size, mass, 0.3, R)
+    mg = mass * _gravity(m)
+
+    worst = {"pen": 0.0}
+
+    def track(s):
+        worst["pen"] = max(worst["pen"], -_corners(m, pts, s.q)[:, 2].min())
+
+    _run(sim, 2.5, track)          # fall (~0.25 s), impact, tumble onto a face
+    # Rigid contact + Baumgarte: the only penetration is the one-step overshoot at
+    # impact, which is then removed geometrically (×(1 − β) per step).
+    assert worst["pen"] <= 1e-3, f"penetration during the drop {worst['pen']:.3g} m"
+    assert np.abs(sim.v).max() < 1e-5, f"not at rest after 2.5 s: |v|max = {np.abs(sim.v).max():.3g}"
+
+    c = _corners(m, pts, sim.q)
+    touching = np.abs(c[:, 2]) < 1e-6
+    assert touching.sum() == 4, f"box should rest on a face, corner heights {np.sort(c[:, 2])}"
+    # At rest the Baumgarte residue has decayed as 0.8^n: only solver noise is left.
+    assert -c[:, 2].min() <= 1e-6
+
+    # Normal forces carry the weight exactly (the velocity is zero, so the impulse
+    # is exactly m g h); tangential forces cancel.
+    F = sim.point_forces.sum(axis=0)
+    assert abs(F[2] / mg - 1.0) <= 1e-6, f"sum of normal forces {F[2]} N vs m g = {mg} N"
+    assert np.linalg.norm(F[:2]) <= 1e-4 * mg
+
+    q_rest = sim.q.copy()
+    worst["pen"] = 0.0
+    _run(sim, 10.0, track)
+    drift = np.linalg.norm(sim.q[:3] - q_rest[:3])
+    assert drift <= 1e-3, f"position drift over 10 s of rest: {drift:.3g} m"
+    assert _angle_between(sim.q, q_rest) <= 1e-3, "orientation drift over 10 s of rest"
+    assert worst["pen"] <= 1e-6, f"penetration during rest {worst['pen']:.3g} m"
+    F = sim.point_forces.sum(axis=0)
+    assert abs(F[2] / mg - 1.0) <= 1e-6, f"sum of normal forces {F[2]} N vs m g = {mg} N"
+
+
+# ---------------------------------------------------------------- (b) incline
+@pytest.mark.parametrize("mu", [0.3, 0.6])
+@pytest.mark.parametrize("offset_deg", [-3.0, 3.0], ids=["below", "above"])
+def test_box_on_incline_slides_iff_tan_theta_exceeds_mu(mu, offset_deg):
+    theta = np.arctan(mu) + np.radians(offset_deg)
+    size, mass = CUBE, 5.0   # cube: tipping would need μ > 1 (sx/sz), never reached here
+    m, pts = box_model(size=size, mass=mass)
+    plane = incline(theta, mu)
+    n = plane.normal
+    assert np.allclose(n, [-np.sin(theta), 0.0, np.cos(theta)])
+    R = pin.exp3(np.array([0.0, -theta, 0.0]))          # body z along the plane normal
+    q0 = np.r_[0.5 * size[2] * n, pin.Quaternion(R).coeffs()]
+
+    # The box rests flat: four corners on the plane, four one box-height above it.
+    heights = np.sort(_corners(m, pts, q0) @ n)
+    assert np.allclose(heights[:4], 0.0, atol=1e-12)
+    assert np.allclose(heights[4:], size[2], atol=1e-12)
+
+    sim = Simulator(m, pts, [plane], q0, dt=DT)
+    downhill = np.array([-np.cos(theta), 0.0, -np.sin(theta)])   # the plane rises along +x
+    T = 1.0
+    t, s, lift = [], [], []
+
+    def record(sm):
+        d = sm.q[:3] - q0[:3]
+        t.append(sm.t)
+        s.append(d @ downhill)
+        lift.append(abs(d @ n))
+
+    _run(sim, T, record)
+    t, s = np.array(t), np.array(s)
+    g = _gravity(m)
+
+    if np.tan(theta) < mu:
+        disp = np.linalg.norm(sim.q[:3] - q0[:3])
+        assert disp < 1e-6, f"box crept {disp:.3g} m on a {np.degrees(theta):.1f}° slope with μ={mu}"
+        assert _angle_between(sim.q, q0) < 1e-6
+    else:
+        a_expected = g * (np.sin(theta) - mu * np.cos(theta))
+        a_measured = 2.0 * np.polyfit(t, s, 2)[0]
+        assert s[-1] > 0.2, "box should slide downhill"
+        assert abs(a_measured / a_expected - 1.0) <= 0.02, (
+            f"slide acceleration {a_measured:.5f} vs g(sinθ − μcosθ) = {a_expected:.5f} m/s²")
+        # sliding, not hopping or tumbling
+        assert max(lift) < 1e-6
+        assert _angle_between(sim.q, q0) < 1e-3
+
+
+# ---------------------------------------------------------------- (c) energy
+@pytest.mark.parametrize("height", [0.05, 0.3, 1.0])
+@pytest.mark.parametrize(
+    "size, mass, tilt_seed, spin",
+    [(CUBE, 5.0, None, 0.0), (CUBE, 5.0, 11, 2.0), (FLAT, 2.0, 5, 2.0)],
+    ids=["cube-upright", "cube-tilted-spinning", "slab-tilted-spinning"],
+)
+def test_dropped_box_never_gains_energy(height, size, mass, tilt_seed, spin):
+    """E(t) ≤ E(0) (1 + 1e-6) throughout, and no rebound above the drop height.
+
+    No Baumgarte allowance is needed: the push-out only acts after the impact,
+    which has already dissipated far more than it can restore (≤ m g · depth,
+    depth < 1 mm). Margin note: free fall under semi-implicit Euler loses
+    ½ m g² h² per step, which at |ω| = 2 rad/s outweighs the spin-induced free-flight
+    gain (see the xfail test below); much faster spins break this bound.
+    """
+    R = np.eye(3) if tilt_seed is None else _random_rotation(tilt_seed)
+    omega = np.zeros(3)
+    if spin:
+        w = np.random.default_rng(tilt_seed + 1).normal(size=3)
+        omega = spin * w / np.linalg.norm(w)
+    sim, m, pts = _drop(size, mass, height, R, omega)
+    E0, z0 = sim.energy(), sim.q[2]
+    state = {"Emax": E0, "hit": None, "zmax_after": -np.inf}
+
+    def watch(s):
+        state["Emax"] = max(state["Emax"], s.energy())
+        if state["hit"] is None and s.point_forces.any():
+            state["hit"] = s.q[2]
+        if state["hit"] is not None:
+            state["zmax_after"] = max(state["zmax_after"], s.q[2])
+
+    _run(sim, np.sqrt(2 * height / _gravity(m)) + 1.0, watch)
+
+    assert state["hit"] is not None, "the box never touched the ground"
+    assert state["Emax"] <= E0 * (1.0 + 1e-6), f"energy rose to {state['Emax'] / E0:.9f} × E(0)"
+    assert state["zmax_after"] <= z0, "the centre rose above its drop height after the impact"
+    if tilt_seed is None and not spin:
+        # Flat, non-spinning impact is perfectly inelastic: no bounce at all.
+        assert state["zmax_after"] - state["hit"] <= 1e-6
+    assert sim.energy() < E0   # the impact dissipated
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "wbc.sim bug: explicit Euler on the body-frame free-flyer velocity (the −ω×v term "
+    "of aba) pumps energy into a spinning body: +10.5 % translational KE per second "
+    "at |ω| = 10 rad/s, v = 1 m/s (no gravity, no contact)"))
+def test_force_free_spinning_box_keeps_its_energy_and_speed():
+    m, pts = box_model(size=CUBE, mass=2.0)   # cube: isotropic inertia, no gyroscopic torque
+    m.gravity.linear[:] = 0.0
+    sim = Simulator(m, pts, [], np.r_[0, 0, 1.0, 0, 0, 0, 1], v0=np.r_[1.0, 0, 0, 0, 0, 10.0], dt=DT)
+    E0, p0 = sim.energy(), sim.q[:3].copy()
+    _run(sim, 1.0)
+    assert abs(sim.energy() / E0 - 1.0) <= 1e-6
+    assert abs(np.linalg.norm(sim.q[:3] - p0) - 1.0) <= 1e-6   # straight line at 1 m/s
+
+
+# ---------------------------------------------------------------- (d) push
+@pytest.mark.parametrize("ratio", [0.5, 0.95, 1.1, 1.5])
+def test_push_moves_resting_box_iff_force_exceeds_mu_m_g(ratio):
+    """A 0.1 s horizontal push at the centre of a slab (0.4 × 0.4 × 0.1 m, μ = 1):
+    tipping would need F · sz/2 > m g · sx/2, i.e. F > 4 m g, so only sliding is at stake."""
+    size, mass, mu = (0.4, 0.4, 0.1), 5.0, 1.0
+    m, pts = box_model(size=size, mass=mass)
+    g = _gravity(m)
+    q0 = np.r_[0.0, 0.0, 0.5 * size[2], 0, 0, 0, 1]
+    sim = Simulator(m, pts, [ground(mu=mu)], q0, dt=DT)
+    F = ratio * mu * mass * g
+    sim.push("box", [F, 0.0, 0.0], start=0.05, duration=0.1)
+
+    pushed_steps = 0
+    for _ in range(1000):
+        pushed_steps += any(p.active(sim.t) for p in sim.pushes)
+        sim.step(np.zeros(6))
+    assert abs(pushed_steps * DT - 0.1) < 1.5 * DT
+    d = sim.q[:3] - q0[:3]
+
+    if ratio < 1.0:
+        assert np.linalg.norm(d) < 1e-6, f"box moved {np.linalg.norm(d):.3g} m under {ratio} μ m g"
+        assert _angle_between(sim.q, q0) < 1e-6
+    else:
+        # Coulomb: accelerate at (F − μ m g)/m during the push, then decelerate at μ g.
+        tp = pushed_steps * DT
+        a = (F - mu * mass * g) / mass
+        v = a * tp
+        expected = 0.5 * a * tp**2 + v**2 / (2 * mu * g)
+        # 1 %: the O(h/tp) = 1 % bound on the time-stepping error of these two phases.
+        assert abs(d[0] / expected - 1.0) <= 1e-2, f"slid {d[0]:.5f} m, Coulomb predicts {expected:.5f} m"
+        assert abs(d[1]) < 1e-6 and abs(d[2]) < 1e-6
+        assert np.abs(sim.v).max() < 1e-6, "box should have stopped by t = 1 s"
