@@ -42,7 +42,7 @@ class Controller:
 
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str = "daqp",
                  weighting: str = "identity", damping: Damping | None = None,
-                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3) -> None:
+                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3) -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
@@ -58,12 +58,48 @@ class Controller:
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
+        self.dt = float(dt)
+        self._ramps: dict[str, tuple] = {}   # contact task name -> (f_start, f_end, cycles, k, remove)
         self.layout: Layout | None = None
         self.levels: list[Level] = []
         # bind every task to the robot now, so a wrong frame fails here, not mid-run
         for task in self.stack:
             task.bind(robot)
         self.stack.layout(robot)
+
+    # ------------------------------------------------------ contact switching
+    def release_contact(self, name: str, duration: float = 0.2) -> None:
+        """Lift-off without a torque jump: ramp the contact's normal-force bound from the
+        force it carries now down to 0 N over ``duration`` (s), then remove the task."""
+        task = self.stack[name]
+        f_now = float(self._last_forces.get(name, np.zeros(3))[2]) if hasattr(self, "_last_forces") else 0.0
+        self._ramps[name] = (max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), 0, True)
+        task.fmax = max(f_now, 0.0)
+
+    def make_contact(self, task, level: int = 0, duration: float = 0.1, fmax_end: float = np.inf) -> None:
+        """Touch-down: add a Contact task (its reference is where the frame is now) with
+        its normal-force bound ramped up from 0 N over ``duration`` (s)."""
+        task.bind(self.robot)
+        task.reference = None
+        task.fmax = 0.0
+        self.stack.add(task, level)
+        weight = self.robot.mass * 9.81
+        self._ramps[task.name] = (0.0, weight, max(1, int(round(duration / self.dt))), 0, False)
+
+    def _advance_ramps(self) -> None:
+        for name in list(self._ramps):
+            f0, f1, n, k, remove = self._ramps[name]
+            k += 1
+            task = self.stack[name]
+            if k >= n:
+                del self._ramps[name]
+                if remove:
+                    self.stack.remove(name)
+                else:
+                    task.fmax = np.inf
+                continue
+            task.fmax = f0 + (f1 - f0) * k / n
+            self._ramps[name] = (f0, f1, n, k, remove)
 
     def _internal_constraints(self, layout: Layout) -> list:
         extra = []
@@ -77,6 +113,8 @@ class Controller:
         """One control cycle at state (q, v); see the module docstring."""
         robot = self.robot
         q, v = robot.check_state(q, v)
+        if self._ramps:
+            self._advance_ramps()
         robot.update(q, v)
         layout = self.stack.layout(robot)
         levels = self.stack.assemble(robot, layout, self._internal_constraints(layout))
@@ -165,6 +203,7 @@ class Controller:
         else:
             self._last_tau = tau_full.copy()
         forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
+        self._last_forces = forces
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx].copy(), tau_full=tau_full, forces=forces,
                         x=x, residuals=residuals, task_residuals=task_res, status=status, message=message,
                         diagnostics=diags, qp_count=qp_count)

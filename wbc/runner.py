@@ -33,6 +33,37 @@ def _stats(x) -> dict:
     return {"rms": float(np.sqrt(np.mean(x**2))), "max": float(np.max(x)), "final": float(x[-1])}
 
 
+def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
+    """A timeline event: release a contact, touch down, add or remove a task."""
+    stack = ctrl.stack
+    if ev["kind"] == "release":
+        ctrl.release_contact(ev["name"], ev["duration"])
+        switched.add(ev["name"])
+    elif ev["kind"] == "remove":
+        if ev["name"] in stack:
+            stack.remove(ev["name"])
+        refs.pop(ev["name"], None)
+    elif ev["kind"] == "touchdown":
+        robot.update(*sim.measure())
+        ctrl.make_contact(ev["task"], level=ev["level"], duration=ev["duration"])
+        switched.add(ev["task"].name)
+    else:
+        task = ev["task"]
+        robot.update(*sim.measure())
+        task.bind(robot)
+        if task.kind == "frame":
+            task._target = None
+            start[task.name] = robot.frame_placement(robot.frame_id(task.frame)).copy()
+            task.target = start[task.name]
+        elif task.kind == "com":
+            start[task.name] = robot.com.copy()
+            task.target = start[task.name]
+        stack.add(task, min(ev["level"], len(stack.levels)))
+        if "trajectory" in ev:
+            traj, absolute = ev["trajectory"]
+            refs[task.name] = (traj, absolute, t)
+
+
 def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
         progress: bool = False, callback=None) -> dict:
     """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle."""
@@ -42,7 +73,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     opts.pop("type", None)
     if backend:
         opts["backend"] = backend
-    ctrl = Controller(robot, stack, solver=solver_name, **opts)
+    ctrl = Controller(robot, stack, solver=solver_name, dt=sc.dt, **opts)
     sim = Simulator.for_robot(robot, sc.environment, dt=sc.dt, substeps=sc.substeps, **sc.sensing)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
@@ -85,10 +116,16 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
     vi = np.array([m.joints[j].idx_v for j in range(1, m.njoints) if m.joints[j].nq == 1])
     t_wall = time.perf_counter()
+    refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
+    pending = list(sc.events)
+    switched: set[str] = set()
     for k in range(n):
         t = k * sc.dt
-        for tname, (traj, absolute) in sc.references.items():
-            x, dx, ddx = traj.sample(t)
+        while pending and pending[0]["time"] <= t + 1e-9:
+            ev = pending.pop(0)
+            _apply_event(ev, ctrl, robot, sim, refs, start, t, switched)
+        for tname, (traj, absolute, t0) in refs.items():
+            x, dx, ddx = traj.sample(t - t0)
             task = stack[tname]
             if task.kind == "com":
                 task.set_reference(x if absolute else start[tname] + x, dx, ddx)
@@ -124,11 +161,14 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             viol["friction"] += 1
         pts = sim.point_positions()
         for c in contacts:
+            if c.name in switched:
+                continue
             idx = pts_of[c.name]
             slip[c.name] = max(slip[c.name], float(np.max(np.linalg.norm(pts[idx, :2] - p0[idx, :2], axis=1))))
             lifted[c.name] |= bool(np.any(pts[idx, 2] - p0[idx, 2] > 1e-3))
-        if contacts:
-            idx = [i for c in contacts for i in pts_of[c.name]]
+        active = [c for c in contacts if c.name in stack]
+        if active:
+            idx = [i for c in active for i in pts_of[c.name]]
             robot_com = pin.centerOfMass(m, sim.data, qs)  # true CoM, simulator data
             margins.append(support_margin(pts[idx, :2], robot_com[:2]))
         if robot.differential_drive:
@@ -149,7 +189,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         "backend": opts.get("backend", "daqp"), "duration": float(len(ct) * sc.dt), "fell": fell,
         "tasks": {k: _stats(v) for k, v in errs.items() if v},
         "violations": viol,
-        "contacts": {c.contact: {"slip": slip[c.name], "lifted": lifted[c.name]} for c in contacts},
+        "contacts": {c.contact: {"slip": slip[c.name], "lifted": lifted[c.name]}
+                     for c in contacts if c.name not in switched},
         "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)), "max": float(ct.max())},
         "solver_failures": failures,
         "real_time_factor": float(len(ct) * sc.dt / (time.perf_counter() - t_wall)),

@@ -32,7 +32,8 @@ from .stack import Stack
 from .trajectories import build_trajectory
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance"}
+        "description", "acceptance", "events"}
+_EVENT_KINDS = ("release", "add", "touchdown", "remove")
 _SOLVER_KEYS = {"type", "backend", "weighting", "level_weight"}
 
 
@@ -51,6 +52,7 @@ class Scenario:
     references: dict[str, tuple] = field(default_factory=dict)   # task name -> (trajectory, absolute)
     offsets: dict[str, np.ndarray] = field(default_factory=dict)
     acceptance: dict = field(default_factory=dict)
+    events: list[dict] = field(default_factory=list)
     source: Path | None = None
 
 
@@ -159,6 +161,30 @@ def load_config(path: str | Path) -> Scenario:
         pushes.append({"frame": robot.model.frames[fid].name, "force": force,
                        "start": _number(src, f"{where}.start", p["start"], positive=False),
                        "duration": _number(src, f"{where}.duration", p["duration"])})
+    events = []
+    for i, ev in enumerate(cfg.get("events") or []):
+        where = f"{src}: events[{i}]"
+        kinds = [k for k in _EVENT_KINDS if isinstance(ev, dict) and k in ev]
+        if len(kinds) != 1 or "time" not in ev:
+            raise ConfigError(f"{where}: expected time (s) and exactly one of {list(_EVENT_KINDS)}")
+        kind = kinds[0]
+        e = {"time": _number(src, f"events[{i}].time", ev["time"], positive=False), "kind": kind,
+             "duration": _number(src, f"events[{i}].duration", ev.get("duration", 0.2))}
+        if kind in ("release", "remove"):
+            e["name"] = str(ev[kind])
+        else:
+            spec = dict(ev[kind]) if isinstance(ev[kind], dict) else ev[kind]
+            if kind == "touchdown" and (not isinstance(spec, dict) or spec.get("type") != "contact"):
+                raise ConfigError(f"{where}.touchdown: expected a contact task mapping (type: contact)")
+            e["task"] = build_task(spec, f"{where}.{kind}")
+            e["task"].bind(robot)
+            e["level"] = int(ev.get("level", 0))
+            if "trajectory" in ev:
+                traj = ev["trajectory"]
+                e["trajectory"] = (build_trajectory(traj, 3, f"{where}.trajectory"),
+                                   bool(traj.get("absolute", False)))
+        events.append(e)
+    events.sort(key=lambda e: e["time"])
     sensing = dict(cfg.get("sensing") or {})
     for key in sensing:
         if key not in ("noise_q", "noise_v", "latency_steps"):
@@ -167,4 +193,4 @@ def load_config(path: str | Path) -> Scenario:
         name=str(cfg.get("name", src.stem)), robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps,
         duration=_number(src, "duration", cfg.get("duration", 5.0)),
         environment=_environment(src, cfg.get("environment")), pushes=pushes, sensing=sensing,
-        references=refs, offsets=offsets, acceptance=dict(cfg.get("acceptance") or {}), source=src)
+        references=refs, offsets=offsets, acceptance=dict(cfg.get("acceptance") or {}), events=events, source=src)

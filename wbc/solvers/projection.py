@@ -57,6 +57,7 @@ class RecursiveProjection:
         self.damping = damping or Damping()
         self.box_tol = box_tol
         self.wrench_weight = 1e-2
+        self.ramp_weight = 10.0
         self.force_regularization = 1e-6
 
     # ----------------------------------------------------------------- q̈
@@ -195,6 +196,12 @@ class RecursiveProjection:
                 if esl is not None and t.on_forces:
                     rows.append(self.wrench_weight * lvl.A[esl, nv:])
                     rhs.append(self.wrench_weight * lvl.b[esl])
+        for c in contacts:      # a contact being made or released: its normal force follows the ramp
+            if np.isfinite(c.fmax) and not c.bilateral:
+                r = np.zeros((1, nf))
+                r[0, layout.contact_slices[c.name].start - nv + 2] = self.ramp_weight
+                rows.append(r)
+                rhs.append(np.array([self.ramp_weight * c.fmax]))
         rows.append(self.force_regularization * np.eye(nf))
         rhs.append(np.zeros(nf))
         A = np.vstack(rows)

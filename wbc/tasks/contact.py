@@ -87,6 +87,9 @@ class Contact(MotionTask):
         self.fmin = float(fmin)
         self.bilateral = bool(bilateral)
         self.reference: pin.SE3 | None = None
+        #: upper bound on the normal force (N); ramped by the controller when the
+        #: contact is made or released so the torques stay continuous
+        self.fmax = np.inf
         self._surface: ContactSurface | None = None
         self._fid = None
         self._ineq = None
@@ -141,7 +144,9 @@ class Contact(MotionTask):
         b[:] = self.kp * e - self.kd * vel - drift
         if self.bilateral:
             return Rows(A=A, b=b)
-        return Rows(A=A, b=b, C=self._friction_rows(layout), lo=self._lo, hi=self._hi)
+        C = self._friction_rows(layout)
+        self._hi[-1] = self.fmax
+        return Rows(A=A, b=b, C=C, lo=self._lo, hi=self._hi)
 
     def _friction_rows(self, layout: Layout) -> np.ndarray:
         sl = layout.contact_slices[self.name]
@@ -150,14 +155,15 @@ class Contact(MotionTask):
             s = self._surface
             mu = s.mu if self.mu is None else self.mu
             U = wrench_cone(mu, s.half_length, s.half_width) if s.kind == "surface" else friction_pyramid(mu)[:4]
-            unilateral = np.zeros((1, s.force_dim))
-            unilateral[0, 2] = -1.0
+            unilateral = np.zeros((2, s.force_dim))
+            unilateral[0, 2] = -1.0          # f_z >= fmin
+            unilateral[1, 2] = 1.0           # f_z <= fmax
             U = np.vstack([U, unilateral])
             C = np.zeros((U.shape[0], layout.nx))
             C[:, sl] = U
             self._lo = np.full(U.shape[0], -np.inf)
             self._hi = np.zeros(U.shape[0])
-            self._hi[-1] = -self.fmin
+            self._hi[-2] = -self.fmin
             self._ineq = (key, C)
         return self._ineq[1]
 
