@@ -56,3 +56,12 @@ def test_tiago_reach_moves_base_and_arm_without_lateral_slip(solver):
     assert m["tasks"]["hand"]["final"] < 1e-2
     assert m["base_lateral_velocity_max"] < 1e-6
     _no_violations(m)
+
+
+def test_talos_balance_with_sensor_noise_and_one_cycle_latency():
+    sc = load_config(TASKS / "talos_balance.yaml")
+    sc.sensing = {"noise_q": 1e-4, "noise_v": 2e-3, "latency_steps": 1}
+    m = run(sc, solver="hqp", duration=2.0)
+    assert not m["fell"] and m["solver_failures"] == 0
+    assert m["tasks"]["com"]["rms"] < 5e-3
+    assert all(c["slip"] < 1e-3 and not c["lifted"] for c in m["contacts"].values())
