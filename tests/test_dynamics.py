@@ -15,7 +15,7 @@ from .stacks import random_state, randomise_targets, talos_stack
 
 @pytest.mark.parametrize("solver", ["hqp", "weighted", "projection"])
 def test_equation_of_motion_holds_and_forces_stay_in_their_cones(talos, solver, rng):
-    n_ok = 0
+    n_ok = n_degraded = 0
     worst_dyn = 0.0
     for _ in range(40):
         q, v = random_state(talos, rng)
@@ -33,11 +33,14 @@ def test_equation_of_motion_holds_and_forces_stay_in_their_cones(talos, solver, 
         S_T_tau[talos.actuated_idx] = sol.tau
         lhs = M @ sol.qdd + h
         err = np.abs(lhs - S_T_tau - Jf.T @ f).max() / max(1.0, np.abs(lhs).max(), np.abs(h).max())
-        if sol.status != "ok" or sol.message:
+        if sol.status == "relaxed":
             # the projection solver's q̈ asked for forces outside the cones: the forces
             # stay admissible and the root dynamics give way, and the status says so
-            assert solver == "projection" and sol.status == "relaxed" and "cones" in sol.message
+            assert solver == "projection" and "cones" in sol.message
             continue
+        # "degraded" (a lower level's QP failed numerically and was held) keeps the
+        # equation of motion and every limit: checked like "ok"
+        n_degraded += sol.status == "degraded"
         worst_dyn = max(worst_dyn, err)
         assert err < 1e-8
         n_ok += 1
@@ -53,7 +56,9 @@ def test_equation_of_motion_holds_and_forces_stay_in_their_cones(talos, solver, 
     # chooses q̈ blind to the cones, so with these aggressive random targets it
     # often cannot (and says so in Solution.message)
     assert n_ok >= (35 if solver != "projection" else 5), f"only {n_ok}/40 states gave a feasible stack"
-    print(f"{solver}: worst relative dynamics residual {worst_dyn:.1e}, {n_ok}/40 feasible")
+    assert n_degraded <= 4
+    print(f"{solver}: worst relative dynamics residual {worst_dyn:.1e}, {n_ok}/40 feasible, "
+          f"{n_degraded} degraded")
 
 
 def test_torque_limits_hold_where_projection_would_break_them(talos):

@@ -175,6 +175,10 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
         srdf = _resolve_file(src, "srdf", cfg["srdf"])
         pin.loadReferenceConfigurations(full, str(srdf), False)
     posture = cfg.get("default_posture")
+    overrides = {}
+    if isinstance(posture, dict) and "srdf" in posture:
+        overrides = dict(posture.get("joints") or {})
+        posture = posture["srdf"]
     if isinstance(posture, str):
         if not full.referenceConfigurations.__contains__(posture):
             names = [k.key() for k in full.referenceConfigurations]
@@ -187,6 +191,10 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
             q_ref[full.idx_qs[full.getJointId(jname)]] = float(val)
     elif posture is not None:
         raise _err(src, "default_posture", "expected an SRDF reference name or a mapping joint -> value")
+    for jname, val in overrides.items():
+        if not full.existJointName(jname):
+            raise _err(src, f"default_posture.joints.{jname}", f"unknown joint; expected one of {list(full.names)[1:]}")
+        q_ref[full.idx_qs[full.getJointId(jname)]] = float(val)
 
     locked = list(cfg.get("locked_joints") or [])
     for jname in locked:

@@ -41,7 +41,10 @@ class Solution:
     ``tau_full`` (nv, zeros on unactuated rows); ``forces``: contact task name ->
     force (3) or wrench (6) in the contact frame (N, N·m); ``residuals``: one
     float per level; ``task_residuals``: per task name; ``status``: ``"ok"``,
-    ``"relaxed"`` (a level's inequalities could not all hold) or ``"failed"``.
+    ``"relaxed"`` (a level's inequalities could not all hold), ``"degraded"`` (a
+    level's QP failed numerically and that level was held at the feasible point
+    the higher levels left: priorities and limits intact, the level under-served)
+    or ``"failed"`` (no usable solution: the torque falls back to the last good one).
     """
 
     qdd: np.ndarray

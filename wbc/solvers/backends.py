@@ -44,7 +44,7 @@ class ProxQP(Backend):
     name = "proxqp"
     psd_ok = True
 
-    def __init__(self, eps_abs: float = 1e-9, eps_rel: float = 0.0, max_iter: int = 10000) -> None:
+    def __init__(self, eps_abs: float = 1e-9, eps_rel: float = 0.0, max_iter: int = 3000) -> None:
         import proxsuite
 
         self._px = proxsuite.proxqp

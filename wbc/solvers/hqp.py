@@ -53,28 +53,41 @@ class CascadeResult:
     ok: bool = True
     qp_count: int = 0
     message: str = ""
+    degraded: bool = False
 
 
 class HierarchicalQP:
-    """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names."""
+    """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names;
+    ``margin`` (units of each inequality row: N, N·m, rad/s²) the room a QP keeps
+    from a limit where it can, so later levels rarely need one."""
 
     name = "hqp"
 
     def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
                  regularization: float = 1e-6, slack_regularization: float = 1e-6,
-                 feasibility_tol: float = 1e-7) -> None:
+                 feasibility_tol: float = 1e-7, margin: float = 1.0) -> None:
         self.backend = make_backend(backend) if isinstance(backend, str) else backend
         self.damping = damping or Damping()
         self.regularization = regularization
         self.slack_regularization = slack_regularization
+        self.margin = margin
         self.tol = feasibility_tol
 
-    def solve_levels(self, levels: list[Level], nx: int, key: str = "") -> CascadeResult:
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "",
+                     scale: np.ndarray | None = None) -> CascadeResult:
+        """Solve the cascade. ``scale``: per-variable scale D, x = D x̃; the cascade's
+        least-norm choices are then made in x̃ (see :class:`~wbc.controller.Controller`)."""
+        if scale is not None:
+            levels = [_scaled(lvl, scale) for lvl in levels]
+            res = self.solve_levels(levels, nx, key)
+            res.x = scale * res.x
+            return res
         cas = Cascade(nx)
         acc_C: list[np.ndarray] = []
         acc_lo: list[np.ndarray] = []
         acc_hi: list[np.ndarray] = []
         infos, ok, qp_count, msg = [], True, 0, ""
+        degraded: list[str] = []
         for lvl in levels:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
@@ -90,7 +103,9 @@ class HierarchicalQP:
                                             f"{key}{lvl.index}e")
                     info.qp_status = status
                     if z is None:
-                        ok, msg = False, f"level {lvl.index}: QP failed ({status})"
+                        # z = 0 is feasible and keeps every higher level: hold there
+                        degraded.append(f"level {lvl.index}: QP failed ({status}); level held at its "
+                                        "highest-priority feasible point")
                         z = np.zeros(cas.dof)
                     cas.commit(step, z)
                 else:
@@ -124,34 +139,47 @@ class HierarchicalQP:
                 acc_lo.append(lo - w)
                 acc_hi.append(hi - w)
             infos.append(info)
-        return CascadeResult(cas.x, infos, ok, qp_count, msg)
+        res = CascadeResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
+        res.degraded = bool(degraded)
+        return res
 
     def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key):
         """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
         feasible set nearest its least-squares point (H = I, well conditioned).
-        Returns (None, status) when the rows cannot all hold."""
+
+        The level's rows are first tightened by ``margin`` (where their range allows):
+        the point then sits inside its limits rather than on them, so the small steps
+        of lower levels rarely need a QP. Returns (None, status) when the rows cannot
+        all hold even untightened."""
         r = cas.dof
         Cl = C @ cas.Z
         y = C @ cas.x
-        rows, los, his = [Cl], [lo - y], [hi - y]
-        if acc_C:
-            Cr, lr, hr = self._higher_rows(cas, acc_C, acc_lo, acc_hi)
-            rows.append(Cr)
-            los.append(lr)
-            his.append(hr)
-        res = self.backend.solve(np.eye(r), np.zeros(r), np.vstack(rows), np.concatenate(los),
-                                 np.concatenate(his), key=key, feasible=False)
-        return (res.z, res.status) if res.ok else (None, res.status)
+        d = np.minimum(self.margin, 0.25 * (hi - lo))
+        for tighten in ((True, False) if self.margin > 0 else (False,)):
+            rows, los, his = [Cl], [lo - y + (d if tighten else 0.0)], [hi - y - (d if tighten else 0.0)]
+            if acc_C:
+                Cr, lr, hr = self._higher_rows(cas, acc_C, acc_lo, acc_hi)
+                rows.append(Cr)
+                los.append(lr)
+                his.append(hr)
+            res = self.backend.solve(np.eye(r), np.zeros(r), np.vstack(rows), np.concatenate(los),
+                                     np.concatenate(his), key=key, feasible=False)
+            if res.ok:
+                return res.z, res.status
+        return None, res.status
 
     def _higher_rows(self, cas: Cascade, acc_C, acc_lo, acc_hi):
         """Higher levels' inequality rows in z; z = 0 stays feasible (a row at, or a hair
-        past, its bound stays there). Rows Z has no say on are dropped."""
+        past, its bound stays there). Rows Z has no say on are dropped. Rows with room
+        keep ``margin`` of it, so the solution stays off the limits where it can."""
         Ca = np.vstack(acc_C)
         CaZ = Ca @ cas.Z
         keep = np.abs(CaZ).max(axis=1) > 1e-12 if cas.dof else np.zeros(len(Ca), bool)
         ya = Ca[keep] @ cas.x
-        lo = np.minimum(np.concatenate(acc_lo)[keep] - ya, 0.0)
-        hi = np.maximum(np.concatenate(acc_hi)[keep] - ya, 0.0)
+        la, ha = np.concatenate(acc_lo)[keep], np.concatenate(acc_hi)[keep]
+        d = np.minimum(self.margin, 0.25 * (ha - la))
+        lo = np.minimum(la - ya + d, 0.0)
+        hi = np.maximum(ha - ya - d, 0.0)
         return CaZ[keep], lo, hi
 
     def _fallback(self) -> Backend:
@@ -225,6 +253,12 @@ class HierarchicalQP:
         return res.z[:r], res.z[r:], res.status
 
 
+def _scaled(lvl: Level, d: np.ndarray) -> Level:
+    """The level's rows in the variable x̃ with x = diag(d) x̃ (box bounds become rows)."""
+    C, lo, hi = lvl.inequalities(len(d))
+    return Level(lvl.index, lvl.tasks, lvl.A * d, lvl.b, C * d, lo, hi, None, lvl.eq_slices, lvl.in_slices)
+
+
 class WeightedQP(HierarchicalQP):
     """One weighted QP: level 0 kept hard, every lower level k folded into one
     objective with weight ``level_weight``^(k−1) (a soft hierarchy, as in TSID)."""
@@ -235,7 +269,12 @@ class WeightedQP(HierarchicalQP):
         super().__init__(*args, **kwargs)
         self.level_weight = level_weight
 
-    def solve_levels(self, levels: list[Level], nx: int, key: str = "") -> CascadeResult:
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "",
+                     scale: np.ndarray | None = None) -> CascadeResult:
+        if scale is not None:
+            res = self.solve_levels([_scaled(lvl, scale) for lvl in levels], nx, key)
+            res.x = scale * res.x
+            return res
         if len(levels) <= 2:
             return super().solve_levels(levels, nx, key)
         rest = levels[1:]
