@@ -10,12 +10,11 @@ import inspect
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from .errors import ConfigError, WbcError
 from .stack import Stack
 from .tasks import TASK_TYPES
 from .tasks.base import Task
+from .yamlio import read_mapping
 
 
 def _accepted(cls) -> list[str]:
@@ -67,13 +66,5 @@ def build_stack(levels: Any, where: str = "stack") -> Stack:
 
 
 def read_yaml(path: str | Path) -> dict:
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: file not found")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from exc
-    if not isinstance(data, dict):
-        raise ConfigError(f"{path}: expected a mapping at the top level")
-    return data
+    """A scenario or stack YAML file as a mapping (ConfigError naming the file otherwise)."""
+    return read_mapping(path, ConfigError)

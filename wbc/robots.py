@@ -146,17 +146,12 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
     :class:`RobotDefinitionError` naming the file and key for a malformed YAML.
     """
     import pinocchio as pin
-    import yaml
 
     from .model import ContactSurface, RobotModel
+    from .yamlio import read_mapping
 
     src = robot_yaml_path(name_or_path)
-    try:
-        cfg = yaml.safe_load(src.read_text())
-    except yaml.YAMLError as exc:
-        raise RobotDefinitionError(f"{src}: not valid YAML: {exc}") from exc
-    if not isinstance(cfg, dict):
-        raise RobotDefinitionError(f"{src}: expected a mapping at the top level")
+    cfg = read_mapping(src, RobotDefinitionError)
     for key in ("name", "urdf", "root"):
         if key not in cfg:
             raise _err(src, key, "missing (required)")
