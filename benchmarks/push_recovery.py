@@ -31,7 +31,7 @@ def survives(solver: str, force: float, duration: float = 4.0) -> bool:
             and all(c["slip"] < 2e-3 and not c["lifted"] for c in feet))
 
 
-def largest_push(solver: str, lo: float = 0.0, hi: float = 800.0, iterations: int = 7) -> float:
+def largest_push(solver: str, lo: float = 0.0, hi: float = 400.0, iterations: int = 6) -> float:
     if survives(solver, hi):
         return hi
     for _ in range(iterations):
@@ -50,7 +50,7 @@ def main() -> int:
         rows.append(f"| {solver} | {f:.0f} N | {f * 0.1:.1f} N·s |")
         print(rows[-1], flush=True)
     text = ("# Largest survived torso push (Talos, 0.1 s, +x, feet planted)\n\n"
-            "Reproduce: `python benchmarks/push_recovery.py` (bisection, 7 steps, resolution ~6 N).\n\n"
+            "Reproduce: `python benchmarks/push_recovery.py` (bisection over [0, 400] N, 6 steps, resolution ~6 N).\n\n"
             "| solver | force | impulse |\n| --- | --- | --- |\n" + "\n".join(rows) + "\n")
     Path(args.out).write_text(text)
     return 0

@@ -28,6 +28,12 @@ def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     return float(np.min(-(hull.equations[:, :2] @ p + hull.equations[:, 2])))
 
 
+def _tilt(q: np.ndarray) -> float:
+    """Angle (rad) between a free-flyer base's z axis and the vertical."""
+    R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+    return float(np.arccos(np.clip(R[2, 2], -1.0, 1.0)))
+
+
 def _stats(x) -> dict:
     x = np.asarray(x, dtype=float)
     return {"rms": float(np.sqrt(np.mean(x**2))), "max": float(np.max(x)), "final": float(x[-1])}
@@ -173,7 +179,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             margins.append(support_margin(pts[idx, :2], robot_com[:2]))
         if robot.differential_drive:
             lateral = max(lateral, abs(vs[1]))
-        if base_z0 is not None and qs[2] < 0.6 * base_z0:
+        if base_z0 is not None and (qs[2] < 0.6 * base_z0 or _tilt(qs) > np.pi / 3):
             fell = True
             break
         if progress and (k % 500 == 0 or k == n - 1):
