@@ -16,10 +16,20 @@ def _cmd_run(args) -> int:
     from .scenario import load_config
 
     sc = load_config(args.file)
-    if not args.headless:
-        print("wbc run: the live browser view is not available yet; running headless "
-              "(pass --headless to silence this note)", file=sys.stderr)
-    metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration, progress=True)
+    callback, scene = None, None
+    if not args.headless or args.record:
+        from .viz import Scene, viewer_callback
+
+        scene = Scene(sc.robot, sc.environment, record=bool(args.record))
+        if not args.headless:
+            print(f"wbc: browser view at {scene.url}  (Ctrl-C to stop)", flush=True)
+        callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed)
+    try:
+        metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
+                      progress=True, callback=callback)
+    finally:
+        if scene is not None and args.record:
+            print(f"recording written to {scene.save_html(args.record)}")
     text = json.dumps(metrics, indent=2)
     if args.metrics:
         Path(args.metrics).write_text(text + "\n")
@@ -72,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--solver", choices=["hqp", "projection", "weighted"], help="override the solver")
     r.add_argument("--backend", help="QP back-end: daqp, proxqp, or any qpsolvers name")
     r.add_argument("--metrics", help="write the metrics JSON here (SI units)")
+    r.add_argument("--record", help="write a self-contained HTML replay of the run here")
+    r.add_argument("--speed", type=float, default=1.0, help="playback speed in the browser (1 = real time)")
     r.set_defaults(fn=_cmd_run)
     v = sub.add_parser("validate", help="check a scenario YAML; exit 0, or 2 with the error")
     v.add_argument("file")

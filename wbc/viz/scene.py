@@ -1,0 +1,220 @@
+"""A Meshcat scene of a running scenario.
+
+Draws the robot with its meshes (pinocchio's MeshcatVisualizer on the URDF's visual
+geometry), the environment, each CoM/frame task's target, the CoM and its ground
+projection, the support polygon, the contact forces as arrows scaled by magnitude
+(1 mm per ``force_scale`` N) and external pushes while they act.
+
+``Scene(robot, environment)`` starts a Meshcat server bound to 127.0.0.1 (the
+viewer's JavaScript comes from the installed ``meshcat`` package: no internet).
+``record=True`` keeps every frame for :meth:`save_html`, a self-contained page
+that replays the run offline.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import meshcat
+import meshcat.geometry as mg
+import meshcat.transformations as mt
+import numpy as np
+import pinocchio as pin
+from pinocchio.visualize import MeshcatVisualizer
+from meshcat.animation import Animation
+
+from ..sim.environment import Box, HalfSpace
+
+HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node, also in animations
+COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF39C12, "push": 0x8E44AD}
+
+
+def _visual_model(robot) -> pin.GeometryModel:
+    """Visual geometry matching ``robot.model`` (locked joints removed as in the robot YAML)."""
+    root = {"free_flyer": pin.JointModelFreeFlyer(), "planar": pin.JointModelPlanar()}.get(robot.root)
+    urdf = str(robot.urdf_path)
+    full = pin.buildModelFromUrdf(urdf, root) if root is not None else pin.buildModelFromUrdf(urdf)
+    geom = pin.buildGeomFromUrdf(full, urdf, pin.GeometryType.VISUAL, package_dirs=robot.package_dirs)
+    if robot.locked_joints:
+        ids = [full.getJointId(j) for j in robot.locked_joints]
+        _, geom = pin.buildReducedModel(full, geom, ids, pin.neutral(full))
+    return geom
+
+
+def _arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.ndarray:
+    """Transform taking meshcat's unit cylinder (axis y, centred) onto a segment."""
+    d = vec / max(np.linalg.norm(vec), 1e-12)
+    y = np.array([0.0, 1.0, 0.0])
+    axis = np.cross(y, d)
+    s, c = np.linalg.norm(axis), float(y @ d)
+    R = np.eye(3) if s < 1e-9 else pin.exp3(axis / s * np.arctan2(s, c))
+    if s < 1e-9 and c < 0:
+        R = np.diag([1.0, -1.0, -1.0])
+    T = np.eye(4)
+    T[:3, :3] = R @ np.diag([1.0, length, 1.0])
+    T[:3, 3] = origin + 0.5 * length * d
+    return T
+
+
+class Scene:
+    """See the module docstring. ``force_scale``: N per mm of arrow (default 1 mm per 2 N)."""
+
+    def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
+                 force_scale: float = 2.0, zmq_url: str | None = None) -> None:
+        self.robot = robot
+        self.vis = meshcat.Visualizer(zmq_url=zmq_url) if zmq_url else meshcat.Visualizer()
+        if open_browser:
+            self.vis.open()
+        self.vis.delete()
+        self.geom = _visual_model(robot)
+        self.viz = MeshcatVisualizer(robot.model, self.geom, self.geom)
+        self.viz.initViewer(viewer=self.vis, loadModel=False)
+        self.viz.loadViewerModel(rootNodeName="robot")
+        self.force_scale = force_scale
+        self.record = record
+        self.anim = Animation(default_framerate=30) if record else None
+        self._frame = 0
+        self._env(environment)
+        self.vis["overlay/com"].set_object(mg.Sphere(0.02), mg.MeshLambertMaterial(color=COLORS["com"]))
+        self.vis["overlay/com_ground"].set_object(mg.Cylinder(0.002, 0.02),
+                                                  mg.MeshLambertMaterial(color=COLORS["com"], opacity=0.6))
+
+    @property
+    def url(self) -> str:
+        return self.vis.url()
+
+    def _env(self, environment) -> None:
+        for i, s in enumerate(environment):
+            if isinstance(s, Box):
+                self.vis[f"env/{s.name}"].set_object(mg.Box(s.size), mg.MeshLambertMaterial(color=0x8D6E63))
+                self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center))
+            elif isinstance(s, HalfSpace):
+                T = np.eye(4)
+                T[:3, :3] = s.R
+                T[:3, 3] = s.point - 0.005 * s.normal
+                self.vis[f"env/{s.name}{i}"].set_object(mg.Box([6.0, 6.0, 0.01]),
+                                                        mg.MeshLambertMaterial(color=0xD5D8DC, opacity=0.8))
+                self.vis[f"env/{s.name}{i}"].set_transform(T)
+
+    def set_targets(self, stack) -> None:
+        """One marker per CoM/frame task (created once; positions follow the targets)."""
+        for t in stack:
+            if t.kind in ("com", "frame") and t.target is not None:
+                node = self.vis[f"targets/{t.name}"]
+                node.set_object(mg.Sphere(0.015 if t.kind == "frame" else 0.025),
+                                mg.MeshLambertMaterial(color=COLORS["target"], opacity=0.7))
+
+    def _node(self, path: str):
+        return self.vis[path] if self.anim is None else self._anim_frame[path]
+
+    def show(self, q: np.ndarray, stack=None, sim=None, t: float = 0.0) -> None:
+        """Draw the state q (and, when given, the stack's targets and the simulator's
+        contact forces, support polygon and active pushes)."""
+        if self.anim is not None:
+            with self.anim.at_frame(self.vis, self._frame) as frame:
+                self._anim_frame = frame
+                self._draw(q, stack, sim, t)
+            self._frame += 1
+        else:
+            self._draw(q, stack, sim, t)
+
+    def _draw(self, q, stack, sim, t) -> None:
+        m, d = self.robot.model, self.viz.data
+        pin.forwardKinematics(m, d, q)
+        pin.updateGeometryPlacements(m, d, self.geom, self.viz.visual_data)
+        for k, go in enumerate(self.geom.geometryObjects):
+            M = self.viz.visual_data.oMg[k]
+            T = M.homogeneous
+            self._node(f"robot/visuals/{self.viz.getViewerNodeName(go, pin.GeometryType.VISUAL).split('/')[-1]}") \
+                .set_transform(T @ np.diag([*go.meshScale, 1.0]) if go.meshScale is not None else T)
+        com = pin.centerOfMass(m, d, q)
+        self._node("overlay/com").set_transform(mt.translation_matrix(com))
+        self._node("overlay/com_ground").set_transform(
+            mt.translation_matrix([com[0], com[1], 0.001]) @ mt.rotation_matrix(np.pi / 2, [1, 0, 0]))
+        if stack is not None:
+            for task in stack:
+                if task.kind == "com" and task.target is not None:
+                    self._node(f"targets/{task.name}").set_transform(mt.translation_matrix(task.target))
+                elif task.kind == "frame" and task.target is not None:
+                    self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
+        if sim is not None:
+            self._draw_contacts(sim, t)
+
+    def _draw_contacts(self, sim, t) -> None:
+        pts = sim.point_positions()
+        for i, (p, f) in enumerate(zip(pts, sim.point_forces)):
+            n = np.linalg.norm(f)
+            node = self._node(f"forces/p{i}")
+            if n < 1e-3:
+                node.set_transform(HIDDEN)
+                continue
+            node.set_transform(_arrow_transform(p, f, n / self.force_scale * 1e-3))
+        loaded = pts[np.linalg.norm(sim.point_forces, axis=1) > 1e-3]
+        if len(loaded) >= 3:
+            from scipy.spatial import ConvexHull
+
+            try:
+                hull = loaded[ConvexHull(loaded[:, :2]).vertices]
+                line = np.vstack([hull, hull[:1]]).T + np.array([[0.0], [0.0], [0.002]])
+                self.vis["overlay/support"].set_object(mg.Line(mg.PointsGeometry(line),
+                                                               mg.LineBasicMaterial(color=COLORS["support"], linewidth=3)))
+            except Exception:  # degenerate hull (collinear points)
+                pass
+        for k, p in enumerate(sim.pushes):
+            node = self._node(f"pushes/{k}")
+            if p.active(t):
+                fid = sim.model.getFrameId(p.frame)
+                pin.updateFramePlacement(sim.model, sim.data, fid)
+                origin = sim.data.oMf[fid].translation
+                node.set_transform(_arrow_transform(origin - p.force / np.linalg.norm(p.force) * 0.3,
+                                                    p.force, 0.3))
+            else:
+                node.set_transform(HIDDEN)
+
+    def init_contact_markers(self, sim) -> None:
+        for i in range(len(sim.points)):
+            self.vis[f"forces/p{i}"].set_object(mg.Cylinder(1.0, 0.006), mg.MeshLambertMaterial(color=COLORS["force"]))
+        for k in range(len(sim.pushes)):
+            self.vis[f"pushes/{k}"].set_object(mg.Cylinder(1.0, 0.012), mg.MeshLambertMaterial(color=COLORS["push"]))
+            self.vis[f"pushes/{k}"].set_transform(HIDDEN)
+
+    def save_html(self, path: str | Path) -> Path:
+        """Write a self-contained HTML page that replays the recorded run offline."""
+        if self.anim is None:
+            raise RuntimeError("Scene(record=True) is needed to save a recording")
+        self.vis.set_animation(self.anim, play=True, repetitions=0)
+        path = Path(path)
+        path.write_text(self.vis.static_html())
+        return path
+
+    def close(self) -> None:
+        try:
+            self.vis.close()
+        except Exception:
+            pass
+
+
+def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0):
+    """A :func:`wbc.runner.run` callback drawing ``fps`` frames per simulated second,
+    paced to ``speed`` × real time when ``realtime``."""
+    import time
+
+    every = max(1, int(round(1.0 / (fps * dt))))
+    state = {"k": 0, "t0": None}
+
+    def cb(t, sim, sol):
+        k = state["k"]
+        state["k"] += 1
+        if k == 0:
+            scene.set_targets(stack)
+            scene.init_contact_markers(sim)
+            state["t0"] = time.perf_counter()
+        if k % every:
+            return
+        scene.show(sim.q, stack, sim, t)
+        if realtime:
+            lag = t / speed - (time.perf_counter() - state["t0"])
+            if lag > 0:
+                time.sleep(lag)
+
+    return cb
