@@ -1,9 +1,11 @@
 """Talos balances on its two feet while both hands reach targets 30 cm away.
 
 Closed loop: the wbc controller (strict HQP) drives a pinocchio simulation with
-rigid frictional foot contacts at 1 kHz. Prints the run's metrics.
+rigid frictional foot contacts at 1 kHz. Prints the run's metrics. With --viz (or
+a display) it plays live in the browser (Meshcat, 127.0.0.1); otherwise it runs
+headless and writes a self-contained HTML replay under recordings/.
 
-    python demos/talos_balance_reach.py [--solver hqp|projection|weighted] [--duration S]
+    python demos/talos_balance_reach.py [--viz] [--solver hqp|projection|weighted] [--duration S]
 """
 
 from __future__ import annotations
@@ -19,17 +21,28 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--solver", default="hqp", choices=["hqp", "projection", "weighted"])
     parser.add_argument("--duration", type=float, default=4.0)
-    parser.add_argument("--viz", action="store_true", help="browser view (not available yet: runs headless)")
+    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
+    parser.add_argument("--record", default=str(ROOT / "recordings" / "talos_balance_reach.html"),
+                        help="where the headless run writes its HTML replay")
     args = parser.parse_args()
+
+    import os
 
     from wbc.runner import run
     from wbc.scenario import load_config
+    from wbc.viz import Scene, viewer_callback
 
-    if args.viz:
-        print("note: the live browser view is not available yet; running headless", file=sys.stderr)
+    live = args.viz or bool(os.environ.get("DISPLAY"))
     sc = load_config(ROOT / "tasks" / "talos_reach.yaml")
     print(f"Talos balance-and-reach, solver {args.solver}, {args.duration:.1f} s simulated at 1 kHz")
-    m = run(sc, solver=args.solver, duration=args.duration, progress=True)
+    scene = Scene(sc.robot, sc.environment, open_browser=live, record=not live)
+    if live:
+        print(f"browser view: {scene.url}")
+    cb = viewer_callback(scene, sc.stack, sc.dt, realtime=live)
+    m = run(sc, solver=args.solver, duration=args.duration, progress=True, callback=cb)
+    if not live:
+        Path(args.record).parent.mkdir(parents=True, exist_ok=True)
+        print(f"replay written to {scene.save_html(args.record)} (open it in a browser; works offline)")
     print(f"  fell: {m['fell']}   solver failures: {m['solver_failures']}   "
           f"real-time factor: {m['real_time_factor']:.2f}")
     for name, s in m["tasks"].items():

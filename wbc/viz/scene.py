@@ -182,7 +182,7 @@ class Scene:
         """Write a self-contained HTML page that replays the recorded run offline."""
         if self.anim is None:
             raise RuntimeError("Scene(record=True) is needed to save a recording")
-        self.vis.set_animation(self.anim, play=True, repetitions=0)
+        self.vis.set_animation(self.anim, play=True, repetitions=1)
         path = Path(path)
         path.write_text(self.vis.static_html())
         return path
