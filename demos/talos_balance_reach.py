@@ -43,6 +43,7 @@ def main() -> int:
     if not live:
         Path(args.record).parent.mkdir(parents=True, exist_ok=True)
         print(f"replay written to {scene.save_html(args.record)} (open it in a browser; works offline)")
+    scene.close()
     print(f"  fell: {m['fell']}   solver failures: {m['solver_failures']}   "
           f"real-time factor: {m['real_time_factor']:.2f}")
     for name, s in m["tasks"].items():

@@ -28,8 +28,10 @@ def _cmd_run(args) -> int:
         metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
                       progress=True, callback=callback)
     finally:
-        if scene is not None and args.record:
-            print(f"recording written to {scene.save_html(args.record)}")
+        if scene is not None:
+            if args.record:
+                print(f"recording written to {scene.save_html(args.record)}")
+            scene.close()
     text = json.dumps(metrics, indent=2)
     if args.metrics:
         Path(args.metrics).write_text(text + "\n")

@@ -188,10 +188,18 @@ class Scene:
         return path
 
     def close(self) -> None:
+        """Stop this scene's Meshcat server process."""
         try:
             self.vis.close()
         except Exception:
             pass
+        proc = getattr(getattr(self.vis, "window", None), "server_proc", None)
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=5)
+            except Exception:
+                proc.kill()
 
 
 def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0):
