@@ -47,6 +47,7 @@ from .controller import Controller
 from .model import LOCAL, WORLD_ALIGNED, RobotModel
 from .stack import Stack
 from .tasks import CoM, Contact, Frame, JointLimits, Posture, TorqueLimits
+from .tasks.dynamics import FloatingBaseDynamics
 
 BACKENDS = ("daqp", "proxqp", "quadprog", "osqp")
 SOLVERS = ("projection", "hqp", "weighted")
@@ -54,6 +55,7 @@ PHASES = ("update", "rows", "solve", "finish")
 DT = 1e-3
 WARMUP = 200
 QUICK_CYCLES, QUICK_WARMUP = 100, 20
+FULL_BUDGET, QUICK_BUDGET = 180.0, 2.5     # s of wall time per case (see run_case)
 CHAIN_NV = (12, 18, 24, 36, 48, 72, 96, 120, 156)
 QUICK_CHAIN_NV = (12, 36, 96, 156)
 LEVELS = tuple(range(1, 11))
@@ -144,36 +146,58 @@ def chain_robot(n: int, length: float = 1.0, mass: float = 10.0) -> RobotModel:
 
 
 # ------------------------------------------------------------- trajectory
+ONSET = 0.2   # s: the motion starts from rest, its speed ramping up smoothly over this time
+
+
+def _phase(t: float, w: float) -> tuple[float, float, float]:
+    """Phase θ(t), θ̇, θ̈ of a motion whose angular speed ramps from 0 to ``w`` over
+    :data:`ONSET` (θ̇ = w·smoothstep(t/ONSET)); then θ = w (t − ONSET/2)."""
+    if t >= ONSET:
+        return w * (t - ONSET / 2), w, 0.0
+    x = max(t, 0.0) / ONSET
+    return w * ONSET * (x**3 - x**4 / 2), w * (3 * x * x - 2 * x**3), w * (6 * x - 6 * x * x) / ONSET
+
+
 def _circle(t: float, radius: float, freq: float, phase: float):
-    """Offset, velocity, acceleration of a vertical circle in the y-z plane, 0 at t = 0."""
-    w = 2 * np.pi * freq
-    a = w * t + phase
-    p = radius * np.array([0.0, np.sin(a) - np.sin(phase), np.cos(phase) - np.cos(a)])
-    v = radius * w * np.array([0.0, np.cos(a), np.sin(a)])
-    acc = radius * w * w * np.array([0.0, -np.sin(a), np.cos(a)])
+    """Offset, velocity, acceleration of a vertical circle in the y-z plane, 0 at t = 0
+    (the target starts at rest, see :func:`_phase`)."""
+    th, dth, ddth = _phase(t, 2 * np.pi * freq)
+    a = th + phase
+    s, c = np.sin(a), np.cos(a)
+    p = radius * np.array([0.0, s - np.sin(phase), np.cos(phase) - c])
+    tang = np.array([0.0, c, s])
+    v = radius * dth * tang
+    acc = radius * ddth * tang + radius * dth * dth * np.array([0.0, -s, c])
     return p, v, acc
+
+
+def _sway(t: float):
+    """Sideways CoM offset, velocity, acceleration (starting at rest, see :func:`_phase`)."""
+    th, dth, ddth = _phase(t, 2 * np.pi * COM_FREQUENCY)
+    s, c = np.sin(th), np.cos(th)
+    A = COM_AMPLITUDE
+    return (np.array([0.0, A * s, 0.0]), np.array([0.0, A * c * dth, 0.0]),
+            np.array([0.0, A * (c * ddth - s * dth * dth), 0.0]))
 
 
 def moving_targets(robot: RobotModel, stack: Stack, circles: tuple[str, ...] = ("right_hand", "left_hand"),
                    radius: float = HAND_RADIUS) -> Callable[[float], None]:
     """A function ``set(t)`` that moves the stack's targets (robot.update done at the start
     state): the CoM task sways sideways, the Frame tasks named in ``circles`` go round small
-    circles; position, velocity and acceleration references are consistent."""
+    circles; position, velocity and acceleration references are consistent, and the motion
+    starts from rest (speed ramped up over :data:`ONSET`)."""
     com = next((t for t in stack if isinstance(t, CoM)), None)
     com0 = robot.com.copy() if com is not None else None
     frames = []
     for i, name in enumerate(n for n in circles if n in stack):
         task = stack[name]
         frames.append((task, robot.frame_placement(robot.frame_id(task.frame)).copy(), i * np.pi))
-    w = 2 * np.pi * COM_FREQUENCY
     zero3 = np.zeros(3)
 
     def set_targets(t: float) -> None:
         if com is not None:
-            s, c = np.sin(w * t), np.cos(w * t)
-            com.set_reference(com0 + np.array([0.0, COM_AMPLITUDE * s, 0.0]),
-                              np.array([0.0, COM_AMPLITUDE * w * c, 0.0]),
-                              np.array([0.0, -COM_AMPLITUDE * w * w * s, 0.0]))
+            p, v, a = _sway(t)
+            com.set_reference(com0 + p, v, a)
         for task, M0, phase in frames:
             p, v, a = _circle(t, radius, HAND_FREQUENCY, phase)
             task.set_reference(pin.SE3(M0.rotation, M0.translation + p), np.concatenate([v, zero3]),
@@ -241,10 +265,14 @@ def _stats(total: np.ndarray) -> dict:
 
 def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, backend: str | None,
              cycles: int, warmup: int, circles: tuple[str, ...] = ("right_hand", "left_hand"),
-             phases: bool = True, label: str | None = None) -> dict:
+             phases: bool = True, label: str | None = None, budget_s: float | None = None) -> dict:
     """``warmup`` + ``cycles`` control cycles along the moving trajectory from the robot's
     default posture at rest; timing of the last ``cycles``. Only ``ctrl.solve`` is timed
-    (setting the targets and integrating the state are not)."""
+    (setting the targets and integrating the state are not).
+
+    ``budget_s``: wall-time budget of the case; when it is used up the case stops after
+    the current cycle and is marked ``truncated`` (statistics over the cycles done), or
+    reported as an error if not a single timed cycle was done."""
     stack = make_stack()
     ctrl = Controller(robot, stack, solver=solver, backend=backend or "daqp")
     q, v = robot.q_default.copy(), np.zeros(robot.nv)
@@ -259,6 +287,9 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
     warns: Counter = Counter()
     qp_count = 0
     model, clock = robot.model, time.perf_counter
+    warm = np.zeros(warmup)
+    done = 0
+    t_case = clock()
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -275,16 +306,32 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
                         per_phase[p][i] = timer.acc[p]
                     statuses[sol.status] += 1
                     qp_count += sol.qp_count
+                    done = i + 1
+                else:
+                    warm[k] = t1 - t0
                 if caught:
                     for w in caught:
                         warns[f"{w.category.__name__}: {str(w.message)[:90]}"] += 1
                     caught.clear()
                 v = v + sol.qdd * DT
                 q = pin.integrate(model, q, v * DT)
+                if budget_s is not None and clock() - t_case > budget_s and k + 1 < warmup + cycles:
+                    break
     finally:
         timer.restore()
     out = {"robot": label or robot.name, "solver": solver, "backend": backend if solver != "projection" else None,
-           "levels": len(stack), "nv": robot.nv, "nx": ctrl.layout.nx, "cycles": cycles, "warmup": warmup}
+           "levels": len(stack), "nv": robot.nv, "nx": ctrl.layout.nx, "cycles": done, "warmup": warmup,
+           "warmup_max_ms": float(warm.max() * 1e3) if warmup else 0.0,
+           "warmup_s": float(warm.sum())}
+    if done < cycles:
+        out["truncated"] = f"wall-time budget of {budget_s:g} s used up after {done} of {cycles} timed cycles"
+        if done == 0:
+            n_warm = int(np.count_nonzero(warm))
+            out["error"] = (f"budget of {budget_s:g} s used up during the warm-up ({n_warm} of {warmup} cycles, "
+                            f"slowest {warm.max() * 1e3:.0f} ms)")
+            return out
+        total = total[:done]
+        per_phase = {p: a[:done] for p, a in per_phase.items()}
     out.update(_stats(total))
     if phases:
         med = {p: float(np.median(per_phase[p]) * 1e3) for p in PHASES}
@@ -296,7 +343,7 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
         out["phases_mean"] = mean
         # fraction of the mean cycle time that the four timed phases account for
         out["phase_coverage"] = float(sum(mean[p] for p in PHASES) / out["mean_ms"])
-    out["qp_per_cycle"] = qp_count / cycles
+    out["qp_per_cycle"] = qp_count / done
     out["statuses"] = dict(statuses)
     if warns:
         out["warnings"] = dict(warns.most_common(5))
@@ -305,7 +352,7 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
 
 
 def main_cases(robots: dict[str, RobotModel], backends: list[str], cycles: int, warmup: int,
-               progress: Callable[[str], None] | None = None) -> list[dict]:
+               progress: Callable[[str], None] | None = None, budget_s: float | None = None) -> list[dict]:
     specs = []
     for name, make_stack, circles in (("talos", talos_stack, ("right_hand", "left_hand")),
                                       ("tiago", tiago_stack, ("hand",))):
@@ -317,7 +364,7 @@ def main_cases(robots: dict[str, RobotModel], backends: list[str], cycles: int, 
     cases = []
     for name, make_stack, circles, solver, backend in specs:
         try:
-            case = run_case(robots[name], make_stack, solver, backend, cycles, warmup, circles)
+            case = run_case(robots[name], make_stack, solver, backend, cycles, warmup, circles, budget_s=budget_s)
         except Exception as exc:  # a back-end that cannot run is reported, not fatal
             case = {"robot": name, "solver": solver, "backend": backend, "error": f"{type(exc).__name__}: {exc}"}
         cases.append(case)
@@ -328,15 +375,16 @@ def main_cases(robots: dict[str, RobotModel], backends: list[str], cycles: int, 
 
 # ------------------------------------------------------------------ floor
 def floor_talos(robot: RobotModel, cycles: int, warmup: int = 20) -> dict:
-    """The floor of one Talos cycle, along the benchmark trajectory (states from the hqp/daqp
-    controller): pinocchio's calls as RobotModel.update makes them plus the frame
+    """The floor of one Talos cycle, along the benchmark trajectory (states and rows from
+    the projection controller, which needs no QP back-end): pinocchio's calls as RobotModel.update makes them plus the frame
     Jacobians, velocities and drifts the full stack's tasks extract, on a separate Data;
     and one daqp solve of the whole stack as a single weighted QP with level 0 as
     constraints (x = (q̈, f): 50 variables, 18 equality and 100 inequality rows)."""
     import daqp
 
     stack = talos_stack()
-    ctrl = Controller(robot, stack, solver="hqp", backend="daqp")
+    ctrl = Controller(robot, stack, solver="projection")
+    dynamics = FloatingBaseDynamics()
     q, v = robot.q_default.copy(), np.zeros(robot.nv)
     robot.update(q, v)
     set_targets = moving_targets(robot, stack)
@@ -365,8 +413,9 @@ def floor_talos(robot: RobotModel, cycles: int, warmup: int = 20) -> dict:
             pin.getFrameVelocity(m, d, f, WORLD_ALIGNED)
             pin.getFrameClassicalAcceleration(m, d, f, WORLD_ALIGNED)
         t3 = clock()
-        sol = ctrl.solve(q, v)                      # not timed: gives this state's rows
-        H, g, A, hi, lo, sense = _single_qp(ctrl.levels, ctrl.layout.nx)
+        sol = ctrl.solve(q, v)                      # not timed: the state's rows, with the root dynamics
+        levels = stack.assemble(robot, ctrl.layout, [dynamics])
+        H, g, A, hi, lo, sense = _single_qp(levels, ctrl.layout.nx)
         size = (H.shape[0], int(np.sum(sense == 5)), int(np.sum(sense == 0)))
         t4 = clock()
         _, _, flag, _ = daqp.solve(H, g, A, hi, lo, sense)
@@ -482,22 +531,21 @@ def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
     posture.configure("posture", "soft", 1e-3)
     gains(posture, 10.0)
 
-    w = 2 * np.pi * COM_FREQUENCY
     clock = time.perf_counter
     t_solve, t_cycle = np.empty(cycles), np.empty(cycles)
     ok = 0
     com_err = []
     for k in range(warmup + cycles):
         t = k * DT
-        sn, cs = np.sin(w * t), np.cos(w * t)
-        com.target_world = com0 + np.array([0.0, COM_AMPLITUDE * sn, 0.0])
-        com.dtarget_world = np.array([0.0, COM_AMPLITUDE * w * cs, 0.0])
-        com.ddtarget_world = np.array([0.0, -COM_AMPLITUDE * w * w * sn, 0.0])
+        p, v, a = _sway(t)
+        com.target_world, com.dtarget_world, com.ddtarget_world = com0 + p, v, a
         for ft, T0, phase in hands:
-            p, _, _ = _circle(t, HAND_RADIUS, HAND_FREQUENCY, phase)
+            p, v, a = _circle(t, HAND_RADIUS, HAND_FREQUENCY, phase)
             T = T0.copy()
             T[:3, 3] += p
             ft.T_world_frame = T
+            pos = ft.position()
+            pos.dtarget_world, pos.ddtarget_world = v, a
         t0 = clock()
         pw.update_kinematics()
         t1 = clock()
@@ -556,7 +604,7 @@ def loglog_exponent(x, y) -> float:
 
 
 def scaling(talos: RobotModel | None, nvs, levels, cycles: int, warmup: int,
-            progress: Callable[[str], None] | None = None) -> dict:
+            progress: Callable[[str], None] | None = None, budget_s: float | None = None) -> dict:
     out: dict = {"cycles": cycles, "warmup": warmup, "solvers": ["hqp", "projection"],
                  "nv": {"stack": "chain: joint limits / tip position / mid position / posture",
                         "points": []},
@@ -565,28 +613,46 @@ def scaling(talos: RobotModel | None, nvs, levels, cycles: int, warmup: int,
     for n in nvs:
         robot = chain_robot(n)
         for solver in ("hqp", "projection"):
-            c = run_case(robot, chain_stack, solver, "daqp", cycles, warmup, circles=("tip",), phases=False)
-            out["nv"]["points"].append({"nv": n, "solver": solver, "median_ms": c["median_ms"],
-                                        "p99_ms": c["p99_ms"], "qp_per_cycle": c["qp_per_cycle"],
-                                        "statuses": c["statuses"]})
+            c = run_case(robot, chain_stack, solver, "daqp", cycles, warmup, circles=("tip",), phases=False,
+                         budget_s=budget_s)
+            out["nv"]["points"].append(_point(c, nv=n))
             if progress:
-                progress(f"  scaling nv={n:4d} {solver:10s} {c['median_ms']:8.3f} ms")
+                progress(f"  scaling nv={n:4d} {solver:10s} " + _point_text(c))
     if talos is not None:
         for L in levels:
             for solver in ("hqp", "projection"):
-                c = run_case(talos, lambda L=L: talos_levels_stack(L), solver, "daqp", cycles, warmup, phases=False)
-                out["levels"]["points"].append({"levels": L, "solver": solver, "median_ms": c["median_ms"],
-                                                "p99_ms": c["p99_ms"], "qp_per_cycle": c["qp_per_cycle"],
-                                                "statuses": c["statuses"]})
+                c = run_case(talos, lambda L=L: talos_levels_stack(L), solver, "daqp", cycles, warmup, phases=False,
+                             budget_s=budget_s)
+                out["levels"]["points"].append(_point(c, levels=L))
                 if progress:
-                    progress(f"  scaling levels={L:2d} {solver:10s} {c['median_ms']:8.3f} ms")
+                    progress(f"  scaling levels={L:2d} {solver:10s} " + _point_text(c))
     exps = {}
     for axis, key in (("nv", "nv"), ("levels", "levels")):
         for solver in ("hqp", "projection"):
             pts = [p for p in out[axis]["points"] if p["solver"] == solver]
+            pts = [p for p in pts if p["median_ms"] is not None]
             exps[f"{axis}_{solver}"] = loglog_exponent([p[key] for p in pts], [p["median_ms"] for p in pts])
     out["exponents"] = exps
     return out
+
+
+def _point(c: dict, **key) -> dict:
+    p = dict(key, solver=c["solver"])
+    if "error" in c:
+        p.update(median_ms=None, error=c["error"])
+        return p
+    p.update(median_ms=c["median_ms"], p99_ms=c["p99_ms"], max_ms=c["max_ms"], cycles=c["cycles"],
+             qp_per_cycle=c["qp_per_cycle"], statuses=c["statuses"])
+    if "truncated" in c:
+        p["truncated"] = c["truncated"]
+    return p
+
+
+def _point_text(c: dict) -> str:
+    if "error" in c:
+        return "failed: " + c["error"]
+    return (f"{c['median_ms']:8.3f} ms (p99 {c['p99_ms']:.3f}, {c['qp_per_cycle']:.1f} QP/cycle)"
+            + (" TRUNCATED" if "truncated" in c else ""))
 
 
 def plot_scaling(sc: dict, path: Path) -> None:
@@ -595,22 +661,29 @@ def plot_scaling(sc: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for ax, axis, xlabel in ((axes[0], "nv", "nv (serial chain)"), (axes[1], "levels", "levels (Talos, same tasks)")):
-        for solver, style in (("hqp", "o-"), ("projection", "s--")):
-            pts = [p for p in sc[axis]["points"] if p["solver"] == solver]
+        xs = set()
+        for solver, style, color in (("hqp", "o-", "C0"), ("projection", "s--", "C1")):
+            pts = [p for p in sc[axis]["points"] if p["solver"] == solver and p["median_ms"] is not None]
             if not pts:
                 continue
             x = np.array([p[axis] for p in pts], float)
-            y = np.array([p["median_ms"] for p in pts])
+            xs.update(x.tolist())
             e = sc["exponents"][f"{axis}_{solver}"]
-            ax.plot(x, y, style, label=f"{solver} (exponent {e:.2f})")
+            ax.plot(x, [p["median_ms"] for p in pts], style, color=color, label=f"{solver} median (exponent {e:.2f})")
+            ax.plot(x, [p["p99_ms"] for p in pts], ":", color=color, alpha=0.5, label=f"{solver} p99")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_xticks(sorted(xs))
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("median cycle time (ms)")
+        ax.set_ylabel("cycle time (ms)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=8)
     axes[0].set_title("cycle time vs nv")
     axes[1].set_title("cycle time vs number of levels")
     fig.tight_layout()
@@ -713,7 +786,9 @@ def _case_line(c: dict) -> str:
     return (f"{c['robot']:6s} {c['solver']:10s} {be:9s} {c['levels']:2d} {c['nv']:3d} "
             f"{c['median_ms']:7.3f} {c['p99_ms']:7.3f} {c['max_ms']:7.2f} | "
             + " ".join(f"{ph.get(p, float('nan')):6.3f}" for p in (*PHASES, "other"))
-            + f" | {c.get('phase_coverage', float('nan')):5.3f} {c['qp_per_cycle']:4.1f} {st}")
+            + f" | {c.get('phase_coverage', float('nan')):5.3f} {c['qp_per_cycle']:4.1f} {st}"
+            + (f" TRUNCATED ({c['cycles']} cycles)" if "truncated" in c else "")
+            + f" warm-up max {c['warmup_max_ms']:.0f} ms")
 
 
 HEADER = ("robot  solver     backend   lv  nv  median     p99     max | update   rows  solve finish  other"
@@ -731,6 +806,8 @@ def cases_markdown(cases: list[dict]) -> str:
             continue
         ph = c["phases"]
         st = ", ".join(f"{k} {n}" for k, n in c["statuses"].items())
+        if "truncated" in c:
+            st += f" (truncated: {c['cycles']} cycles)"
         rows.append(f"| {c['robot']} | {c['solver']} | {be} | {c['levels']} | {c['nv']} | {c['median_ms']:.3f} | "
                     f"{c['p99_ms']:.3f} | {c['max_ms']:.2f} | " + " | ".join(f"{ph[p]:.3f}" for p in (*PHASES, "other"))
                     + f" | {c['phase_coverage']:.3f} | {c['qp_per_cycle']:.2f} | {st} |")
@@ -831,18 +908,21 @@ def results_markdown(res: dict) -> str:
 # -------------------------------------------------------------------- run
 def run(cycles: int = 2000, warmup: int = WARMUP, backends=BACKENDS, robots=("talos", "tiago"),
         floor: bool = True, peer: bool = True, scaling_nv=CHAIN_NV, scaling_levels=LEVELS,
-        scaling_cycles: int = 300, scaling_warmup: int = 30, progress: Callable[[str], None] | None = None) -> dict:
-    """The whole benchmark as a dict (what ``--json`` writes)."""
+        scaling_cycles: int = 300, scaling_warmup: int = 30, budget_s: float | None = None, svd_reps: int = 20,
+        progress: Callable[[str], None] | None = None) -> dict:
+    """The whole benchmark as a dict (what ``--json`` writes). ``budget_s``: wall-time
+    budget per case (see :func:`run_case`)."""
     from .robots import load_robot
 
     t_start = time.perf_counter()
     say = progress or (lambda s: None)
     res: dict = {"machine": machine_info()}
-    res["machine"]["svd_ms"] = _svd_probe()
+    res["machine"]["svd_ms"] = _svd_probe(reps=svd_reps) if svd_reps else None
     loaded = {name: load_robot(name) for name in robots}
-    res["settings"] = {"cycles": cycles, "warmup": warmup, "dt": DT, "backends": list(backends)}
+    res["settings"] = {"cycles": cycles, "warmup": warmup, "dt": DT, "backends": list(backends),
+                       "budget_s_per_case": budget_s}
     say(HEADER)
-    res["cases"] = main_cases(loaded, list(backends), cycles, warmup, progress=say)
+    res["cases"] = main_cases(loaded, list(backends), cycles, warmup, progress=say, budget_s=budget_s)
     talos = loaded.get("talos")
     if floor and talos is not None:
         fl = floor_talos(talos, min(cycles, 500), min(warmup, 50))
@@ -863,7 +943,8 @@ def run(cycles: int = 2000, warmup: int = WARMUP, backends=BACKENDS, robots=("ta
         for ln in _fmt_placo(pd, pk):
             say(ln)
     if scaling_nv or scaling_levels:
-        res["scaling"] = scaling(talos, scaling_nv, scaling_levels, scaling_cycles, scaling_warmup, progress=say)
+        res["scaling"] = scaling(talos, scaling_nv, scaling_levels, scaling_cycles, scaling_warmup, progress=say,
+                                 budget_s=budget_s)
         for ln in _fmt_scaling(res["scaling"]):
             say(ln)
     try:
@@ -893,6 +974,8 @@ def _command(args) -> str:
         parts += ["--out-dir", args.out_dir]
     if args.json:
         parts += ["--json", args.json]
+    if args.budget is not None:
+        parts += ["--budget", f"{args.budget:g}"]
     if args.blas_threads is not None:
         parts += ["--blas-threads", str(args.blas_threads)]
     return " ".join(parts)
@@ -908,10 +991,15 @@ def _cmd_bench(args) -> int:
         print(f"note: back-ends {unknown} are not among {list(BACKENDS)}; trying them anyway", file=sys.stderr)
     if args.quick:
         kw = dict(cycles=min(args.cycles, QUICK_CYCLES), warmup=QUICK_WARMUP, scaling_nv=QUICK_CHAIN_NV,
-                  scaling_levels=QUICK_LEVELS, scaling_cycles=40, scaling_warmup=10)
+                  scaling_levels=QUICK_LEVELS, scaling_cycles=40, scaling_warmup=10, svd_reps=3,
+                  budget_s=QUICK_BUDGET if args.budget is None else args.budget)
     else:
-        kw = dict(cycles=args.cycles, warmup=WARMUP)
-    res = run(backends=backends, progress=lambda s: print(s, flush=True), **kw)
+        kw = dict(cycles=args.cycles, warmup=WARMUP, budget_s=FULL_BUDGET if args.budget is None else args.budget)
+
+    def say(line: str) -> None:
+        print(f"[{time.perf_counter() - t0:6.1f} s] {line}", flush=True)
+
+    res = run(backends=backends, progress=say, **kw)
     res["command"] = _command(args)
     res["settings"]["quick"] = bool(args.quick)
     out_dir = Path(args.out_dir if args.out_dir is not None else "benchmarks")
@@ -952,6 +1040,9 @@ def add_parser(sub) -> None:
     p.add_argument("--backends", nargs="+", default=[",".join(BACKENDS)], metavar="NAME",
                    help="QP back-ends for hqp and weighted, comma or space separated (default: all of "
                         + ", ".join(BACKENDS) + ")")
+    p.add_argument("--budget", type=float, default=None, metavar="SECONDS",
+                   help=f"wall-time budget per case; a case that uses it up stops and is marked truncated "
+                        f"(default {FULL_BUDGET:g} s, {QUICK_BUDGET:g} s with --quick)")
     p.add_argument("--blas-threads", type=int, default=None, metavar="N",
                    help="set the OpenBLAS thread count first (default: leave it as the environment set it)")
     p.set_defaults(fn=_cmd_bench)

@@ -1,0 +1,118 @@
+"""The benchmark harness (wbc.bench) in a tiny mode: the structure of what it reports, and
+that what it times is what the controller computes (back-ends agree, instrumentation
+changes nothing). Nothing here asserts a wall-clock time."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+from wbc import bench
+
+
+def test_tiny_run_reports_every_section():
+    res = bench.run(cycles=20, warmup=5, backends=["daqp"], robots=("talos",), floor=True, peer=True,
+                    scaling_nv=(12, 18), scaling_levels=(1, 2), scaling_cycles=5, scaling_warmup=2, svd_reps=0)
+    json.dumps(res)                                         # serialisable as --json writes it
+    m = res["machine"]
+    for key in ("cpu", "cores", "python", "numpy", "pin"):
+        assert m[key]
+    cases = res["cases"]
+    assert [(c["solver"], c["backend"]) for c in cases] == [("projection", None), ("hqp", "daqp"), ("weighted", "daqp")]
+    for c in cases:
+        assert "error" not in c, c
+        assert (c["robot"], c["levels"], c["nv"], c["cycles"]) == ("talos", 5, 38, 20)
+        assert 0 < c["median_ms"] <= c["p99_ms"] <= c["max_ms"]
+        assert set(c["phases"]) == {"update", "rows", "solve", "finish", "other"}
+        assert all(c["phases_mean"][p] > 0 for p in bench.PHASES)
+        # the phases are timed inside the cycle: together they never exceed it
+        assert sum(c["phases_mean"][p] for p in bench.PHASES) <= c["mean_ms"]
+        assert sum(c["statuses"].values()) == 20
+        assert c["final_state_finite"]
+    fl = res["floor_ms"]
+    assert fl["talos"] == pytest.approx(fl["talos_parts"]["sum"])
+    assert fl["talos_parts"]["qp_size"] == {"variables": 50, "equalities": 18, "inequalities": 100}
+    assert set(fl["talos_parts"]["daqp_exitflags"]) == {"1"}     # every floor QP solved
+    assert set(res["placo_ms"]) == {"talos_dynamics", "talos_kinematics"}
+    for key, val in res["placo_ms"].items():                    # a number, or reported missing
+        assert (val is not None and val > 0) or "missing" in res["placo"][key]
+    sc = res["scaling"]
+    assert [(p["nv"], p["solver"]) for p in sc["nv"]["points"]] == [(12, "hqp"), (12, "projection"),
+                                                                   (18, "hqp"), (18, "projection")]
+    assert [p["levels"] for p in sc["levels"]["points"]] == [1, 1, 2, 2]
+    assert set(sc["exponents"]) == {"nv_hqp", "nv_projection", "levels_hqp", "levels_projection"}
+    assert all(np.isfinite(e) for e in sc["exponents"].values())
+    md = bench.results_markdown(dict(res, command="wbc bench --test"))
+    assert "| talos | hqp | daqp | 5 | 38 |" in md and "wbc bench --test" in md
+
+
+def _drive(robot, controllers, cycles: int):
+    """Step every controller through the same states (the first controller's q̈ moves the
+    state) and targets; return each one's solution at the last state."""
+    q, v = robot.q_default.copy(), np.zeros(robot.nv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in range(cycles):
+            sols = []
+            for ctrl, set_targets in controllers:
+                set_targets(k * bench.DT)
+                sols.append(ctrl.solve(q, v))
+            v = v + sols[0].qdd * bench.DT
+            q = pin.integrate(robot.model, q, v * bench.DT)
+    return sols
+
+
+def _controller(robot, solver, backend):
+    stack = bench.talos_stack()
+    ctrl = wbc.Controller(robot, stack, solver=solver, backend=backend)
+    robot.update(robot.q_default, np.zeros(robot.nv))
+    return ctrl, bench.moving_targets(robot, stack)
+
+
+def test_hqp_backends_agree_on_the_benchmark_trajectory(talos):
+    """At one state of the benchmark trajectory (QPs active), every back-end's hqp q̈ is
+    the daqp one within 1e-6 relative."""
+    ctrls = [_controller(talos, "hqp", be) for be in bench.BACKENDS]
+    sols = _drive(talos, ctrls, 120)
+    ref = sols[0].qdd
+    assert np.linalg.norm(ref) > 1.0 and sols[0].qp_count >= 1
+    for be, sol in zip(bench.BACKENDS, sols):
+        assert sol.status == "ok", (be, sol.message)
+        assert np.linalg.norm(sol.qdd - ref) <= 1e-6 * np.linalg.norm(ref), be
+
+
+@pytest.mark.parametrize("solver", ["hqp", "projection"])
+def test_phase_timers_change_nothing(talos, solver):
+    """The wrapped (timed) controller returns exactly what the plain one does."""
+    plain, timed = _controller(talos, solver, "daqp"), _controller(talos, solver, "daqp")
+    timer = bench.PhaseTimer()
+    timer.instrument(timed[0])
+    try:
+        a, b = _drive(talos, [plain, timed], 30)
+    finally:
+        timer.restore()
+    assert np.array_equal(a.qdd, b.qdd) and np.array_equal(a.tau, b.tau)
+    assert all(timer.acc[p] > 0 for p in bench.PHASES)
+    assert "update" not in vars(talos) and "_finish" not in vars(timed[0])    # restored
+
+
+def test_bench_subcommand_parses():
+    parser = argparse.ArgumentParser()
+    bench.add_parser(parser.add_subparsers(dest="cmd"))
+    a = parser.parse_args(["bench", "--quick", "--backends", "daqp,osqp", "--cycles", "50", "--json", "x.json"])
+    assert a.fn is bench._cmd_bench and a.quick and a.cycles == 50 and a.json == "x.json"
+    assert bench._backends(a.backends) == ["daqp", "osqp"]
+    d = parser.parse_args(["bench"])
+    assert bench._backends(d.backends) == list(bench.BACKENDS) and d.cycles == 2000 and not d.quick
+    assert bench._command(d) == "wbc bench"
+
+
+def test_loglog_exponent():
+    x = np.array([12, 24, 48, 96])
+    assert bench.loglog_exponent(x, 3.0 * x**1.5) == pytest.approx(1.5)
