@@ -92,6 +92,9 @@ def main(argv: list[str] | None = None) -> int:
     v.set_defaults(fn=_cmd_validate)
     sub.add_parser("robots", help="list the bundled robots and their named frames").set_defaults(fn=_cmd_robots)
     sub.add_parser("tasks", help="list task types with their parameters and defaults").set_defaults(fn=_cmd_tasks)
+    from .bench import add_parser as add_bench_parser
+
+    add_bench_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.fn(args)
