@@ -469,10 +469,12 @@ def _placo_available() -> str | None:
 
 def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
     """PlaCo's DynamicsSolver on Talos, tasks comparable with the wbc stack: two planar foot
-    contacts (hard frame tasks, 0.2 × 0.13 m soles, μ = 0.7), CoM (kp 100), both hands'
-    poses (kp 50), torso orientation (kp 20), posture (kp 10, small weight), joint and
-    torque limits; the same CoM and hand trajectory; ``solve(True)`` integrates the state
-    with dt = 1 ms. Timed: ``solve`` alone, and ``update_kinematics`` + ``solve``."""
+    contacts (hard frame tasks, 0.2 × 0.13 m soles, μ = 0.7), CoM (hard, kp 100: PlaCo has
+    hard and weighted soft tasks only, and a soft CoM weighed against the hands drifts by
+    several cm), both hands' poses (soft, weight 1, kp 50), torso orientation (weight 0.1,
+    kp 20), posture (weight 1e-3, kp 10), joint and torque limits; the same CoM and hand
+    trajectory; ``solve(True)`` integrates the state with dt = 1 ms. Timed: ``solve``
+    alone, and ``update_kinematics`` + ``solve``."""
     missing = _placo_available()
     if missing:
         return {"missing": missing}
@@ -511,7 +513,7 @@ def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
         contacts.append(c)
     com0 = np.array(pw.com_world())
     com = s.add_com_task(com0)
-    com.configure("com", "soft", 1.0)
+    com.configure("com", "hard", 1.0)        # wbc keeps the CoM strictly above the hands
     gains(com, 100.0)
     hands = []
     for i, alias in enumerate(("right_hand", "left_hand")):
@@ -524,7 +526,7 @@ def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
         hands.append((ft, T0, i * np.pi))
     torso_frame = robot.frames["torso"]
     torso = s.add_orientation_task(torso_frame, np.array(pw.get_T_world_frame(torso_frame))[:3, :3])
-    torso.configure("torso", "soft", 1.0)
+    torso.configure("torso", "soft", 0.1)
     gains(torso, 20.0)
     posture = s.add_joints_task()
     posture.set_joints({n: pw.get_joint(n) for n in pw.joint_names()})
@@ -558,7 +560,8 @@ def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
             com_err.append(float(np.linalg.norm(np.array(pw.com_world()) - np.array(com.target_world))))
     out = {"solve": _stats(t_solve), "cycle": _stats(t_cycle), "success": ok, "cycles": cycles,
            "com_error_mean_mm": float(np.mean(com_err) * 1e3),
-           "tasks": "planar contacts x2 (hard), CoM, hands pose x2, torso orientation, posture; joint + torque limits"}
+           "tasks": "planar contacts x2 (hard), CoM (hard), hands pose x2 (soft 1), torso orientation (soft 0.1), "
+                    "posture (soft 1e-3); joint + torque limits"}
     return out
 
 
@@ -688,7 +691,7 @@ def plot_scaling(sc: dict, path: Path) -> None:
     axes[1].set_title("cycle time vs number of levels")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=80)
+    fig.savefig(path, dpi=72)
     plt.close(fig)
 
 
