@@ -132,6 +132,17 @@ class Stack:
     def contacts(self) -> list[Contact]:
         return [t for t in self if isinstance(t, Contact)]
 
+    def to_list(self) -> list[list[dict]]:
+        """The stack as plain data: levels of ``{type: ..., <constructor arguments>}``."""
+        return [[{"type": t.kind, **t.params()} for t in lvl] for lvl in self.levels]
+
+    def to_yaml(self) -> str:
+        """YAML of :meth:`to_list`; ``wbc.config.build_stack(yaml.safe_load(text))`` rebuilds
+        the same stack (same tasks, gains, weights and targets)."""
+        import yaml
+
+        return yaml.safe_dump(self.to_list(), sort_keys=False, allow_unicode=True)
+
     def __repr__(self) -> str:
         return "Stack(" + " / ".join("[" + ", ".join(t.name for t in lvl) + "]" for lvl in self.levels) + ")"
 

@@ -18,9 +18,23 @@ _MASKS = {
 
 
 def to_se3(task_name: str, value, current: pin.SE3 | None) -> pin.SE3:
-    """Accept an SE3, a 4×4 homogeneous matrix, or a 3-vector position (orientation kept)."""
+    """Accept an SE3, a 4×4 homogeneous matrix, ``{position: [3], rotation: [[3×3]]}``
+    (the YAML form), or a 3-vector position (orientation kept)."""
     if isinstance(value, pin.SE3):
         return value.copy()
+    if isinstance(value, dict):
+        if set(value) - {"position", "rotation"} or "position" not in value:
+            raise TargetError(f"task '{task_name}': a target mapping needs position (and optionally rotation)")
+        T = np.eye(4)
+        T[:3, 3] = as_vector(task_name, "target.position", value["position"], 3)
+        if "rotation" in value:
+            R = np.asarray(value["rotation"], dtype=float)
+            if R.shape != (3, 3):
+                raise TargetError(f"task '{task_name}': target.rotation must be a 3x3 matrix")
+            T[:3, :3] = R
+        elif current is not None:
+            T[:3, :3] = current.rotation
+        return to_se3(task_name, T, current)
     arr = np.asarray(value, dtype=float)
     if arr.shape == (4, 4):
         R = arr[:3, :3]
@@ -64,6 +78,8 @@ class Frame(MotionTask):
         self._sel = np.flatnonzero(flags)
         self._pending = target
         self._target: pin.SE3 | None = None
+        if isinstance(target, (dict, pin.SE3)) or np.shape(target) == (4, 4):
+            self._target = to_se3(self.name, target, None)
         self.target_velocity = np.zeros(6)
         self.target_acceleration = np.zeros(6)
         self._fid = None

@@ -83,4 +83,6 @@ class Posture(MotionTask):
         p = super().params()
         if self.joints is not None:
             p["joints"] = list(self.joints)
+        if self._target is not None:
+            p["target"] = np.asarray(self._target, dtype=float).tolist()
         return p
