@@ -629,14 +629,28 @@ def scaling(talos: RobotModel | None, nvs, levels, cycles: int, warmup: int,
                 out["levels"]["points"].append(_point(c, levels=L))
                 if progress:
                     progress(f"  scaling levels={L:2d} {solver:10s} " + _point_text(c))
-    exps = {}
-    for axis, key in (("nv", "nv"), ("levels", "levels")):
+    return fit_exponents(out)
+
+
+def fit_exponents(sc: dict) -> dict:
+    """Log-log exponents of the median cycle time: over every point (``nv_hqp`` ...) and
+    over the upper half of the range (``nv_hqp_upper`` ...), where the fixed per-cycle
+    Python overhead weighs least."""
+    exps, ranges = {}, {}
+    for axis in ("nv", "levels"):
         for solver in ("hqp", "projection"):
-            pts = [p for p in out[axis]["points"] if p["solver"] == solver]
-            pts = [p for p in pts if p["median_ms"] is not None]
-            exps[f"{axis}_{solver}"] = loglog_exponent([p[key] for p in pts], [p["median_ms"] for p in pts])
-    out["exponents"] = exps
-    return out
+            pts = [p for p in sc[axis]["points"] if p["solver"] == solver and p["median_ms"] is not None]
+            x = [p[axis] for p in pts]
+            y = [p["median_ms"] for p in pts]
+            exps[f"{axis}_{solver}"] = loglog_exponent(x, y)
+            if x:
+                cut = np.median(np.unique(x))
+                up = [(a, b) for a, b in zip(x, y) if a >= cut]
+                exps[f"{axis}_{solver}_upper"] = loglog_exponent([a for a, _ in up], [b for _, b in up])
+                ranges[axis] = f"{axis} {min(a for a, _ in up):g}-{max(a for a, _ in up):g}"
+    sc["exponents"] = {k: (None if not np.isfinite(e) else e) for k, e in exps.items()}   # None: too few points
+    sc["upper_range"] = ranges
+    return sc
 
 
 def _point(c: dict, **key) -> dict:
@@ -676,7 +690,7 @@ def plot_scaling(sc: dict, path: Path) -> None:
             x = np.array([p[axis] for p in pts], float)
             xs.update(x.tolist())
             e = sc["exponents"][f"{axis}_{solver}"]
-            ax.plot(x, [p["median_ms"] for p in pts], style, color=color, label=f"{solver} median (exponent {e:.2f})")
+            ax.plot(x, [p["median_ms"] for p in pts], style, color=color, label=f"{solver} median (exponent {_num(e)})")
             ax.plot(x, [p["p99_ms"] for p in pts], ":", color=color, alpha=0.5, label=f"{solver} p99")
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -845,11 +859,22 @@ def _fmt_placo(pd: dict, pk: dict) -> list[str]:
 
 
 def _fmt_scaling(sc: dict) -> list[str]:
-    e = sc["exponents"]
-    lines = [f"nv sweep ({sc['nv']['stack']}): exponent hqp {e['nv_hqp']:.2f}, projection {e['nv_projection']:.2f}",
-             f"levels sweep ({sc['levels']['stack']}): exponent hqp {e['levels_hqp']:.2f}, "
-             f"projection {e['levels_projection']:.2f}"]
+    e, up = sc["exponents"], sc.get("upper_range", {})
+    lines = []
+    for axis in ("nv", "levels"):
+        if f"{axis}_hqp" not in e:
+            continue
+        line = (f"{axis} sweep ({sc[axis]['stack']}): exponent hqp {_num(e[f'{axis}_hqp'])}, "
+                f"projection {_num(e[f'{axis}_projection'])}")
+        if f"{axis}_hqp_upper" in e:
+            line += (f"; over {up.get(axis, 'the upper half')}: hqp {_num(e[f'{axis}_hqp_upper'])}, "
+                     f"projection {_num(e.get(f'{axis}_projection_upper'))}")
+        lines.append(line)
     return lines
+
+
+def _num(x, fmt: str = ".2f") -> str:
+    return "n/a" if x is None else format(x, fmt)
 
 
 def scaling_markdown(sc: dict) -> str:
@@ -902,10 +927,35 @@ def results_markdown(res: dict) -> str:
         "",
         scaling_markdown(res["scaling"]),
         "",
-        f"SVD probe (numpy full SVD, n × n, ms, default BLAS threads vs 1): {m.get('svd_ms')}",
+        "## Notes",
+        "",
+        *[f"- {ln}" for ln in _notes(res)],
         "",
     ]
     return "\n".join(text)
+
+
+def _notes(res: dict) -> list[str]:
+    """What a reader should not miss: truncated or failed cases, slow outliers, warnings."""
+    out = []
+    for c in res["cases"]:
+        name = f"{c['robot']} {c['solver']}" + (f"/{c['backend']}" if c.get("backend") else "")
+        if "error" in c:
+            out.append(f"{name}: failed: {c['error']}")
+            continue
+        if "truncated" in c:
+            out.append(f"{name}: {c['truncated']}")
+        if c["max_ms"] > 100:
+            out.append(f"{name}: slowest cycle {c['max_ms']:.0f} ms (p99 {c['p99_ms']:.0f} ms)")
+        for msg, n in (c.get("warnings") or {}).items():
+            if "SparseConversion" in msg or "PendingDeprecation" in msg:
+                continue
+            out.append(f"{name}: {n} × {msg}")
+    svd = res["machine"].get("svd_ms")
+    if svd:
+        out.append("SVD probe (numpy full n × n SVD, median ms, default BLAS threads / 1 thread): "
+                   + ", ".join(f"n={n}: {r['default']:.3f} / {r['1 thread']:.3f}" for n, r in svd.items()))
+    return out
 
 
 # -------------------------------------------------------------------- run
