@@ -7,7 +7,9 @@ with a reason when Chromium (Debian package ``chromium``) is absent."""
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
 import subprocess
 from pathlib import Path
 
@@ -26,9 +28,20 @@ def screenshot(url: str, out: Path, budget_ms: int) -> np.ndarray:
     from PIL import Image
 
     for attempt in range(3):
-        subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={out.parent / f'profile{attempt}{budget_ms}'}",
-                        f"--virtual-time-budget={budget_ms}", f"--screenshot={out}", url],
-                       capture_output=True, timeout=120)
+        # headless Chromium occasionally hangs at start-up (zygote): give it 60 s, then retry
+        proc = subprocess.Popen([CHROMIUM, *FLAGS, f"--user-data-dir={out.parent / f'profile{attempt}{budget_ms}'}",
+                                 f"--virtual-time-budget={budget_ms}", f"--screenshot={out}", url],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            pass
+        finally:   # no Chromium helper process may outlive its screenshot
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            proc.wait()
         if out.is_file():
             return np.asarray(Image.open(out).convert("RGB"), dtype=float)
     pytest.fail(f"chromium wrote no screenshot of {url}")
