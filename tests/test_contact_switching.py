@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import pytest
 
 from wbc.runner import run
 from wbc.scenario import load_config

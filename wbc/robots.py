@@ -11,10 +11,14 @@ from __future__ import annotations
 from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import RobotDefinitionError, RobotNotFound
+
+if TYPE_CHECKING:
+    from .model import RobotModel
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
 
@@ -194,7 +198,7 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
     locked = list(cfg.get("locked_joints") or [])
     for jname in locked:
         if not full.existJointName(jname):
-            raise _err(src, f"locked_joints", f"unknown joint '{jname}'; expected one of {list(full.names)[1:]}")
+            raise _err(src, "locked_joints", f"unknown joint '{jname}'; expected one of {list(full.names)[1:]}")
     model = full
     if locked:
         model = pin.buildReducedModel(full, [full.getJointId(j) for j in locked], q_ref)
@@ -237,7 +241,6 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
     if root == "free_flyer" and contacts and cfg.get("level_on_contacts", True):
         q_ref = _level_on_contacts(model, q_ref, contacts)
 
-    nv = model.nv
     n_root = {"free_flyer": 6, "planar": 3, "fixed": 0}[root]
     limits = cfg.get("limits") or {}
     tau_max = model.effortLimit.copy()

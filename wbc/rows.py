@@ -81,10 +81,15 @@ class Level:
         return self.C.shape[0] + (0 if self.box is None else len(self.box[0]))
 
     def inequalities(self, nx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """All inequality rows (general rows, then box bounds as unit rows): C, lo, hi."""
+        """All inequality rows (general rows, then box bounds as unit rows): C, lo, hi.
+        Built once per level and cycle (the solver and the diagnostics both read it)."""
         if self.box is None:
             return self.C, self.lo, self.hi
+        cached = getattr(self, "_ineq", None)
+        if cached is not None and cached[0].shape[1] == nx:
+            return cached
         idx, blo, bhi = self.box
         B = np.zeros((len(idx), nx))
         B[np.arange(len(idx)), idx] = 1.0
-        return np.vstack([self.C, B]), np.concatenate([self.lo, blo]), np.concatenate([self.hi, bhi])
+        self._ineq = (np.vstack([self.C, B]), np.concatenate([self.lo, blo]), np.concatenate([self.hi, bhi]))
+        return self._ineq
