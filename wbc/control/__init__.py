@@ -14,15 +14,27 @@ from .joint_space import (
     slotine_li_regressor,
 )
 from .motion_common import ControllerDefinitionError, MotionController, Reference
+from .task_space import (
+    ExtendedTaskSpace,
+    JacobianTransposePD,
+    OperationalSpace,
+    TaskSpaceInverseDynamics,
+    extended_task_space,
+)
 
 __all__ = [
     "ControllerDefinitionError",
+    "ExtendedTaskSpace",
     "InverseDynamics",
+    "JacobianTransposePD",
     "MotionController",
+    "OperationalSpace",
     "PDGravity",
     "PDPlus",
     "PassivityBased",
     "Reference",
+    "TaskSpaceInverseDynamics",
     "dynamic_parameters",
+    "extended_task_space",
     "slotine_li_regressor",
 ]
