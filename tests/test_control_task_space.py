@@ -94,7 +94,7 @@ def test_null_space_term_never_changes_the_task_acceleration(panda, rng):
 def test_operational_space_torque_equals_inertia_weighted_inverse_dynamics(panda, rng):
     """The chapter's remark after (5.19): torque-based with γ = M η = acceleration-based with W = M."""
     xd = _hand(panda, panda.q_default) + OFFSET
-    kw = dict(kp=40.0, kd=9.0, q_null=Q_FAR, null_kp=10.0, null_kd=2.0)
+    kw = {"kp": 40.0, "kd": 9.0, "q_null": Q_FAR, "null_kp": 10.0, "null_kd": 2.0}
     osc = OperationalSpace(panda, "hand", xd, **kw)
     tsid = TaskSpaceInverseDynamics(panda, "hand", xd, weighting="inertia", **kw)
     for _ in range(5):
@@ -108,7 +108,7 @@ def test_jacobian_transpose_pd_regulates_and_its_lyapunov_function_decreases(pan
     q0 = panda.q_default.copy()
     xd = _hand(panda, q0) + OFFSET
     ctrl = JacobianTransposePD(panda, "hand", xd, kp=600.0, kd=[8.0] * 4 + [1.0] * 3)
-    T, Q, V, E = _run(panda, ctrl, q0, 3.0)
+    _, Q, V, E = _run(panda, ctrl, q0, 3.0)
     n = np.linalg.norm(E, axis=1)
     L = np.array([ctrl.lyapunov(q, v) for q, v in zip(Q, V)])
     rise = np.diff(L).max()
