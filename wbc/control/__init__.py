@@ -5,6 +5,7 @@ Motion control (5.2): joint space (:mod:`.joint_space`), elastic joints
 controller is an object ``(q, v, t) -> τ``; see :mod:`.motion_common`.
 """
 
+from .impedance import ImpedanceControl
 from .joint_space import (
     InverseDynamics,
     PassivityBased,
@@ -14,6 +15,8 @@ from .joint_space import (
     slotine_li_regressor,
 )
 from .motion_common import ControllerDefinitionError, MotionController, Reference
+from .null_space_impedance import NullSpaceImpedance
+from .stiffness import StiffnessControl
 from .task_space import (
     ExtendedTaskSpace,
     JacobianTransposePD,
@@ -25,14 +28,17 @@ from .task_space import (
 __all__ = [
     "ControllerDefinitionError",
     "ExtendedTaskSpace",
+    "ImpedanceControl",
     "InverseDynamics",
     "JacobianTransposePD",
     "MotionController",
+    "NullSpaceImpedance",
     "OperationalSpace",
     "PDGravity",
     "PDPlus",
     "PassivityBased",
     "Reference",
+    "StiffnessControl",
     "TaskSpaceInverseDynamics",
     "dynamic_parameters",
     "extended_task_space",

@@ -1,0 +1,176 @@
+"""What the force/interaction controllers (5.3) share: pose references, pose
+errors, wrenches, and the operational-space quantities of one frame.
+
+Conventions (all controllers of :mod:`wbc.control.stiffness`, ``impedance``,
+``admittance``, ``hybrid_force_motion`` and ``null_space_impedance``):
+
+- The end-effector twist is v_e = (ṗ, ω) (m/s, rad/s), world-aligned axes, the
+  linear part the velocity of the frame origin: v_e = J_e q̇ with J_e the
+  pinocchio LOCAL_WORLD_ALIGNED frame Jacobian (6 × nv).
+- The pose error is Δx = (p_d − p, log₃(R_d Rᵀ)) (m, rad), world-aligned; its
+  rotational part is the rotation vector taking the current orientation to the
+  desired one, expressed in the world frame; its time derivative is ω_d − ω to
+  first order in the angle.
+- h_e = (f_e, m_e) is the chapter's wrench *exerted by the end effector on the
+  environment* (N, N·m), world-aligned axes, moment about the frame origin, so
+  that the dynamics read (5.26) M q̈ + h = τ − J_eᵀ h_e. A force sensor at the
+  wrist reads h_e; a push on the hand of force f (applied *to* the robot) is
+  h_e = −(f, 0).
+- Λ_e = (J_e M⁻¹ J_eᵀ)⁻¹ (5.28) is the operational-space inertia (kg, kg·m²),
+  J# = M⁻¹ J_eᵀ Λ_e the dynamically consistent generalized inverse (W = M in
+  5.13) and P = I − J# J_e its null-space projector; a torque Pᵀγ never
+  accelerates the frame (J_e M⁻¹ Pᵀ = 0).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import FrameNotFound, TargetError
+from ..model import WORLD_ALIGNED
+from .motion_common import ControllerDefinitionError, gain_matrix, vector
+
+__all__ = [
+    "ControllerDefinitionError",
+    "OpSpace",
+    "PoseReference",
+    "gain_matrix",
+    "pose_error",
+    "positive",
+    "vector",
+    "wrench",
+]
+
+PoseSample = tuple[pin.SE3, np.ndarray, np.ndarray]
+
+
+def positive(owner: str, key: str, value, allow_zero: bool = False) -> float:
+    """A finite float > 0 (or >= 0), else :class:`ControllerDefinitionError`."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ControllerDefinitionError(f"{owner}: {key} must be a number, got {value!r}") from exc
+    if not np.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
+        raise ControllerDefinitionError(f"{owner}: {key} must be finite and {'>=' if allow_zero else '>'} 0, got {value!r}")
+    return x
+
+
+def wrench(owner: str, value) -> np.ndarray:
+    """A measured wrench h_e = (f, m): 6 finite numbers (N, N·m), else TargetError."""
+    if value is None:
+        raise TargetError(f"{owner}: needs the measured wrench h_e (6 numbers: force N, moment N·m, "
+                          "exerted by the end effector on the environment, world axes)")
+    return vector(owner, "h_e", value, 6)
+
+
+def to_se3(owner: str, value, current: pin.SE3 | None = None) -> pin.SE3:
+    """An SE3 from an SE3, a 4 × 4 homogeneous matrix, or a 3-vector position
+    (orientation of ``current``)."""
+    if isinstance(value, pin.SE3):
+        return value.copy()
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TargetError(f"{owner}: pose must be a pinocchio.SE3, a 4x4 matrix or a position, got {value!r}") from exc
+    if arr.shape == (4, 4):
+        R = arr[:3, :3]
+        if not np.all(np.isfinite(arr)) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+            raise TargetError(f"{owner}: the pose's rotation block is not a rotation matrix (or not finite)")
+        return pin.SE3(R.copy(), arr[:3, 3].copy())
+    if arr.shape == (3,):
+        rot = np.eye(3) if current is None else current.rotation.copy()
+        return pin.SE3(rot, vector(owner, "position", arr, 3))
+    raise TargetError(f"{owner}: pose must be a pinocchio.SE3, a 4x4 homogeneous matrix or a 3-vector "
+                      f"position, got shape {arr.shape}")
+
+
+class PoseReference:
+    """Desired pose x_d(t), twist v_d(t) (m/s, rad/s) and its derivative v̇_d(t).
+
+    ``value``: ``None`` (hold the pose of the first call), a constant pose (SE3,
+    4 × 4, or a 3-vector position keeping the first orientation), or a callable
+    ``t -> (SE3, twist (6,), twist derivative (6,))``.
+    """
+
+    def __init__(self, owner: str, value=None) -> None:
+        self.owner = owner
+        self._fn: Callable[[float], PoseSample] | None = None
+        self._pending = value
+        self._const: pin.SE3 | None = None
+        if callable(value) and not isinstance(value, (pin.SE3, np.ndarray)):
+            self._fn, self._pending = value, None
+
+    def set(self, value) -> None:
+        self.__init__(self.owner, value)
+
+    def __call__(self, t: float, current: pin.SE3) -> PoseSample:
+        if self._fn is not None:
+            out = self._fn(t)
+            if not (isinstance(out, tuple) and len(out) == 3):
+                raise TargetError(f"{self.owner}: reference(t) must return (pose, twist, twist derivative)")
+            pose = to_se3(self.owner, out[0], current)
+            return pose, vector(self.owner, "reference twist", out[1], 6), \
+                vector(self.owner, "reference twist derivative", out[2], 6)
+        if self._const is None:
+            self._const = current.copy() if self._pending is None else to_se3(self.owner, self._pending, current)
+        z = np.zeros(6)
+        return self._const, z, z
+
+
+def pose_error(desired: pin.SE3, current: pin.SE3) -> np.ndarray:
+    """Δx = (p_d − p, log₃(R_d Rᵀ)) in m and rad, world-aligned axes."""
+    return np.concatenate([desired.translation - current.translation,
+                           pin.log3(desired.rotation @ current.rotation.T)])
+
+
+@dataclass
+class OpSpace:
+    """The operational-space quantities of one frame at the robot's cached state.
+
+    ``J`` (6 × nv), ``Jdqd`` = J̇_e q̇ (classical acceleration at q̈ = 0, m/s²,
+    rad/s²), ``Minv`` = M⁻¹, ``Lam`` = Λ_e (5.28), ``Jsharp`` = J# = M⁻¹JᵀΛ_e,
+    ``P`` = I − J# J (nv × nv), ``pose`` the frame placement, ``twist`` = J q̇.
+    """
+
+    J: np.ndarray
+    Jdqd: np.ndarray
+    Minv: np.ndarray
+    Lam: np.ndarray
+    Jsharp: np.ndarray
+    P: np.ndarray
+    pose: pin.SE3
+    twist: np.ndarray
+
+    @classmethod
+    def of(cls, robot, fid: int, v: np.ndarray) -> OpSpace:
+        """Read M, J, J̇q̇ from the robot's cache (``robot.update`` was called)."""
+        J = robot.frame_jacobian(fid, WORLD_ALIGNED)
+        Jdqd = robot.frame_drift(fid, WORLD_ALIGNED, classical=True)
+        M = robot.M
+        Minv = np.linalg.inv(M)
+        Lam_inv = J @ Minv @ J.T
+        Lam = np.linalg.inv(Lam_inv)
+        Jsharp = Minv @ J.T @ Lam
+        P = np.eye(robot.nv) - Jsharp @ J
+        return cls(J, Jdqd, Minv, Lam, Jsharp, P, robot.frame_placement(fid).copy(), J @ v)
+
+
+def frame_id(owner: str, robot, frame: str) -> int:
+    """The frame's pinocchio index; FrameNotFound naming the controller."""
+    try:
+        return robot.frame_id(frame)
+    except FrameNotFound as exc:
+        raise FrameNotFound(f"{owner}: {exc}") from None
+
+
+def null_space_posture(owner: str, robot, kp, kd, q_rest) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gains (nv × nv, N·m/rad and N·m·s/rad) and rest posture of the null-space torque
+    γ = K_q (q_rest ⊖ q) − D_q q̇ that the task-space controllers project with Pᵀ."""
+    Kq = gain_matrix(owner, "null_kp", kp, robot.nv, definite=False)
+    Dq = gain_matrix(owner, "null_kd", kd, robot.nv, definite=False)
+    qr = robot.q_default.copy() if q_rest is None else vector(owner, "q_rest", q_rest, robot.nq)
+    return Kq, Dq, qr

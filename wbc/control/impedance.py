@@ -1,0 +1,88 @@
+"""Impedance control with force measurement, 5.36-5.37.
+
+Operational-space dynamics of the end effector (5.28):
+Λ_e(q) v̇_e + μ_e(q, q̇) v_e + η_e(q) = h_c − h_e. The control wrench (5.36)
+
+    h_c = Λ_e(q) α + μ_e v_e + η_e(q) + h_e,
+    α   = v̇_d + K_M⁻¹ (K_D Δv + K_P Δx − h_e)
+
+cancels the robot's own inertia, Coriolis and gravity wrenches and the measured
+interaction wrench h_e, and leaves the configuration-independent closed loop (5.37)
+
+    K_M Δv̇ + K_D Δv + K_P Δx = h_e,        Δv = v_d − v_e,
+
+a 6-DoF mass-spring-damper with the *chosen* inertia K_M (kg, kg·m²), damping K_D
+and stiffness K_P. Compare 5.35 (:mod:`.stiffness`, no force feedback), where the
+inertia seen at the end effector is the robot's Λ_e(q).
+
+Joint torques (5.27), with μ_e v_e + η_e = J#ᵀ h − Λ_e J̇_e q̇ (h = C q̇ + g) and the
+null-space part of h passed through Pᵀ:
+
+    τ = J_eᵀ [Λ_e (α − J̇_e q̇) + h_e] + h + Pᵀ (K_q (q_r ⊖ q) − D_q q̇).
+
+Then J_e q̈ + J̇_e q̇ = α exactly (J_e M⁻¹ Pᵀ = 0). The translational rows of 5.37
+hold exactly; the rotational ones to first order in the orientation error (the
+derivative of log₃(R_d Rᵀ) is ω_d − ω only for small angles).
+
+``h_e`` is the wrench the end effector exerts on the environment (what a wrist
+force/torque sensor measures; N, N·m, world axes, moment about the frame origin).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._opspace import (
+    OpSpace,
+    PoseReference,
+    frame_id,
+    gain_matrix,
+    null_space_posture,
+    pose_error,
+    vector,
+    wrench,
+)
+
+
+class ImpedanceControl:
+    """Impedance control (5.36) of one frame. Call: ``tau = ctrl(q, v, t, h_e=...)``.
+
+    Parameters
+    ----------
+    robot : wbc.RobotModel.
+    frame : frame alias or URDF name.
+    km : K_M, desired inertia (kg on position rows, kg·m² on orientation rows), PD.
+    kd : K_D, desired damping (N·s/m, N·m·s/rad), PSD.
+    kp : K_P, desired stiffness (N/m, N·m/rad), PSD.
+    target : desired pose x_d (constant or ``t -> (SE3, v_d, v̇_d)``); default the first pose.
+    null_kp, null_kd, q_rest : null-space posture spring-damper (N·m/rad, N·m·s/rad).
+    """
+
+    def __init__(self, robot, frame: str = "hand", km=2.0, kd=40.0, kp=400.0, target=None,
+                 null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
+        name = f"ImpedanceControl({frame})"
+        self.robot, self.frame, self.name = robot, frame, name
+        self.fid = frame_id(name, robot, frame)
+        self.KM = gain_matrix(name, "km", km, 6)
+        self.KD = gain_matrix(name, "kd", kd, 6, definite=False)
+        self.KP = gain_matrix(name, "kp", kp, 6, definite=False)
+        self.KM_inv = np.linalg.inv(self.KM)
+        self.Kq, self.Dq, self.q_rest = null_space_posture(name, robot, null_kp, null_kd, q_rest)
+        self.reference = PoseReference(name, target)
+        self.last: dict = {}
+
+    def __call__(self, q, v, t: float = 0.0, h_e=None) -> np.ndarray:
+        """Joint torques τ (N·m) from q (rad), v (rad/s), t (s) and the measured h_e (N, N·m)."""
+        r = self.robot
+        q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
+        he = wrench(self.name, h_e)
+        r.update(q, v)
+        ops = OpSpace.of(r, self.fid, v)
+        pose_d, vel_d, acc_d = self.reference(t, ops.pose)
+        dx = pose_error(pose_d, ops.pose)
+        dv = vel_d - ops.twist
+        alpha = acc_d + self.KM_inv @ (self.KD @ dv + self.KP @ dx - he)
+        hc = ops.Lam @ (alpha - ops.Jdqd) + he
+        gamma = self.Kq @ r.difference(q, self.q_rest) - self.Dq @ v
+        self.last = {"dx": dx, "dv": dv, "alpha": alpha, "Lambda": ops.Lam}
+        return ops.J.T @ hc + r.h + ops.P.T @ gamma
