@@ -1,4 +1,4 @@
-"""The ``wbc`` command: run, validate, robots, tasks."""
+"""The ``wbc`` command: run, plot, validate, robots, tasks, bench."""
 
 from __future__ import annotations
 
@@ -6,9 +6,19 @@ import argparse
 import inspect
 import json
 import sys
+import textwrap
 from pathlib import Path
 
 from .errors import WbcError
+
+EPILOG = """examples:
+  wbc run tasks/talos_balance.yaml                     live in the browser (URL printed), real time
+  wbc run tasks/talos_reach.yaml --headless --metrics m.json --plot m.png --record m.html
+  wbc plot m.json -o again.png                         re-plot a run saved with --series or --plot
+  wbc validate tasks/talos_step.yaml                   exit 0, or 2 with file, key path and expectation
+  wbc robots | wbc tasks | wbc bench --quick
+
+units: SI throughout (m, rad, N, N·m, s); metrics JSON as described in README.md."""
 
 
 def _cmd_run(args) -> int:
@@ -20,25 +30,42 @@ def _cmd_run(args) -> int:
     if not args.headless or args.record:
         from .viz import Scene, viewer_callback
 
-        scene = Scene(sc.robot, sc.environment, record=bool(args.record))
+        scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps)
         if not args.headless:
             print(f"wbc: browser view at {scene.url}  (Ctrl-C to stop)", flush=True)
-        callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed)
+        callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed,
+                                   fps=args.fps, diagnostics_hz=args.diagnostics_rate)
+    want_series = bool(args.plot or args.series)
     try:
         metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
-                      progress=True, callback=callback)
+                      progress=True, callback=callback, series=want_series)
     finally:
         if scene is not None:
             if args.record:
                 print(f"recording written to {scene.save_html(args.record)}")
             scene.close()
-    text = json.dumps(metrics, indent=2)
+    if args.plot:
+        from .plot import plot_metrics
+
+        print(f"plot written to {plot_metrics(metrics, args.plot)}")
+    series = metrics.get("series") if not args.series else None
+    if series is not None:      # plotted but not asked to be kept
+        del metrics["series"]
     if args.metrics:
-        Path(args.metrics).write_text(text + "\n")
+        Path(args.metrics).write_text(json.dumps(metrics, indent=None if args.series else 2) + "\n")
         print(f"metrics written to {args.metrics}")
     else:
-        print(text)
+        summary = {k: v for k, v in metrics.items() if k != "series"}
+        print(json.dumps(summary, indent=2))
     return 1 if metrics["fell"] or metrics["solver_failures"] else 0
+
+
+def _cmd_plot(args) -> int:
+    from .plot import plot_file
+
+    out = args.output or str(Path(args.metrics).with_suffix(".png"))
+    print(f"plot written to {plot_file(args.metrics, out, size=(args.width / args.dpi, args.height / args.dpi), dpi=args.dpi)}")
+    return 0
 
 
 def _cmd_validate(args) -> int:
@@ -74,28 +101,105 @@ def _cmd_tasks(args) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="wbc", description="Whole-body multi-priority control on Pinocchio.")
-    sub = parser.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run", help="simulate a scenario YAML and report its metrics")
-    r.add_argument("file", help="scenario YAML (tasks/*.yaml)")
-    r.add_argument("--headless", action="store_true", help="no browser view")
-    r.add_argument("--duration", type=float, help="override the scenario duration (s)")
-    r.add_argument("--solver", choices=["hqp", "projection", "weighted"], help="override the solver")
-    r.add_argument("--backend", help="QP back-end: daqp, proxqp, or any qpsolvers name")
-    r.add_argument("--metrics", help="write the metrics JSON here (SI units)")
-    r.add_argument("--record", help="write a self-contained HTML replay of the run here")
-    r.add_argument("--speed", type=float, default=1.0, help="playback speed in the browser (1 = real time)")
+class _Help(argparse.HelpFormatter):
+    """Wraps prose paragraphs, keeps indented lines (examples) as written."""
+
+    def __init__(self, prog):
+        super().__init__(prog, max_help_position=30, width=100)
+
+    def _fill_text(self, text, width, indent):
+        return "\n".join(indent + line if not line or line.startswith("  ") else
+                         textwrap.fill(line, width, initial_indent=indent, subsequent_indent=indent)
+                         for line in text.split("\n"))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``wbc`` argument parser (every option with its unit and default)."""
+    parser = argparse.ArgumentParser(
+        prog="wbc", formatter_class=_Help, epilog=EPILOG,
+        description="Whole-body multi-priority control on Pinocchio: run scenario YAMLs in closed loop "
+                    "with a simulator, watch them in the browser (Meshcat), plot and benchmark them.")
+    sub = parser.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
+
+    r = sub.add_parser(
+        "run", formatter_class=_Help, help="simulate a scenario YAML; browser view, metrics, plots, recordings",
+        description="Simulate a scenario (tasks/*.yaml): the controller drives a pinocchio simulation at the "
+                    "scenario's control rate. Without --headless a Meshcat server starts on 127.0.0.1, its URL "
+                    "is printed and the run plays in real time with the priority diagnostics (per level: "
+                    "residual, rank and σ_min of the projected Jacobian, sacrificed tasks, active constraints) "
+                    "drawn top left. Prints the metrics JSON (or writes it with --metrics). Exit status: 0, 1 "
+                    "if the robot fell or the solver failed, 2 on a bad scenario.",
+        epilog="examples:\n  wbc run tasks/talos_push.yaml --headless --solver projection --duration 3\n"
+               "  wbc run tasks/talos_reach.yaml --headless --plot reach.png --record reach.html")
+    r.add_argument("file", help="scenario YAML (e.g. tasks/talos_balance.yaml)")
+    r.add_argument("--headless", action="store_true",
+                   help="no browser view: run as fast as possible and print progress (simulated time, "
+                        "real-time factor, solver failures)")
+    r.add_argument("--duration", type=float, metavar="S",
+                   help="simulated duration in s (default: the scenario's `duration`)")
+    r.add_argument("--solver", choices=["hqp", "projection", "weighted"],
+                   help="priority solver (default: the scenario's `solver.type`, else hqp)")
+    r.add_argument("--backend", metavar="NAME",
+                   help="QP back-end: daqp, proxqp, or any qpsolvers name (default: the scenario's, else daqp)")
+    r.add_argument("--metrics", metavar="FILE.json",
+                   help="write the metrics JSON here (SI units; default: print it)")
+    r.add_argument("--series", action="store_true",
+                   help="record the time series (task errors per level, level residual/rank/σ_min, contact "
+                        "normal forces and friction margins, torque/limit ratios, support margin) and keep them "
+                        "under \"series\" in the metrics JSON, for `wbc plot` (default: off; a few MB for 10 s)")
+    r.add_argument("--plot", metavar="FILE.png",
+                   help="plot the run (task errors per level, contact forces and friction margins, torques "
+                        "against limits) into this PNG, 1200×800 px (implies recording the series)")
+    r.add_argument("--record", metavar="FILE.html",
+                   help="write a self-contained HTML replay (plays offline: the viewer's JavaScript is embedded), "
+                        "with the diagnostics panel following the replay")
+    r.add_argument("--speed", type=float, default=1.0, metavar="X",
+                   help="live playback speed, 1 = real time, 0.5 = half speed (default 1.0; ignored with --headless)")
+    r.add_argument("--fps", type=float, default=30.0, metavar="HZ",
+                   help="frames drawn per simulated second, live and in recordings (default 30)")
+    r.add_argument("--diagnostics-rate", type=float, default=10.0, metavar="HZ",
+                   help="priority-diagnostics updates per simulated second in the view (default 10; 0: off)")
     r.set_defaults(fn=_cmd_run)
-    v = sub.add_parser("validate", help="check a scenario YAML; exit 0, or 2 with the error")
-    v.add_argument("file")
+
+    p = sub.add_parser(
+        "plot", formatter_class=_Help, help="plot a metrics JSON saved with `wbc run --series` (or --plot)",
+        description="Plot a run's time series: one panel per priority level (task error norms in m or rad; "
+                    "level 0 its residual ‖Ax − b‖, log scale; titles give rank and min σ of J̄_k), contact "
+                    "normal forces (N, m g for reference), friction margins μ F_n − ‖F_t‖ (N, < 0 means "
+                    "sliding), and joint torques against their limits (|τ_i|/τ_max,i: the worst per cycle and "
+                    "the joints that came closest). Exit 2 if the file has no series.",
+        epilog="example:\n  wbc run tasks/talos_step.yaml --headless --series --metrics step.json\n"
+               "  wbc plot step.json -o step.png")
+    p.add_argument("metrics", metavar="METRICS.json", help="metrics JSON written by `wbc run --series --metrics`")
+    p.add_argument("-o", "--output", metavar="FILE.png",
+                   help="output PNG (default: METRICS with the suffix .png)")
+    p.add_argument("--width", type=int, default=1200, metavar="PX", help="image width in pixels (default 1200)")
+    p.add_argument("--height", type=int, default=800, metavar="PX", help="image height in pixels (default 800)")
+    p.add_argument("--dpi", type=int, default=100, help="dots per inch: sets text size relative to the image "
+                   "(default 100)")
+    p.set_defaults(fn=_cmd_plot)
+
+    v = sub.add_parser("validate", formatter_class=_Help, help="check a scenario YAML; exit 0, or 2 with the error",
+                       description="Load and check a scenario YAML without running it: robot, frames, task "
+                                   "parameters, trajectories, events. Exit 0 and a one-line summary, or exit 2 "
+                                   "with the file, the key path and what was expected.")
+    v.add_argument("file", help="scenario YAML")
     v.set_defaults(fn=_cmd_validate)
-    sub.add_parser("robots", help="list the bundled robots and their named frames").set_defaults(fn=_cmd_robots)
-    sub.add_parser("tasks", help="list task types with their parameters and defaults").set_defaults(fn=_cmd_tasks)
+    sub.add_parser("robots", formatter_class=_Help, help="list the bundled robots and their named frames",
+                   description="List the bundled robots (robots/*.yaml): nq, nv, root joint, named frames "
+                               "(alias and URDF frame) and contact surfaces.").set_defaults(fn=_cmd_robots)
+    sub.add_parser("tasks", formatter_class=_Help, help="list task types with their parameters and defaults",
+                   description="List the task types a scenario's `stack` accepts, with their parameters "
+                               "and default values (gains in 1/s² and 1/s, weights unitless, forces in N)."
+                   ).set_defaults(fn=_cmd_tasks)
     from .bench import add_parser as add_bench_parser
 
     add_bench_parser(sub)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
     try:
         return args.fn(args)
     except WbcError as exc:

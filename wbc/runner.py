@@ -3,16 +3,22 @@
 Per control period: the simulator's measurement (q, v) -> ``Controller.solve`` ->
 torques -> ``Simulator.step``. The controller never reads the simulator's state
 otherwise. Metrics follow DESIGN.md (``violations`` count control cycles).
+
+``run(..., series=True)`` also records time series (task errors, per-level residual,
+rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
+support margin) into preallocated arrays and returns them under ``metrics["series"]``
+(see :class:`Series`); ``wbc plot`` draws them. Without it nothing extra is kept.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 
 import numpy as np
 import pinocchio as pin
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 from .controller import Controller
 from .scenario import Scenario
@@ -28,10 +34,149 @@ def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     return float(np.min(-(hull.equations[:, :2] @ p + hull.equations[:, 2])))
 
 
+def polygon_margin(vertices, p) -> float:
+    """Signed distance (m) of p to the boundary of a convex polygon given by its
+    vertices in counter-clockwise order (> 0 inside): min over edges of
+    cross(e_i, p − v_i) / ‖e_i‖. Plain floats: a handful of edges is faster in Python
+    than through numpy's per-call overhead."""
+    px, py = float(p[0]), float(p[1])
+    verts = vertices.tolist() if isinstance(vertices, np.ndarray) else vertices
+    x0, y0 = verts[-1][0], verts[-1][1]
+    best = math.inf
+    for v in verts:
+        x1, y1 = v[0], v[1]
+        ex, ey = x1 - x0, y1 - y0
+        d = (ex * (py - y0) - ey * (px - x0)) / math.hypot(ex, ey)
+        best = min(best, d)
+        x0, y0 = x1, y1
+    return best
+
+
+class SupportPolygon:
+    """The support polygon's hull, built once per contact set.
+
+    The hull's vertex indices (counter-clockwise, scipy's ConvexHull) are kept while the
+    set of contact points is unchanged and refreshed every ``refresh`` cycles (feet may
+    creep); in between the margin is computed on the current positions of those
+    vertices: a few flops instead of a Qhull call per cycle."""
+
+    def __init__(self, refresh: int = 200) -> None:
+        self.refresh = refresh
+        self._key: tuple | None = None
+        self._vertices: np.ndarray | None = None
+        self._age = 0
+
+    def margin(self, idx: list[int], points_xy: np.ndarray, p: np.ndarray) -> float:
+        """Signed distance (m) of p to the hull of ``points_xy[idx]`` (> 0 inside)."""
+        if len(idx) < 3:
+            return -np.inf
+        key = tuple(idx)
+        self._age += 1
+        if key != self._key or self._age >= self.refresh:
+            self._key, self._age = key, 0
+            try:
+                self._vertices = np.asarray(idx)[ConvexHull(points_xy[idx]).vertices]
+            except QhullError:   # degenerate (collinear) support
+                self._key, self._vertices = None, None
+                return -np.inf
+        return polygon_margin(points_xy[self._vertices], p)
+
+
 def _tilt(q: np.ndarray) -> float:
-    """Angle (rad) between a free-flyer base's z axis and the vertical."""
-    R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
-    return float(np.arccos(np.clip(R[2, 2], -1.0, 1.0)))
+    """Angle (rad) between a free-flyer base's z axis and the vertical (R_zz = 1 − 2(x² + y²))."""
+    x, y = float(q[3]), float(q[4])
+    return math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
+
+
+class Series:
+    """Time series of one run, in preallocated arrays (``n`` cycles at most).
+
+    Per control cycle: ``t`` (s); ``task_errors[name]``: ‖error‖ of each task that has
+    one (m, rad or N); per priority level (the stack's levels at the start; NaN where a
+    level does not exist that cycle) the ``level_residual`` (units of its rows),
+    ``level_rank`` and ``level_sigma_min`` of J̄_k; per contact of the starting stack
+    the total ``normal_force`` (N) measured by the simulator and the ``friction_margin``
+    μ F_n − ‖F_t‖ of the resultant force (N; ≥ 0 inside the friction cone); the
+    ``torque_ratio`` |τ_i| / τ_max,i of every actuated joint; the CoM's
+    ``support_margin`` (m, > 0 inside the support polygon).
+    """
+
+    def __init__(self, n: int, dt: float, robot, stack, contacts: list[str], mu: float) -> None:
+        self.dt, self.mu, self.k = dt, mu, 0
+        self.levels = [[t.name for t in lvl] for lvl in stack.levels]
+        self.level_of = {t.name: k for k, lvl in enumerate(stack.levels) for t in lvl}
+        self.error_names: list[str] = []
+        nl = len(stack.levels) + 2          # room for levels added by events
+        self.t = np.zeros(n)
+        self.task_errors = None             # allocated on the first record (names known then)
+        self.level_residual = np.full((n, nl), np.nan)
+        self.level_rank = np.full((n, nl), np.nan)
+        self.level_sigma_min = np.full((n, nl), np.nan)
+        self.contacts = contacts
+        self.normal_force = np.zeros((n, len(contacts)))
+        self.friction_margin = np.zeros((n, len(contacts)))
+        a = robot.actuated_idx
+        m = robot.model
+        self.joint_names = [m.names[int(np.searchsorted([m.joints[j].idx_v for j in range(1, m.njoints)], i,
+                                                         side="right"))] for i in a]
+        self.tau_max = robot.tau_max[a].copy()
+        self._inv_tau_max = 1.0 / np.where(self.tau_max > 0, self.tau_max, np.inf)
+        self._a = a
+        self.torque_ratio = np.zeros((n, len(a)), dtype=np.float32)
+        self.support_margin = np.full(n, np.nan)
+        self.mass = float(robot.mass)
+
+    def record(self, t: float, errors: list[float], sol, contact_forces, margin: float) -> None:
+        k = self.k
+        if self.task_errors is None:
+            self.task_errors = np.full((len(self.t), len(errors)), np.nan)
+        self.t[k] = t
+        self.task_errors[k, :len(errors)] = errors
+        nl = self.level_residual.shape[1]
+        for d in sol.diagnostics[:nl]:
+            self.level_residual[k, d.index] = d.residual
+            self.level_rank[k, d.index] = d.rank
+            self.level_sigma_min[k, d.index] = d.sigma_min
+        for j, f in enumerate(contact_forces):   # resultant force (world) of each contact's points
+            fn = f[2]
+            self.normal_force[k, j] = fn
+            self.friction_margin[k, j] = self.mu * fn - np.hypot(f[0], f[1])
+        self.torque_ratio[k] = np.abs(sol.tau_full[self._a]) * self._inv_tau_max
+        self.support_margin[k] = margin
+        self.k = k + 1
+
+    def to_dict(self, worst: int = 6, digits: int = 5) -> dict:
+        """JSON-ready: every array cut to the recorded length, ``digits`` significant
+        digits; torques as the per-cycle worst ratio and the ``worst`` joints' traces."""
+        n = self.k
+
+        def lst(x):
+            return [None if not np.isfinite(v) else float(f"{v:.{digits}g}") for v in np.asarray(x[:n], float)]
+
+        tr = self.torque_ratio[:n].astype(float)
+        peak = tr.max(axis=0) if n else np.zeros(tr.shape[1])
+        order = np.argsort(-peak)[:worst]
+        nl = max(len(self.levels), int(np.max(np.nonzero(np.isfinite(self.level_residual[:n]).any(axis=0))[0],
+                                                initial=-1)) + 1)
+        return {
+            "dt": self.dt, "mass": self.mass, "g": 9.81, "mu": self.mu,
+            "t": lst(self.t),
+            "levels": self.levels,
+            "task_level": {name: self.level_of.get(name) for name in self.error_names},
+            "task_errors": {name: lst(self.task_errors[:, j]) for j, name in enumerate(self.error_names)}
+            if self.task_errors is not None else {},
+            "level_residual": [lst(self.level_residual[:, i]) for i in range(nl)],
+            "level_rank": [lst(self.level_rank[:, i]) for i in range(nl)],
+            "level_sigma_min": [lst(self.level_sigma_min[:, i]) for i in range(nl)],
+            "contacts": {c: {"normal_force": lst(self.normal_force[:, j]),
+                             "friction_margin": lst(self.friction_margin[:, j])}
+                         for j, c in enumerate(self.contacts)},
+            "torque": {"ratio_max": lst(tr.max(axis=1)) if n else [],
+                       "joints": {self.joint_names[i]: lst(tr[:, i]) for i in order},
+                       "limits": {self.joint_names[i]: float(self.tau_max[i]) for i in order},
+                       "peak_ratio": {self.joint_names[i]: float(peak[i]) for i in order}},
+            "support_margin": lst(self.support_margin),
+        }
 
 
 def _stats(x) -> dict:
@@ -71,8 +216,10 @@ def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
 
 
 def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
-        progress: bool = False, callback=None) -> dict:
-    """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle."""
+        progress: bool = False, callback=None, series: bool = False) -> dict:
+    """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
+    (after the simulator's step). ``series``: also return the run's time series under
+    ``"series"`` (:class:`Series`, JSON-ready)."""
     robot, stack = sc.robot, sc.stack
     opts = dict(sc.solver)
     solver_name = solver or opts.pop("type", "hqp")
@@ -84,7 +231,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
     duration = sc.duration if duration is None else duration
-    n = int(round(duration / sc.dt))
+    n = round(duration / sc.dt)
 
     # start values of referenced tasks (the controller's model at the initial state)
     robot.update(sim.q, sim.v)
@@ -113,6 +260,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     base_z0 = sim.q[2] if robot.root == "free_flyer" else None
 
     errs = {t.name: [] for t in stack if t.error(robot) is not None and t.kind not in ("contact",)}
+    err_tasks = [(name, stack[name]) for name in errs]
     viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
     slip = {c.name: 0.0 for c in contacts}
     lifted = {c.name: False for c in contacts}
@@ -125,6 +273,15 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
     pending = list(sc.events)
     switched: set[str] = set()
+    hull = SupportPolygon()
+    rec = Series(n, sc.dt, robot, stack, [c.name for c in contacts], mu_max) if series else None
+    if rec is not None:
+        rec.error_names = list(errs)
+    q_lo, q_hi = robot.q_min[qi] - 1e-6, robot.q_max[qi] + 1e-6
+    v_hi = robot.v_max[vi] + 1e-6 if len(vi) else None
+    a = robot.actuated_idx
+    tau_hi = robot.tau_max[a] * (1 + 1e-6) + 1e-9
+    margin = np.nan
     for k in range(n):
         t = k * sc.dt
         while pending and pending[0]["time"] <= t + 1e-9:
@@ -145,19 +302,24 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         cycle.append(time.perf_counter() - t0)
         if sol.status == "failed":
             failures += 1
-        for name in errs:
-            errs[name].append(float(np.linalg.norm(stack[name].error(robot))))
+        for name, task in err_tasks:
+            if name in stack:   # a task removed by an event keeps its last value
+                e = task.error(robot)
+                errs[name].append(float(np.sqrt(e @ e)))
+            elif errs[name]:
+                errs[name].append(errs[name][-1])
         sim.step(sol.tau_full)
         if callback is not None:
             callback(t, sim, sol)
         # ---- metrics on the true (simulated) state
         qs, vs = sim.q, sim.v
-        if np.any(qs[qi] < robot.q_min[qi] - 1e-6) or np.any(qs[qi] > robot.q_max[qi] + 1e-6):
-            viol["joint_position"] += 1
-        if np.any(np.abs(vs[vi]) > robot.v_max[vi] + 1e-6):
-            viol["joint_velocity"] += 1
-        a = robot.actuated_idx
-        if np.any(np.abs(sol.tau_full[a]) > robot.tau_max[a] * (1 + 1e-6) + 1e-9):
+        if len(qi):
+            qj = qs[qi]
+            if (qj < q_lo).any() or (qj > q_hi).any():
+                viol["joint_position"] += 1
+            if (np.abs(vs[vi]) > v_hi).any():
+                viol["joint_velocity"] += 1
+        if (np.abs(sol.tau_full[a]) > tau_hi).any():
             viol["torque"] += 1
         pf = sim.point_forces
         fn = pf[:, 2]
@@ -176,7 +338,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         if active:
             idx = [i for c in active for i in pts_of[c.name]]
             robot_com = pin.centerOfMass(m, sim.data, qs)  # true CoM, simulator data
-            margins.append(support_margin(pts[idx, :2], robot_com[:2]))
+            margin = hull.margin(idx, pts[:, :2], robot_com[:2])
+            margins.append(margin)
+        if rec is not None:
+            rec.record(t, [e[-1] if e else np.nan for e in errs.values()], sol,
+                       [pf[pts_of[c.name]].sum(axis=0) for c in contacts], margin)
         if robot.differential_drive:
             lateral = max(lateral, abs(vs[1]))
         if base_z0 is not None and (qs[2] < 0.6 * base_z0 or _tilt(qs) > np.pi / 3):
@@ -208,4 +374,6 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     robot.update(sim.q, sim.v)
     if contacts:
         out["com_final"] = robot.com.tolist()
+    if rec is not None:
+        out["series"] = rec.to_dict()
     return out

@@ -9,6 +9,12 @@ projection, the support polygon, the contact forces as arrows scaled by magnitud
 viewer's JavaScript comes from the installed ``meshcat`` package: no internet).
 ``record=True`` keeps every frame for :meth:`save_html`, a self-contained page
 that replays the run offline.
+
+Priority diagnostics (:meth:`Scene.show_diagnostics`, per level residual, rank and
+σ_min of J̄_k, sacrificed tasks, active constraints): live, a head-up table drawn as
+a texture on a panel attached to the camera (meshcat 0.3.2's server forwards scene
+commands only, no text or controls); in a recording, an HTML panel that follows the
+replay's clock.
 """
 
 from __future__ import annotations
@@ -20,10 +26,11 @@ import meshcat.geometry as mg
 import meshcat.transformations as mt
 import numpy as np
 import pinocchio as pin
-from pinocchio.visualize import MeshcatVisualizer
 from meshcat.animation import Animation
+from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, HalfSpace
+from .diagnostics import overlay_html, render_png, text_table
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node, also in animations
 COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF39C12, "push": 0x8E44AD}
@@ -39,6 +46,21 @@ def _visual_model(robot) -> pin.GeometryModel:
         ids = [full.getJointId(j) for j in robot.locked_joints]
         _, geom = pin.buildReducedModel(full, geom, ids, pin.neutral(full))
     return geom
+
+
+#: a node under the camera object: it moves with the view (a head-up display)
+HUD_PATH = "/Cameras/default/rotated/<object>/wbc_diagnostics"
+HUD_FOV = np.deg2rad(75.0)       # meshcat's default camera
+HUD_ASPECT = 4.0 / 3.0           # anchored to the left edge of a 4:3 view (wider windows: a bit inset)
+
+
+class _OnTopMesh(mg.Mesh):
+    """A mesh drawn after everything else (with a material whose depthTest is off)."""
+
+    def lower(self):
+        data = super().lower()
+        data["object"]["renderOrder"] = 1000
+        return data
 
 
 def _arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.ndarray:
@@ -57,10 +79,11 @@ def _arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.n
 
 
 class Scene:
-    """See the module docstring. ``force_scale``: N per mm of arrow (default 1 mm per 2 N)."""
+    """See the module docstring. ``force_scale``: N per mm of arrow (default 1 mm per 2 N);
+    ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s)."""
 
     def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
-                 force_scale: float = 2.0, zmq_url: str | None = None) -> None:
+                 force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0) -> None:
         self.robot = robot
         self.vis = meshcat.Visualizer(zmq_url=zmq_url) if zmq_url else meshcat.Visualizer()
         if open_browser:
@@ -72,8 +95,10 @@ class Scene:
         self.viz.loadViewerModel(rootNodeName="robot")
         self.force_scale = force_scale
         self.record = record
-        self.anim = Animation(default_framerate=30) if record else None
+        self.anim = Animation(default_framerate=fps) if record else None
         self._frame = 0
+        self._diag_frames: list[int] = []
+        self._diag_text: list[str] = []
         self._env(environment)
         self.vis["overlay/com"].set_object(mg.Sphere(0.02), mg.MeshLambertMaterial(color=COLORS["com"]))
         self.vis["overlay/com_ground"].set_object(mg.Cylinder(0.002, 0.02),
@@ -151,14 +176,14 @@ class Scene:
             node.set_transform(_arrow_transform(p, f, n / self.force_scale * 1e-3))
         loaded = pts[np.linalg.norm(sim.point_forces, axis=1) > 1e-3]
         if len(loaded) >= 3:
-            from scipy.spatial import ConvexHull
+            from scipy.spatial import ConvexHull, QhullError
 
             try:
                 hull = loaded[ConvexHull(loaded[:, :2]).vertices]
                 line = np.vstack([hull, hull[:1]]).T + np.array([[0.0], [0.0], [0.002]])
                 self.vis["overlay/support"].set_object(mg.Line(mg.PointsGeometry(line),
                                                                mg.LineBasicMaterial(color=COLORS["support"], linewidth=3)))
-            except Exception:  # degenerate hull (collinear points)
+            except QhullError:  # degenerate hull (collinear points): keep the last polygon
                 pass
         for k, p in enumerate(sim.pushes):
             node = self._node(f"pushes/{k}")
@@ -178,37 +203,68 @@ class Scene:
             self.vis[f"pushes/{k}"].set_object(mg.Cylinder(1.0, 0.012), mg.MeshLambertMaterial(color=COLORS["push"]))
             self.vis[f"pushes/{k}"].set_transform(HIDDEN)
 
+    def show_diagnostics(self, sol, t: float, width: float = 1.1) -> None:
+        """Show ``sol.diagnostics`` (see :mod:`wbc.viz.diagnostics`). Live: a table
+        texture on a panel ``width`` view-units wide (of 2·tan(37.5°)·4/3 ≈ 2.05 at the
+        panel's depth), top left of the view. Recording: kept for :meth:`save_html`."""
+        if self.anim is not None:
+            self._diag_frames.append(max(self._frame - 1, 0))
+            self._diag_text.append(text_table(sol, t))
+            return
+        png, w, h = render_png(sol, t)
+        height = width * h / w
+        half_h = np.tan(HUD_FOV / 2)
+        x0, y0 = -half_h * HUD_ASPECT + 0.02, half_h - 0.02
+        material = mg.MeshBasicMaterial(map=mg.ImageTexture(mg.PngImage(png)), transparent=True, opacity=0.85,
+                                        depthTest=False, depthWrite=False)
+        node = self.vis[HUD_PATH]
+        node.set_object(_OnTopMesh(mg.Box([width, height, 1e-4]), material))
+        node.set_transform(mt.translation_matrix([x0 + width / 2, y0 - height / 2, -1.0]))
+
     def save_html(self, path: str | Path) -> Path:
-        """Write a self-contained HTML page that replays the recorded run offline."""
+        """Write a self-contained HTML page that replays the recorded run offline
+        (with the priority diagnostics panel when :meth:`show_diagnostics` was fed)."""
         if self.anim is None:
             raise RuntimeError("Scene(record=True) is needed to save a recording")
         self.vis.set_animation(self.anim, play=True, repetitions=1)
+        html = self.vis.static_html()
+        if self._diag_text:
+            panel = overlay_html(self._diag_frames, self._diag_text, self.anim.default_framerate)
+            i = html.rfind("</body>")
+            html = html[:i] + panel + html[i:] if i >= 0 else html + panel
         path = Path(path)
-        path.write_text(self.vis.static_html())
+        path.write_text(html)
         return path
 
     def close(self) -> None:
-        """Stop this scene's Meshcat server process."""
-        try:
-            self.vis.close()
-        except Exception:
-            pass
-        proc = getattr(getattr(self.vis, "window", None), "server_proc", None)
+        """Stop this scene's Meshcat server process (and close its zmq socket)."""
+        import subprocess
+
+        window = getattr(self.vis, "window", None)
+        sock = getattr(window, "zmq_socket", None)
+        if sock is not None:
+            sock.close(linger=0)
+        proc = getattr(window, "server_proc", None)
         if proc is not None and proc.poll() is None:
             proc.terminate()
             try:
                 proc.wait(timeout=5)
-            except Exception:
+            except subprocess.TimeoutExpired:
                 proc.kill()
+                proc.wait()
 
 
-def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0):
+def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0,
+                    diagnostics_hz: float = 10.0):
     """A :func:`wbc.runner.run` callback drawing ``fps`` frames per simulated second,
-    paced to ``speed`` × real time when ``realtime``."""
+    paced to ``speed`` × real time when ``realtime``, and the priority diagnostics
+    ``diagnostics_hz`` times per simulated second (0: never). Between frames it
+    only counts cycles."""
     import time
 
-    every = max(1, int(round(1.0 / (fps * dt))))
-    state = {"k": 0, "t0": None}
+    every = max(1, round(1.0 / (fps * dt)))
+    diag_every = max(1, round(fps / diagnostics_hz)) if diagnostics_hz > 0 else 0
+    state = {"k": 0, "t0": None, "frames": 0}
 
     def cb(t, sim, sol):
         k = state["k"]
@@ -220,6 +276,9 @@ def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float
         if k % every:
             return
         scene.show(sim.q, stack, sim, t)
+        if diag_every and state["frames"] % diag_every == 0:
+            scene.show_diagnostics(sol, t)
+        state["frames"] += 1
         if realtime:
             lag = t / speed - (time.perf_counter() - state["t0"])
             if lag > 0:
