@@ -5,6 +5,7 @@ Motion control (5.2): joint space (:mod:`.joint_space`), elastic joints
 controller is an object ``(q, v, t) -> τ``; see :mod:`.motion_common`.
 """
 
+from .elastic_joints import ElasticJointController, MotorPD, TorqueFeedback
 from .impedance import ImpedanceControl
 from .joint_space import (
     InverseDynamics,
@@ -27,11 +28,13 @@ from .task_space import (
 
 __all__ = [
     "ControllerDefinitionError",
+    "ElasticJointController",
     "ExtendedTaskSpace",
     "ImpedanceControl",
     "InverseDynamics",
     "JacobianTransposePD",
     "MotionController",
+    "MotorPD",
     "NullSpaceImpedance",
     "OperationalSpace",
     "PDGravity",
@@ -40,6 +43,7 @@ __all__ = [
     "Reference",
     "StiffnessControl",
     "TaskSpaceInverseDynamics",
+    "TorqueFeedback",
     "dynamic_parameters",
     "extended_task_space",
     "slotine_li_regressor",
