@@ -12,6 +12,8 @@ import pytest
 from scipy.linalg import expm
 
 import wbc
+from wbc.control.admittance import AdmittanceControl
+from wbc.control.hybrid_force_motion import HybridForceMotion, selection
 from wbc.control.impedance import ImpedanceControl
 from wbc.control.motion_common import ControllerDefinitionError
 from wbc.control.stiffness import StiffnessControl
@@ -162,3 +164,129 @@ def test_force_controllers_refuse_bad_gains_and_missing_measurements(panda):
         ctrl(panda.q_default, np.zeros(panda.nv), 0.0, h_e=[1.0, 2.0])
     with pytest.raises(wbc.TargetError, match="NaN"):
         ctrl(panda.q_default, np.full(panda.nv, np.nan), 0.0, h_e=np.zeros(6))
+
+
+# ----------------------------------------------------------------- admittance (5.37 as an outer loop)
+def admittance_vs_impedance(panda, controller_cls, joint_damping: float, **kw):
+    ctrl = controller_cls(panda, "hand", km=KM, kd=KD_IMP, kp=KP_IMP, **kw)
+    sim = InteractionSim(panda, panda.q_default, dt=DT, joint_damping=joint_damping,
+                         wrenches=[ExternalWrench("hand", PUSH, start=T_ON)])
+    t, dx, _ = run(panda, ctrl, sim, 1.0, force_feedback=True, t_on=T_ON)
+    h_e = np.concatenate([-PUSH, np.zeros(3)])
+    ref = msd_response(KM, KD_IMP, KP_IMP, h_e, t)
+    amp = np.linalg.norm(np.linalg.solve(KP_IMP, h_e))
+    return np.abs(dx - ref)[:, :3].max() / amp, np.abs(dx[:, 3:]).max()
+
+
+def test_admittance_control_step_response_is_the_chosen_mass_spring_damper(panda):
+    """Outer filter 5.37 → compliant frame → stiff inner motion loop: the hand follows
+    K_M Δv̇ + K_D Δv + K_P Δx = h_e up to the inner loop's tracking error Λ_e⁻¹h_e/K_p."""
+    dev, rot = admittance_vs_impedance(panda, AdmittanceControl, 0.0, dt=DT, inner_kp=4e4)
+    print(f"admittance: deviation from the K_M model {dev:.2%} of the deflection; orientation drift {rot * 1e3:.2f} mrad")
+    assert dev < 0.015
+    assert rot < 1e-3
+
+
+def test_admittance_rejects_unmodelled_joint_friction_that_spoils_impedance_control(panda):
+    """3 N·m·s/rad of viscous joint friction, unknown to both controllers: the model-based
+    cancellation of 5.36 no longer yields 5.37; the admittance's inner loop still does."""
+    dev_adm, _ = admittance_vs_impedance(panda, AdmittanceControl, 3.0, dt=DT, inner_kp=4e4)
+    dev_imp, _ = admittance_vs_impedance(panda, ImpedanceControl, 3.0)
+    print(f"with joint friction: admittance deviates {dev_adm:.2%}, impedance {dev_imp:.1%} from the K_M model")
+    assert dev_adm < 0.02
+    assert dev_imp > 10 * dev_adm
+
+
+# ----------------------------------------------------------------- hybrid force/motion (5.3.3)
+LAMBDA_D = 10.0            # N, pressing down
+A_MOTION, W_MOTION, T_MOTION = 0.05, 2 * np.pi * 0.5, 0.5
+
+
+def sliding(p0, amplitude):
+    """A 2-D sliding path on the plane from rest at t = T_MOTION: x = A(1 − cos ωτ), y = A sin² ωτ."""
+    def ref(t):
+        s = max(0.0, t - T_MOTION)
+        on = float(t >= T_MOTION)
+        c, si = np.cos(W_MOTION * s), np.sin(W_MOTION * s)
+        w = W_MOTION
+        pos = np.array([amplitude * (1 - c), amplitude * si ** 2, 0.0])
+        vel = np.array([amplitude * w * si, amplitude * w * np.sin(2 * w * s), 0.0, 0.0, 0.0, 0.0])
+        acc = on * np.array([amplitude * w * w * c, 2 * amplitude * w * w * np.cos(2 * w * s), 0.0, 0.0, 0.0, 0.0])
+        P = p0.copy()
+        P.translation = p0.translation + pos
+        return P, vel, acc
+    return ref
+
+
+def run_hybrid(panda, amplitude: float, mu: float = 0.0, T: float = 3.0):
+    panda.update(panda.q_default, np.zeros(panda.nv))
+    p0 = panda.frame_placement(panda.frame_id("hand")).copy()
+    plane = CompliantPlane(p0.translation, [0.0, 0.0, 1.0], frame="hand", stiffness=1e4, damping=30.0, mu=mu)
+    sim = InteractionSim(panda, panda.q_default, dt=DT, surfaces=[plane])
+    ctrl = HybridForceMotion(panda, "hand", force_directions=[0.0, 0.0, -1.0], force=LAMBDA_D,
+                             motion=sliding(p0, amplitude))
+    log = {"t": [], "lam": [], "motion": [], "rot": [], "tau": [], "q": []}
+    for _ in range(round(T / DT)):
+        tau = ctrl(sim.q, sim.v, sim.t, h_e=sim.sensor_wrench("hand"))
+        log["t"].append(sim.t)
+        log["lam"].append(ctrl.last["lambda"][0])
+        log["motion"].append(np.linalg.norm(ctrl.last["pose_error"][:2]))
+        log["rot"].append(np.linalg.norm(ctrl.last["pose_error"][3:]))
+        log["tau"].append(tau)
+        log["q"].append(sim.q.copy())
+        sim.step(tau)
+    return {k: np.array(v) for k, v in log.items()}
+
+
+@pytest.fixture(scope="module")
+def hybrid_runs(panda):
+    return {"slide": run_hybrid(panda, A_MOTION), "hold": run_hybrid(panda, 0.0),
+            "friction": run_hybrid(panda, A_MOTION, mu=0.3)}
+
+
+def test_hybrid_force_and_motion_errors_both_converge(hybrid_runs):
+    log = hybrid_runs["slide"]
+    late = log["t"] > 2.0
+    tracking = log["t"] > T_MOTION
+    force_err = np.abs(log["lam"][late] - LAMBDA_D).max()
+    print(f"hybrid: force error after 2 s {force_err * 1e3:.1f} mN (λ_D = {LAMBDA_D} N); sliding error while "
+          f"moving 5 cm: max {log['motion'][tracking].max() * 1e3:.3f} mm; orientation {log['rot'].max() * 1e3:.3f} mrad")
+    assert abs(log["lam"][0]) < 1e-9 and log["lam"][100] > 5.0    # it had to build the force up
+    assert force_err < 0.02 * LAMBDA_D
+    assert log["motion"][tracking].max() < 2e-4
+    assert log["rot"].max() < 1e-3
+
+
+def test_hybrid_motion_command_does_not_change_the_contact_force(hybrid_runs):
+    """Decoupling of 5.3.3: sliding 5 cm at up to 16 cm/s leaves λ(t) as if the hand were held."""
+    slide, hold = hybrid_runs["slide"], hybrid_runs["hold"]
+    moved = np.linalg.norm(slide["q"] - hold["q"], axis=1).max()
+    diff = np.abs(slide["lam"] - hold["lam"]).max()
+    print(f"hybrid: force difference sliding vs holding {diff * 1e3:.2f} mN, joints moved up to {moved:.2f} rad apart")
+    assert moved > 0.05
+    assert diff < 0.005 * LAMBDA_D
+
+
+def test_hybrid_cancels_measured_contact_friction(hybrid_runs):
+    """Coulomb friction (μ = 0.3) at the contact is in the measured h_e and cancelled:
+    the closed loop is the frictionless one (only the torques differ)."""
+    slide, fric = hybrid_runs["slide"], hybrid_runs["friction"]
+    dq = np.abs(slide["q"] - fric["q"]).max()
+    dtau = np.abs(slide["tau"] - fric["tau"]).max()
+    print(f"hybrid with friction: trajectories differ by {dq:.1e} rad, torques by {dtau:.2f} N·m")
+    assert dtau > 0.3
+    assert dq < 1e-6
+
+
+def test_hybrid_refuses_bad_directions_and_gains(panda):
+    with pytest.raises(ControllerDefinitionError, match="force directions"):
+        HybridForceMotion(panda, force_directions=np.zeros((6, 2)))
+    with pytest.raises(ControllerDefinitionError, match="force directions"):
+        HybridForceMotion(panda, force_directions=[1.0, 2.0])
+    with pytest.raises(ControllerDefinitionError, match="mass_force"):
+        HybridForceMotion(panda, mass_force=0.0)
+    with pytest.raises(wbc.TargetError, match="force"):
+        HybridForceMotion(panda, force=[1.0, 2.0])
+    Sf, Sv = selection("x", np.array([[0.0, 0, -2, 0, 0, 0], [1.0, 0, 0, 0, 0, 0]]).T)
+    assert np.allclose(Sf.T @ Sf, np.eye(2)) and np.allclose(Sf.T @ Sv, 0.0) and Sv.shape == (6, 4)
+    assert np.allclose(Sf[:, 0], [0, 0, -1, 0, 0, 0])

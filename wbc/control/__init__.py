@@ -3,9 +3,16 @@
 Motion control (5.2): joint space (:mod:`.joint_space`), elastic joints
 (:mod:`.elastic_joints`), task space (:mod:`.task_space`). Every rigid-body
 controller is an object ``(q, v, t) -> τ``; see :mod:`.motion_common`.
+
+Force control (5.3): stiffness (:mod:`.stiffness`), impedance (:mod:`.impedance`),
+admittance (:mod:`.admittance`), hybrid force/motion (:mod:`.hybrid_force_motion`),
+multi-priority interaction (:mod:`.null_space_impedance`); those with force
+feedback are called ``(q, v, t, h_e=...) -> τ`` (conventions in :mod:`._opspace`).
 """
 
+from .admittance import AdmittanceControl
 from .elastic_joints import ElasticJointController, MotorPD, TorqueFeedback
+from .hybrid_force_motion import HybridForceMotion
 from .impedance import ImpedanceControl
 from .joint_space import (
     InverseDynamics,
@@ -27,9 +34,11 @@ from .task_space import (
 )
 
 __all__ = [
+    "AdmittanceControl",
     "ControllerDefinitionError",
     "ElasticJointController",
     "ExtendedTaskSpace",
+    "HybridForceMotion",
     "ImpedanceControl",
     "InverseDynamics",
     "JacobianTransposePD",
