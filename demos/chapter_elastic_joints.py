@@ -45,6 +45,8 @@ def main() -> int:
     live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
     scene = Scene(robot, [], open_browser=live, record=not live)
+    # the arm is 1 m tall: bring Meshcat's default camera (y-up coordinates) closer
+    scene.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.4, 0.9, 1.4])
     if live:
         print(f"browser view: {scene.url}")
     q0 = robot.q_default.copy()

@@ -49,6 +49,8 @@ def main() -> int:
     robot = wbc.load_robot("panda")
     hand, elbow = robot.frame_id("hand"), robot.frame_id("elbow")
     scene = Scene(robot, [], open_browser=live, record=not live)
+    # the arm is 1 m tall: bring Meshcat's default camera (y-up coordinates) closer
+    scene.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.4, 0.9, 1.4])
     if live:
         print(f"browser view: {scene.url}")
     # the scene draws a marker for every "frame" item with a target (duck-typed like a stack's tasks)
