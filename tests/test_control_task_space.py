@@ -143,3 +143,20 @@ def test_bad_input_is_named(panda):
     ctrl = TaskSpaceInverseDynamics(panda, "hand", np.zeros(3), kp=10.0, eta=lambda q, v, t: np.zeros(3))
     with pytest.raises(wbc.TargetError, match="eta must have shape"):
         ctrl(panda.q_default, np.zeros(7), 0.0)
+
+
+@pytest.mark.parametrize("solver", ["projection", "hqp"])
+def test_a_stack_of_frame_over_posture_is_the_same_controller(panda, rng, solver):
+    """As stack tasks: Frame(mask="position") above Posture, solved with W = I, gives the
+    torque of TaskSpaceInverseDynamics with η the posture reference (N₁ is a symmetric
+    projector, so the second level adds N₁ η)."""
+    xd = _hand(panda, panda.q_default) + OFFSET
+    stack = wbc.Stack([[wbc.tasks.Frame("hand", kp=64.0, mask="position", target=xd)],
+                       [wbc.tasks.Posture(kp=25.0, kd=10.0, target=Q_FAR)]])
+    ctrl = wbc.Controller(panda, stack, solver=solver)
+    mine = TaskSpaceInverseDynamics(panda, "hand", xd, kp=64.0, q_null=Q_FAR, null_kp=25.0, null_kd=10.0)
+    for _ in range(3):
+        q = panda.random_configuration(rng, margin=0.2)
+        v = rng.standard_normal(panda.nv)
+        tau = mine(q, v, 0.0)
+        assert np.abs(ctrl.solve(q, v).tau - tau).max() < 1e-9 * (1 + np.abs(tau).max())

@@ -18,9 +18,10 @@ Controllers (each ``(q, v, t) -> τ`` in N·m, like :mod:`wbc.control.joint_spac
 - :class:`JacobianTransposePD` (5.20): τ = Jᵀ K_p (x_d − x) − K_d q̇ + g(q), regulation.
 - :func:`extended_task_space` (5.21-5.24): Z, Z#, J_E and the block-diagonal Λ_E.
 
-As a stack task, the acceleration form (5.13-5.16) is :class:`wbc.tasks.Frame` with a
-:class:`wbc.tasks.Posture` one level below (its rows become η projected by N):
-use those in a :class:`wbc.Stack` when priorities or inequality constraints matter.
+As stack tasks, the acceleration form (5.13-5.16) with W = I is :class:`wbc.tasks.Frame`
+(``mask="position"``) with a :class:`wbc.tasks.Posture` one level below, whose reference
+becomes η projected by N: ``wbc.Controller`` returns the same torque (tested). Use the
+stack when more priorities or inequality constraints (limits) matter.
 """
 
 from __future__ import annotations
