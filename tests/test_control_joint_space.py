@@ -156,3 +156,16 @@ def test_bad_gains_and_shapes_are_named(panda):
     ctrl = InverseDynamics(panda, panda.q_default, kp=10.0)
     with pytest.raises(TargetError, match="v must have shape"):
         ctrl(panda.q_default, np.zeros(6), 0.0)
+
+
+def test_posture_stack_task_is_inverse_dynamics_for_a_constant_target(panda, rng):
+    """wbc.tasks.Posture is (5.3) with q̇_d = q̈_d = 0: a one-task stack gives the same torque."""
+    qd = panda.q_default + 0.2
+    stack = wbc.Stack([[wbc.tasks.Posture(kp=49.0, kd=14.0, target=qd)]])
+    ctrl = wbc.Controller(panda, stack, solver="hqp")
+    mine = InverseDynamics(panda, qd, kp=49.0, kd=14.0)
+    for _ in range(3):
+        q = panda.random_configuration(rng)
+        v = rng.standard_normal(panda.nv)
+        tau = mine(q, v, 0.0)
+        assert np.abs(ctrl.solve(q, v).tau - tau).max() < 1e-9 * (1 + np.abs(tau).max())
