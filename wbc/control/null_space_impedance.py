@@ -46,6 +46,8 @@ B_ν in N·m·s/rad on ν (with an orthonormal Z₀, ν is in rad/s).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 
@@ -60,6 +62,74 @@ from ._opspace import (
 )
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def null_basis_at(J: np.ndarray) -> np.ndarray:
+    """An orthonormal basis Z₀ (n × (n − m)) of ker J, from the SVD of a full-row-rank J."""
+    _, _, Vt = np.linalg.svd(J)
+    return Vt[J.shape[0]:].T.copy()
+
+
+@dataclass
+class ExtendedTaskSpaceTerms:
+    """The quantities of 5.21-5.24 and 5.39-5.45 at one state (see the module docstring).
+
+    ``J`` (m × n), ``Jdqd`` = J̇q̇, ``Jdot`` = J̇, ``Jsharp`` = J#, ``Lambda_x``; ``Z``, ``Zdot``,
+    ``Zsharp`` = Z#, ``Zsharp_dot_v`` = Ż#q̇, ``Lambda_nu``; Coriolis blocks ``mu_x``, ``mu_nu``;
+    ``C`` = C(q, q̇).
+    """
+
+    J: np.ndarray
+    Jdqd: np.ndarray
+    Jdot: np.ndarray
+    Jsharp: np.ndarray
+    Lambda_x: np.ndarray
+    Z: np.ndarray
+    Zdot: np.ndarray
+    Zsharp: np.ndarray
+    Zsharp_dot_v: np.ndarray
+    Lambda_nu: np.ndarray
+    mu_x: np.ndarray
+    mu_nu: np.ndarray
+    C: np.ndarray
+
+
+def extended_task_space_terms(robot, data: pin.Data, fid: int, Z0: np.ndarray) -> ExtendedTaskSpaceTerms:
+    """Compute :class:`ExtendedTaskSpaceTerms` for the frame ``fid`` (6-D pose task) at the
+    robot's cached state (``robot.update(q, v)`` was called): M, h, J, J̇q̇ from the cache;
+    J̇ (``computeJointJacobiansTimeVariation``) and C(q, q̇) (``computeCoriolisMatrix``) on
+    ``data``, a pinocchio Data owned by the caller so that the robot's cache stays intact.
+    Z = N Z₀ with N = I − J⁺J, Ż = Ṅ Z₀."""
+    m, q, v = robot.model, robot.q, robot.v
+    M = robot.M
+    J = robot.frame_jacobian(fid, LWA)
+    Jdqd = robot.frame_drift(fid, LWA, classical=True)
+    pin.computeJointJacobiansTimeVariation(m, data, q, v)
+    pin.updateFramePlacement(m, data, fid)
+    Jdot = pin.getFrameJacobianTimeVariation(m, data, fid, LWA)
+    C = pin.computeCoriolisMatrix(m, data, q, v)
+    Mdot = C + C.T
+    # Z = N Z0, Zdot = Ndot Z0
+    A_inv = np.linalg.inv(J @ J.T)
+    Jp = J.T @ A_inv
+    N = np.eye(J.shape[1]) - Jp @ J
+    Jp_dot = Jdot.T @ A_inv - Jp @ (Jdot @ J.T + J @ Jdot.T) @ A_inv
+    Z, Zdot = N @ Z0, -(Jp_dot @ J + Jp @ Jdot) @ Z0
+    # task side
+    Minv = np.linalg.inv(M)
+    Lam_x = np.linalg.inv(J @ Minv @ J.T)
+    Js = Minv @ J.T @ Lam_x
+    # null-space side
+    Lam_nu = Z.T @ M @ Z
+    Lam_nu_inv = np.linalg.inv(Lam_nu)
+    Zs = Lam_nu_inv @ Z.T @ M
+    Lam_nu_dot = Zdot.T @ M @ Z + Z.T @ Mdot @ Z + Z.T @ M @ Zdot
+    Zs_dot = Lam_nu_inv @ (Zdot.T @ M + Z.T @ Mdot - Lam_nu_dot @ Zs)
+    return ExtendedTaskSpaceTerms(
+        J=J, Jdqd=Jdqd, Jdot=Jdot, Jsharp=Js, Lambda_x=Lam_x, Z=Z, Zdot=Zdot, Zsharp=Zs,
+        Zsharp_dot_v=Zs_dot @ v, Lambda_nu=Lam_nu, mu_x=Js.T @ C @ Js - Lam_x @ Jdot @ Js,
+        mu_nu=Z.T @ (C @ Z + M @ Zdot), C=C)
+
 
 
 class NullSpaceImpedance:
@@ -109,18 +179,6 @@ class NullSpaceImpedance:
         self.last: dict = {}
 
     # ------------------------------------------------------------------ pieces
-    def _null_basis(self, J: np.ndarray, Jdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Z = N Z₀ and Ż = Ṅ Z₀ (see the module docstring)."""
-        A_inv = np.linalg.inv(J @ J.T)
-        Jp = J.T @ A_inv
-        if self.Z0 is None:
-            _, _, Vt = np.linalg.svd(J)
-            self.Z0 = Vt[6:].T.copy()
-        N = np.eye(J.shape[1]) - Jp @ J
-        Jp_dot = Jdot.T @ A_inv - Jp @ (Jdot @ J.T + J @ Jdot.T) @ A_inv
-        N_dot = -(Jp_dot @ J + Jp @ Jdot)
-        return N @ self.Z0, N_dot @ self.Z0
-
     def null_projector_T(self) -> np.ndarray:
         """Pᵀ = Z#ᵀ Zᵀ at the last call's state (nv × nv): maps any torque into the
         dynamically consistent null space of the task (J M⁻¹ Pᵀ = 0)."""
@@ -132,31 +190,17 @@ class NullSpaceImpedance:
     def __call__(self, q, v, t: float = 0.0) -> np.ndarray:
         """Joint torques τ (N·m) for q (rad), v (rad/s) at time t (s)."""
         rb = self.robot
-        m, d = rb.model, self._data
+        d = self._data
         q, v = vector(self.name, "q", q, rb.nq), vector(self.name, "v", v, rb.nv)
         rb.update(q, v)
         if self.q_d is None:
             self.q_d = q.copy()
-        M, h = rb.M, rb.h
-        J = rb.frame_jacobian(self.fid, LWA)
-        Jdqd = rb.frame_drift(self.fid, LWA, classical=True)
-        pin.computeJointJacobiansTimeVariation(m, d, q, v)
-        pin.updateFramePlacement(m, d, self.fid)
-        Jdot = pin.getFrameJacobianTimeVariation(m, d, self.fid, LWA)
-        C = pin.computeCoriolisMatrix(m, d, q, v)
-        Mdot = C + C.T
-
-        Minv = np.linalg.inv(M)
-        Lam_x = np.linalg.inv(J @ Minv @ J.T)
-        Js = Minv @ J.T @ Lam_x                       # J#
-        Z, Zdot = self._null_basis(J, Jdot)
-        Lam_nu = Z.T @ M @ Z
+        if self.Z0 is None:
+            self.Z0 = null_basis_at(rb.frame_jacobian(self.fid, LWA))
+        T = extended_task_space_terms(rb, d, self.fid, self.Z0)
+        M, h, J, Js, Z, Zs = rb.M, rb.h, T.J, T.Jsharp, T.Z, T.Zsharp
+        Lam_x, Lam_nu, mu_x, mu_nu = T.Lambda_x, T.Lambda_nu, T.mu_x, T.mu_nu
         Lam_nu_inv = np.linalg.inv(Lam_nu)
-        Zs = Lam_nu_inv @ Z.T @ M                     # Z#
-        Lam_nu_dot = Zdot.T @ M @ Z + Z.T @ Mdot @ Z + Z.T @ M @ Zdot
-        Zs_dot = Lam_nu_inv @ (Zdot.T @ M + Z.T @ Mdot - Lam_nu_dot @ Zs)
-        mu_nu = Z.T @ (C @ Z + M @ Zdot)
-        mu_x = Js.T @ C @ Js - Lam_x @ Jdot @ Js
 
         pose = rb.frame_placement(self.fid)
         pose_d, xd_dot, xd_ddot = self.reference(t, pose)
@@ -169,7 +213,7 @@ class NullSpaceImpedance:
 
         xdd_c = xd_ddot + np.linalg.solve(Lam_x, (mu_x + self.D) @ x_t_dot + self.K @ x_t)          # 5.45
         nud_c = self.nu_dot_d + Lam_nu_inv @ ((mu_nu + self.B_nu) @ nu_t + Z.T @ self.kq @ q_t)      # 5.43
-        r = Js @ (xdd_c - Jdqd) + Z @ (nud_c - Zs_dot @ v)                                            # 5.39
+        r = Js @ (xdd_c - T.Jdqd) + Z @ (nud_c - T.Zsharp_dot_v)                                  # 5.39
         self.last = {"x_tilde": x_t, "x_tilde_dot": x_t_dot, "nu": nu, "nu_tilde": nu_t, "q_tilde": q_t,
                      "Z": Z, "Zsharp": Zs, "Jsharp": Js, "J": J, "Lambda_x": Lam_x, "Lambda_nu": Lam_nu,
                      "mu_x": mu_x, "mu_nu": mu_nu}
