@@ -161,15 +161,22 @@ class Controller:
         # friction cones are met (or relaxed) in force distribution and its torque
         # limits are not enforced: those rows are reported apart, not as residuals.
         projection = self.solver_name == "projection"
+        tol_act, tol_sac = 1e-7, self.sacrifice_tol
         for lvl, info in zip(levels, res.levels):
-            e = lvl.A @ x - lvl.b if finite else np.full(lvl.n_eq, np.inf)
             C, lo, hi = lvl.inequalities(layout.nx)
-            viol = violation(C, lo, hi, x) if finite else np.full(len(lo), np.inf)
+            if finite:
+                e = lvl.A @ x - lvl.b
+                y = C @ x
+                viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+                act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
+            else:
+                e = np.full(lvl.n_eq, np.inf)
+                viol = np.full(len(lo), np.inf)
+                act = np.zeros(len(lo), dtype=bool)
+            n_gen = lvl.C.shape[0]
             unenforced = 0.0
-            if projection:
-                n_gen = lvl.C.shape[0]
+            if projection and n_gen:
                 unenforced = float(np.linalg.norm(viol[:n_gen]))
-                viol = viol.copy()
                 viol[:n_gen] = 0.0
             residuals.append(float(np.sqrt(e @ e + viol @ viol)))
             sacrificed, active = [], {}
@@ -177,21 +184,21 @@ class Controller:
                 r2 = 0.0
                 sl = lvl.eq_slices.get(t.name)
                 if sl is not None:
-                    r2 += float(e[sl] @ e[sl])
+                    es = e[sl]
+                    r2 += float(es @ es)
                 isl = lvl.in_slices.get(t.name)
                 if isl is not None:
-                    r2 += float(viol[isl] @ viol[isl])
-                    y = C[isl] @ x
-                    n_act = int(np.sum((np.abs(y - lo[isl]) < 1e-7) | (np.abs(y - hi[isl]) < 1e-7)))
+                    vs = viol[isl]
+                    r2 += float(vs @ vs)
+                    n_act = int(np.count_nonzero(act[isl]))
                     if n_act:
                         active[t.name] = n_act
-                task_res[t.name] = float(np.sqrt(r2))
-                if task_res[t.name] > self.sacrifice_tol:
+                r = r2**0.5
+                task_res[t.name] = r
+                if r > tol_sac:
                     sacrificed.append(t.name)
             if lvl.box is not None:
-                bi, blo, bhi = lvl.box
-                y = x[bi]
-                n_act = int(np.sum((np.abs(y - blo) < 1e-7) | (np.abs(y - bhi) < 1e-7)))
+                n_act = int(np.count_nonzero(act[n_gen:]))
                 if n_act:
                     active["joint_limits"] = n_act
             relaxed |= info.relaxed

@@ -160,48 +160,102 @@ class Stack:
         return Layout(nv=robot.nv, contact_slices=slices, force_jacobian=np.vstack(jacs) if jacs else None)
 
     def assemble(self, robot, layout: Layout, extra_level0: Iterable[Task] = ()) -> list[Level]:
-        """Rows of every level for the robot's current state (``robot.update`` done)."""
+        """Rows of every level for the robot's current state (``robot.update`` done).
+
+        The levels' arrays are buffers this stack owns and refills every cycle (they
+        are reallocated only when the stack's structure changes): a Level is valid
+        until the next call."""
+        buffers = self.__dict__.setdefault("_buffers", {})
         levels = []
         tasks_per_level = [list(extra_level0) + (self.levels[0] if self.levels else [])] + self.levels[1:]
         for k, tasks in enumerate(tasks_per_level):
-            levels.append(assemble_level(k, tasks, robot, layout))
+            levels.append(assemble_level(k, tasks, robot, layout, buffers))
         return levels
 
 
-def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:
-    """Stack the rows of one level's tasks; box bounds on q̈ are kept apart."""
+class _LevelBuffer:
+    """Preallocated arrays of one level: A, b, and every inequality row (the tasks'
+    general rows, then the box bounds as unit rows, set once)."""
+
+    def __init__(self, sig: tuple, tasks: list[Task], rows: list[Rows], nx: int) -> None:
+        self.sig = sig
+        self.eq_slices, self.in_slices, self.eq_parts, self.in_parts, self.box_parts = {}, {}, [], [], []
+        ne = ni = 0
+        for t, r in zip(tasks, rows):
+            if r.A is not None:
+                sl = slice(ne, ne + r.A.shape[0])
+                self.eq_slices[t.name] = sl
+                w = float(np.sqrt(t.weight))
+                self.eq_parts.append((sl, w))
+                ne = sl.stop
+            if r.C is not None and r.C.shape[0]:
+                sl = slice(ni, ni + r.C.shape[0])
+                self.in_slices[t.name] = sl
+                self.in_parts.append(sl)
+                ni = sl.stop
+        self.n_gen = ni
+        idx = [r.box[0] for r in rows if r.box is not None]
+        self.box_idx = np.concatenate(idx).astype(int) if idx else None
+        nb = 0 if self.box_idx is None else len(self.box_idx)
+        # box slices, in order, in the all-inequalities arrays
+        self.box_parts, k = [], ni
+        for r in rows:
+            if r.box is not None:
+                self.box_parts.append(slice(k, k + len(r.box[0])))
+                k += len(r.box[0])
+        self.A = np.zeros((ne, nx))
+        self.b = np.zeros(ne)
+        self.C_all = np.zeros((ni + nb, nx))
+        self.lo_all = np.zeros(ni + nb)
+        self.hi_all = np.zeros(ni + nb)
+        if nb:
+            self.C_all[ni + np.arange(nb), self.box_idx] = 1.0
+
+
+def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: dict | None = None) -> Level:
+    """Stack the rows of one level's tasks into (reused) buffers; box bounds on q̈ are
+    kept apart as ``box`` and also appended as unit rows to the level's inequalities."""
     nx = layout.nx
-    A_parts, b_parts, C_parts, lo_parts, hi_parts = [], [], [], [], []
-    box_idx, box_lo, box_hi = [], [], []
-    eq_slices, in_slices = {}, {}
-    ne = ni = 0
-    for t in tasks:
-        r: Rows = t.rows(robot, layout)
+    rows = [t.rows(robot, layout) for t in tasks]
+    sig = (nx,) + tuple((id(t), r.n_eq, 0 if r.C is None else r.C.shape[0], None if r.box is None else len(r.box[0]),
+                         t.weight) for t, r in zip(tasks, rows))
+    buf = None if buffers is None else buffers.get(k)
+    if buf is not None and buf.box_idx is not None:
+        ng = buf.n_gen
+        same_box = all(np.array_equal(r.box[0], buf.box_idx[sl.start - ng: sl.stop - ng]) for r, sl in
+                       zip((r for r in rows if r.box is not None), buf.box_parts))
+    else:
+        same_box = True
+    if buf is None or buf.sig != sig or not same_box:
+        buf = _LevelBuffer(sig, tasks, rows, nx)
+        if buffers is not None:
+            buffers[k] = buf
+    eq = iter(buf.eq_parts)
+    ineq = iter(buf.in_parts)
+    boxes = iter(buf.box_parts)
+    for r in rows:
         if r.A is not None:
-            w = np.sqrt(t.weight)
-            A_parts.append(r.A * w if w != 1.0 else r.A)
-            b_parts.append(r.b * w if w != 1.0 else r.b)
-            eq_slices[t.name] = slice(ne, ne + r.A.shape[0])
-            ne += r.A.shape[0]
-        start = ni
-        if r.C is not None:
-            C_parts.append(r.C)
-            lo_parts.append(r.lo)
-            hi_parts.append(r.hi)
-            ni += r.C.shape[0]
-        if ni > start:
-            in_slices[t.name] = slice(start, ni)
+            sl, w = next(eq)
+            if w == 1.0:
+                buf.A[sl] = r.A
+                buf.b[sl] = r.b
+            else:
+                np.multiply(r.A, w, out=buf.A[sl])
+                np.multiply(r.b, w, out=buf.b[sl])
+        if r.C is not None and r.C.shape[0]:
+            sl = next(ineq)
+            buf.C_all[sl] = r.C
+            buf.lo_all[sl] = r.lo
+            buf.hi_all[sl] = r.hi
         if r.box is not None:
-            box_idx.append(r.box[0])
-            box_lo.append(r.box[1])
-            box_hi.append(r.box[2])
-    A = np.vstack(A_parts) if A_parts else np.zeros((0, nx))
-    b = np.concatenate(b_parts) if b_parts else np.zeros(0)
-    C = np.vstack(C_parts) if C_parts else np.zeros((0, nx))
-    lo = np.concatenate(lo_parts) if lo_parts else np.zeros(0)
-    hi = np.concatenate(hi_parts) if hi_parts else np.zeros(0)
+            sl = next(boxes)
+            buf.lo_all[sl] = r.box[1]
+            buf.hi_all[sl] = r.box[2]
+    ng = buf.n_gen
     box = None
-    if box_idx:
-        box = (np.concatenate(box_idx), np.concatenate(box_lo), np.concatenate(box_hi))
-    return Level(index=k, tasks=list(tasks), A=A, b=b, C=C, lo=lo, hi=hi, box=box,
-                 eq_slices=eq_slices, in_slices=in_slices)
+    if buf.box_idx is not None:
+        box = (buf.box_idx, buf.lo_all[ng:], buf.hi_all[ng:])
+    lvl = Level(index=k, tasks=list(tasks), A=buf.A, b=buf.b, C=buf.C_all[:ng], lo=buf.lo_all[:ng],
+                hi=buf.hi_all[:ng], box=box, eq_slices=buf.eq_slices, in_slices=buf.in_slices)
+    lvl._ineq = (buf.C_all, buf.lo_all, buf.hi_all)
+    return lvl

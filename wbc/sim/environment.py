@@ -38,6 +38,10 @@ class HalfSpace:
     def depth(self, p: np.ndarray) -> float:
         return float(self.normal @ (self.point - p))
 
+    def depths(self, P: np.ndarray) -> np.ndarray:
+        """:meth:`depth` of each row of P (n × 3)."""
+        return (self.point - P) @ self.normal
+
 
 def ground(height: float = 0.0, mu: float = 0.8) -> HalfSpace:
     return HalfSpace(np.array([0.0, 0.0, height]), np.array([0.0, 0.0, 1.0]), mu, "ground")
@@ -71,3 +75,10 @@ class Box:
             return -np.inf
         d = self.top - p[2]
         return d if d < self.size[2] else -np.inf
+
+    def depths(self, P: np.ndarray) -> np.ndarray:
+        """:meth:`depth` of each row of P (n × 3)."""
+        half = 0.5 * self.size
+        d = self.top - P[:, 2]
+        outside = np.any(np.abs(P[:, :2] - self.center[:2]) > half[:2], axis=1) | (d >= self.size[2])
+        return np.where(outside, -np.inf, d)

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..rows import Level
 from .backends import Backend, make_backend
-from .cascade import Cascade, Damping, violation
+from .cascade import Cascade, Damping
 
 
 @dataclass
@@ -88,41 +88,36 @@ class HierarchicalQP:
         acc_hi: list[np.ndarray] = []
         infos, ok, qp_count, msg = [], True, 0, ""
         degraded: list[str] = []
+        tol = self.tol
         for lvl in levels:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
             step = cas.ls_step(lvl.A, lvl.b, self.damping)
             info.rank, info.sigma_min, info.damping = step.rank, step.sigma_min, step.damping
-            if acc_C and step.rank:
-                Ca, la, ha = np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
-                v = violation(Ca, la, ha, cas.candidate(step))
-                if v.max() > self.tol:
-                    info.used_qp = True
-                    qp_count += 1
-                    z, _, status = self._qp(cas, step.AZ, step.r, None, None, None, acc_C, acc_lo, acc_hi,
-                                            f"{key}{lvl.index}e")
-                    info.qp_status = status
-                    if z is None:
-                        # z = 0 is feasible and keeps every higher level: hold there
-                        degraded.append(f"level {lvl.index}: QP failed ({status}); level held at its "
-                                        "highest-priority feasible point")
-                        z = np.zeros(cas.dof)
-                    cas.commit(step, z)
-                else:
-                    cas.commit(step)
+            if acc_C and step.rank and _violated(acc_C, acc_lo, acc_hi, cas.candidate(step), tol):
+                info.used_qp = True
+                qp_count += 1
+                z, _, status = self._qp(cas, step.AZ, step.r, None, None, None, acc_C, acc_lo, acc_hi,
+                                        f"{key}{lvl.index}e")
+                info.qp_status = status
+                if z is None:
+                    # z = 0 is feasible and keeps every higher level: hold there
+                    degraded.append(f"level {lvl.index}: QP failed ({status}); level held at its "
+                                    "highest-priority feasible point")
+                    z = np.zeros(cas.dof)
+                cas.commit(step, z)
             else:
                 cas.commit(step)
             # (2) its inequalities in what is left: nearest point to the least-squares
             # one that meets them; if none does, least-squares slack
             C, lo, hi = lvl.inequalities(nx)
             if len(lo):
-                w = np.zeros(len(lo))
-                Ca = np.vstack(acc_C + [C])
-                v = violation(Ca, np.concatenate(acc_lo + [lo]), np.concatenate(acc_hi + [hi]), cas.x)
-                if v.max() > self.tol:
+                w = None
+                if _violated(acc_C + [C], acc_lo + [lo], acc_hi + [hi], cas.x, tol):
                     info.used_qp = True
                     qp_count += 1
                     z, status = self._nearest_feasible(cas, C, lo, hi, acc_C, acc_lo, acc_hi, f"{key}{lvl.index}h")
+                    w = np.zeros(len(lo))
                     if z is None:
                         qp_count += 1
                         z, w, status = self._qp(cas, None, None, C, lo, hi, acc_C, acc_lo, acc_hi,
@@ -133,11 +128,11 @@ class HierarchicalQP:
                         w = self._needed_slack(C, lo, hi, cas.x)
                     else:
                         cas.x = cas.x + cas.Z @ z
-                        w = np.where(np.abs(w) > self.tol, w, 0.0)
+                        w = np.where(np.abs(w) > tol, w, 0.0)
                     info.relaxed = bool(np.any(w != 0.0))
                 acc_C.append(C)
-                acc_lo.append(lo - w)
-                acc_hi.append(hi - w)
+                acc_lo.append(lo if w is None else lo - w)
+                acc_hi.append(hi if w is None else hi - w)
             infos.append(info)
         res = CascadeResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
         res.degraded = bool(degraded)
@@ -251,6 +246,17 @@ class HierarchicalQP:
                 res2 = res3
             res = res2
         return res.z[:r], res.z[r:], res.status
+
+
+def _violated(Cs, los, his, x, tol: float) -> bool:
+    """Whether x violates any block l ≤ C x ≤ u by more than ``tol`` (block by block:
+    nothing is stacked on the path where no QP is needed)."""
+    for C, lo, hi in zip(Cs, los, his):
+        if C.shape[0]:
+            y = C @ x
+            if (lo - y).max() > tol or (y - hi).max() > tol:
+                return True
+    return False
 
 
 def _scaled(lvl: Level, d: np.ndarray) -> Level:

@@ -93,6 +93,7 @@ class Contact(MotionTask):
         self._surface: ContactSurface | None = None
         self._fid = None
         self._ineq = None
+        self._gen = None
 
     def bind(self, robot) -> None:
         self.surface(robot)
@@ -169,17 +170,27 @@ class Contact(MotionTask):
 
     def generators(self) -> tuple[np.ndarray, np.ndarray]:
         """(f0, V): every admissible force is f0 + V λ with λ ≥ 0 (f0 carries ``fmin``);
-        a bilateral contact gets V = [I, −I]."""
+        a bilateral contact gets V = [I, −I]. Both live in the contact frame: built once,
+        rebuilt only when ``mu``, ``fmin`` or ``bilateral`` change."""
         s = self._surface
+        mu = s.mu if self.mu is None else self.mu
+        key = (mu, self.fmin, self.bilateral, s.kind, s.half_length, s.half_width)
+        if self._gen is not None and self._gen[0] == key:
+            return self._gen[1], self._gen[2]
         d = s.force_dim
         f0 = np.zeros(d)
         if self.bilateral:
-            return f0, np.hstack([np.eye(d), -np.eye(d)])
-        mu = s.mu if self.mu is None else self.mu
-        f0[2] = self.fmin
-        if s.kind == "surface":
-            return f0, wrench_cone_generators(mu, s.half_length, s.half_width)
-        return f0, np.array([[mu, mu, 1.0], [-mu, mu, 1.0], [mu, -mu, 1.0], [-mu, -mu, 1.0]]).T
+            V = np.hstack([np.eye(d), -np.eye(d)])
+        else:
+            f0[2] = self.fmin
+            if s.kind == "surface":
+                V = wrench_cone_generators(mu, s.half_length, s.half_width)
+            else:
+                V = np.array([[mu, mu, 1.0], [-mu, mu, 1.0], [mu, -mu, 1.0], [-mu, -mu, 1.0]]).T
+        f0.flags.writeable = False
+        V.flags.writeable = False
+        self._gen = (key, f0, V)
+        return f0, V
 
     def normal_force(self, f: np.ndarray) -> float:
         """Normal component (N) of this contact's force vector."""
