@@ -8,7 +8,7 @@ inequality rows per task and the saturated joints.
 Two renderings: :func:`render_png` (a table image, the live view's head-up display:
 meshcat 0.3.2's server forwards only scene commands, so text reaches the page as a
 texture) and :func:`overlay_html` (an HTML panel for recorded replays, following
-the animation's clock).
+the animation's clock; ``replay.html#no-diagnostics`` hides it).
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import io
 import json
 from functools import lru_cache
 
-HEADER = ("lvl", "tasks", "residual", "rank", "σmin(J̄)", "limited by")
-WIDTHS = (3, 26, 8, 6, 8, 46)          # characters per column
+HEADER = ("L", "tasks", "residual", "rank", "σmin", "limited by")
+WIDTHS = (1, 22, 8, 6, 6, 36)          # characters per column
 COLORS = {"ok": (20, 20, 20), "sacrificed": (192, 57, 43), "active": (183, 110, 0), "dim": (110, 110, 110)}
 
 
@@ -33,11 +33,11 @@ def diagnostics_rows(sol) -> list[dict]:
     for d in sol.diagnostics:
         limits = []
         if d.sacrificed:
-            limits.append("sacrificed: " + ", ".join(d.sacrificed))
+            limits.append("sacrificed " + ", ".join(d.sacrificed))
         if d.active:
-            limits.append("active: " + ", ".join(f"{k}×{v}" for k, v in d.active.items()))
+            limits.append("active " + ", ".join(f"{k}×{v}" for k, v in d.active.items()))
         if d.saturated_joints:
-            limits.append(f"saturated joints: {len(d.saturated_joints)}")
+            limits.append(f"saturated: {len(d.saturated_joints)} joints")
         if d.relaxed:
             limits.append("relaxed")
         rows.append({"level": d.index, "tasks": list(d.tasks), "residual": float(d.residual), "rank": int(d.rank),
@@ -48,12 +48,13 @@ def diagnostics_rows(sol) -> list[dict]:
 
 
 def status_line(sol, t: float) -> str:
-    return f"t = {t:6.2f} s   status {sol.status}   QPs {sol.qp_count}"
+    return f"t {t:6.2f} s  {sol.status}  QPs {sol.qp_count}   rank/free dof, σmin of J̄k"
 
 
 def cells(row: dict) -> tuple[str, ...]:
     """The row's text per column of :data:`HEADER`."""
-    tasks = [n.replace("_contact", "") for n in row["tasks"]]
+    tasks = [n.replace("_contact", "").replace("joint_limits", "q lim").replace("torque_limits", "τ lim")
+             .replace("dynamics", "dyn") for n in row["tasks"]]
     return (str(row["level"]), _short(tasks, WIDTHS[1]), f"{row['residual']:.1e}",
             f"{row['rank']}/{row['dof']}", f"{row['sigma_min']:.2g}", _short([row["limits"]], WIDTHS[5]))
 
@@ -77,8 +78,9 @@ def text_table(sol, t: float) -> str:
 def _font(size: int):
     from PIL import ImageFont
 
-    for path in ("DejaVuSansMono.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf",
-                 "LiberationMono-Regular.ttf"):
+    for path in ("DejaVuSansMono-Bold.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSansMono-Bold.ttf",
+                 "DejaVuSansMono.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf",
+                 "LiberationMono-Bold.ttf", "LiberationMono-Regular.ttf"):
         try:
             return ImageFont.truetype(path, size)
         except OSError:
@@ -86,12 +88,12 @@ def _font(size: int):
     try:   # matplotlib, when installed, ships DejaVu Sans Mono
         import matplotlib
 
-        return ImageFont.truetype(str(matplotlib.get_data_path()) + "/fonts/ttf/DejaVuSansMono.ttf", size)
+        return ImageFont.truetype(str(matplotlib.get_data_path()) + "/fonts/ttf/DejaVuSansMono-Bold.ttf", size)
     except (ImportError, OSError):
         return ImageFont.load_default(size=size)
 
 
-def render_png(sol, t: float, font_size: int = 15) -> tuple[bytes, int, int]:
+def render_png(sol, t: float, font_size: int = 16) -> tuple[bytes, int, int]:
     """The diagnostics table as an opaque PNG (rows of ``font_size`` px, wide enough
     for every column): returns (png bytes, width, height). Sacrificed levels in red,
     levels limited by active constraints in amber. About 4 ms."""
@@ -113,26 +115,37 @@ def render_png(sol, t: float, font_size: int = 15) -> tuple[bytes, int, int]:
 
 
 OVERLAY = """
+<style>
+ #wbc-diagnostics .dim {color:#6e6e6e} #wbc-diagnostics .ok {color:#141414}
+ #wbc-diagnostics .active {color:#b76e00} #wbc-diagnostics .sacrificed {color:#c0392b}
+</style>
 <pre id="wbc-diagnostics" style="position:absolute;left:8px;top:8px;margin:0;padding:6px 10px;
  background:rgba(255,255,255,0.85);color:#141414;font:12px/1.35 'DejaVu Sans Mono',monospace;
  pointer-events:none;z-index:10;white-space:pre"></pre>
 <script>
 (function () {
-  // priority diagnostics of the recorded run: text[i] holds from animation frame frames[i]
+  // priority diagnostics of the recorded run: text[i] (lines of [text, style]) holds from animation frame frames[i]
   var D = %s;
   var el = document.getElementById("wbc-diagnostics");
   var shown = -1;
-  function now() {
+  if (window.location.hash.indexOf("no-diagnostics") >= 0) { el.style.display = "none"; }   // page.html#no-diagnostics
+  function now() {   // the animator's clock: follows playback and the time scrubber, stays at the end
     var a = (typeof viewer !== "undefined") ? viewer.animator : null;
-    if (!a || !a.actions || a.actions.length === 0) { return 0; }
-    var t = 0;
-    for (var k = 0; k < a.actions.length; k++) { t = Math.max(t, a.actions[k].time); }
-    return t;
+    return (a && typeof a.time === "number") ? a.time : 0;
   }
   function tick() {
     var f = now() * D.fps + 1e-6, lo = 0, hi = D.frames.length - 1;
     while (lo < hi) { var mid = (lo + hi + 1) >> 1; if (D.frames[mid] <= f) { lo = mid; } else { hi = mid - 1; } }
-    if (lo !== shown && D.text.length) { el.textContent = D.text[lo]; shown = lo; }
+    if (lo !== shown && D.text.length) {
+      el.textContent = "";
+      D.text[lo].forEach(function (line, i) {
+        var span = document.createElement("span");
+        span.className = line[1];
+        span.textContent = line[0] + (i + 1 < D.text[lo].length ? "\\n" : "");
+        el.appendChild(span);
+      });
+      shown = lo;
+    }
     window.requestAnimationFrame(tick);
   }
   tick();
@@ -141,8 +154,9 @@ OVERLAY = """
 """
 
 
-def overlay_html(frames: list[int], texts: list[str], fps: float) -> str:
-    """An HTML panel (and its script) showing ``texts[i]`` from animation frame
-    ``frames[i]`` on; ``fps``: the animation's frame rate."""
+def overlay_html(frames: list[int], texts: list[list[tuple[str, str]]], fps: float) -> str:
+    """An HTML panel (and its script) showing ``texts[i]`` (the (line, style) pairs of
+    :func:`table_lines`) from animation frame ``frames[i]`` on; ``fps``: the animation's
+    frame rate."""
     data = json.dumps({"fps": fps, "frames": frames, "text": texts}, ensure_ascii=False)
     return OVERLAY % data.replace("</", "<\\/")

@@ -30,7 +30,7 @@ from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, HalfSpace
-from .diagnostics import overlay_html, render_png, text_table
+from .diagnostics import overlay_html, render_png, table_lines
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node, also in animations
 COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF39C12, "push": 0x8E44AD}
@@ -98,7 +98,8 @@ class Scene:
         self.anim = Animation(default_framerate=fps) if record else None
         self._frame = 0
         self._diag_frames: list[int] = []
-        self._diag_text: list[str] = []
+        self._diag_text: list[list[tuple[str, str]]] = []
+        self.hud_box: tuple[float, float, float, float] | None = None
         self._env(environment)
         self.vis["overlay/com"].set_object(mg.Sphere(0.02), mg.MeshLambertMaterial(color=COLORS["com"]))
         self.vis["overlay/com_ground"].set_object(mg.Cylinder(0.002, 0.02),
@@ -203,19 +204,22 @@ class Scene:
             self.vis[f"pushes/{k}"].set_object(mg.Cylinder(1.0, 0.012), mg.MeshLambertMaterial(color=COLORS["push"]))
             self.vis[f"pushes/{k}"].set_transform(HIDDEN)
 
-    def show_diagnostics(self, sol, t: float, width: float = 1.1) -> None:
+    def show_diagnostics(self, sol, t: float, width: float = 1.3) -> None:
         """Show ``sol.diagnostics`` (see :mod:`wbc.viz.diagnostics`). Live: a table
-        texture on a panel ``width`` view-units wide (of 2·tan(37.5°)·4/3 ≈ 2.05 at the
-        panel's depth), top left of the view. Recording: kept for :meth:`save_html`."""
+        texture on a panel ``width`` units wide at 1 unit in front of the camera (the
+        view is 2·tan(37.5°) ≈ 1.53 units high), top left of the view; its box, (x_left,
+        y_top, width, height) in those units, is kept in ``hud_box``. Recording: kept
+        for :meth:`save_html`."""
         if self.anim is not None:
             self._diag_frames.append(max(self._frame - 1, 0))
-            self._diag_text.append(text_table(sol, t))
+            self._diag_text.append(table_lines(sol, t))
             return
         png, w, h = render_png(sol, t)
         height = width * h / w
         half_h = np.tan(HUD_FOV / 2)
         x0, y0 = -half_h * HUD_ASPECT + 0.02, half_h - 0.02
-        material = mg.MeshBasicMaterial(map=mg.ImageTexture(mg.PngImage(png)), transparent=True, opacity=0.85,
+        self.hud_box = (x0, y0, width, height)
+        material = mg.MeshBasicMaterial(map=mg.ImageTexture(mg.PngImage(png)), transparent=True, opacity=0.85, side=0,
                                         depthTest=False, depthWrite=False)
         node = self.vis[HUD_PATH]
         node.set_object(_OnTopMesh(mg.Box([width, height, 1e-4]), material))
