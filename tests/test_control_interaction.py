@@ -154,3 +154,49 @@ def test_bad_parameters_and_inputs_are_refused(panda):
         ctrl(np.zeros(3), np.zeros(panda.nv))
     with pytest.raises(wbc.TargetError, match="call the controller once"):
         ctrl.null_projector_T()
+
+
+@pytest.mark.parametrize("solver", ["hqp", "projection"])
+def test_stack_task_gives_the_same_null_space_impedance(panda, solver):
+    """wbc.tasks.null_space_impedance below a Frame task on the hand: under the same
+    dynamically consistent elbow torque the hand stays put and the null-space velocity
+    ν(t) follows the standalone controller's (5.44 does not depend on the task law
+    when the task error stays zero)."""
+    from wbc.tasks.null_space_impedance import NullSpaceImpedance as NullSpaceTask
+
+    T = 1.0
+    ref = run_elbow_push(panda, "dynamic", duration=T)
+    task = NullSpaceTask("hand", k_q=K_Q, B_nu=B_NU)
+    stack = wbc.Stack([[wbc.tasks.Frame("hand", kp=400.0)], [task]])
+    ctrl = wbc.Controller(panda, stack, solver=solver)
+    sim = InteractionSim(panda, panda.q_default, dt=DT)
+    data = panda.model.createData()
+    nu_t, x_err = [], []
+    for _ in range(round(T / DT)):
+        sol = ctrl.solve(sim.q, sim.v)
+        assert sol.ok, sol.message
+        terms = task.last
+        tau_push = elbow_torque(panda, data, sim.q, np.array([0.0, 30.0, 0.0]))
+        tau_d = terms.Zsharp.T @ terms.Z.T @ tau_push if sim.t >= 0.1 - 1e-9 else np.zeros(panda.nv)
+        nu_t.append(-(terms.Zsharp @ sim.v)[0])
+        x_err.append(np.linalg.norm(stack["hand"].error(panda)[:3]))
+        sim.step(sol.tau, tau_d)
+    nu_t = np.array(nu_t)
+    dev = np.abs(nu_t - ref["nu_t"]).max() / np.abs(ref["nu_t"]).max()
+    print(f"{solver}: stack null-space velocity vs the controller's: {dev:.1e} (relative) apart; hand error max "
+          f"{max(x_err) * 1e3:.4f} mm; task error() {np.round(task.error(panda), 4)} rad")
+    assert max(x_err) < 5e-5
+    assert dev < 0.01
+
+
+def test_stack_task_refuses_bad_parameters(panda):
+    from wbc.tasks.null_space_impedance import NullSpaceImpedance as NullSpaceTask
+
+    with pytest.raises(wbc.TaskDefinitionError, match="B_nu"):
+        NullSpaceTask("hand", B_nu=-1.0)
+    with pytest.raises(wbc.TaskDefinitionError, match="k_q"):
+        NullSpaceTask("hand", k_q=-5.0)
+    with pytest.raises(wbc.TaskDefinitionError, match="1 × 1"):
+        NullSpaceTask("hand", B_nu=np.eye(2)).bind(panda)
+    with pytest.raises(wbc.FrameNotFound):
+        NullSpaceTask("no_such_frame").bind(panda)
