@@ -140,7 +140,11 @@ class HybridForceMotion:
         return self._force
 
     def __call__(self, q, v, t: float = 0.0, h_e=None) -> np.ndarray:
-        """Joint torques τ (N·m) from q (rad), v (rad/s), t (s) and the measured h_e (N, N·m)."""
+        """Joint torques τ (N·m) from q (rad), v (rad/s), t (s) and the measured h_e (N, N·m).
+
+        The integrators advance by the increase of ``t`` between calls: pass the
+        control time, or the integral actions (K_Iλ, K_Iν) stay idle.
+        """
         r = self.robot
         q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
         he = wrench(self.name, h_e)
