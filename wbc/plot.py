@@ -78,8 +78,10 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
             ax.set_ylabel("‖e‖ (m | rad)")
             ax.legend(loc="upper right", fontsize=7, frameon=False)
         elif k < len(res):
-            r = np.where(res[k] > 0, res[k], np.nan)
-            ax.semilogy(t, r, color="0.3", lw=1.0, label="level residual")
+            if np.nanmax(res[k], initial=0.0) > 0.0:
+                ax.semilogy(t, np.maximum(res[k], 1e-16), color="0.3", lw=1.0, label="level residual")
+            else:
+                ax.plot(t, np.nan_to_num(res[k]), color="0.3", lw=1.0, label="level residual (exactly 0)")
             ax.set_ylabel("‖Ax − b‖")
             ax.legend(loc="upper right", fontsize=7, frameon=False)
         rk = rank[k] if k < len(rank) else np.array([np.nan])
@@ -121,10 +123,15 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
     ax_t.set_ylim(0.0, max(1.05, float(np.nanmax(_arr(torque.get("ratio_max", [0.0])), initial=0.0)) * 1.05))
     ax_t.set_title("joint torques against their limits |τ_i| / τ_max,i", fontsize=9, loc="left")
     ax_t.set_xlabel("time (s)")
+    if not contacts:
+        for ax in (ax_f, ax_m):
+            ax.text(0.5, 0.5, "no contacts in this scenario", transform=ax.transAxes, ha="center", va="center",
+                    color="0.4")
     for ax in (ax_f, ax_m, ax_t):
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
-        ax.legend(loc="best", fontsize=6, framealpha=0.7, ncol=2)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="best", fontsize=6, framealpha=0.7, ncol=2)
     if title:
         fig.suptitle(title, fontsize=11)
     out = Path(out)
