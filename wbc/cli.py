@@ -39,6 +39,11 @@ def _cmd_run(args) -> int:
     try:
         metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
                       progress=True, callback=callback, series=want_series)
+        if not args.headless and sys.stdin.isatty():
+            try:
+                input("wbc: run finished; press Enter to close the browser view ")
+            except (EOFError, KeyboardInterrupt):
+                print()
     finally:
         if scene is not None:
             if args.record:
@@ -89,15 +94,44 @@ def _cmd_robots(args) -> int:
     return 0
 
 
+#: what each task parameter means, with its unit (shown by `wbc tasks`)
+PARAM_HELP: dict = {
+    "kp": "proportional gain, 1/s² (ë + kd ė + kp e = 0, eq. 5.17)",
+    "kd": "derivative gain, 1/s (None: 2√kp, critically damped)",
+    "weight": "weight inside its level, unitless",
+    "name": "task name in the stack (None: derived from the frame/contact)",
+    "target": "reference (None: the value at the start)",
+    ("com", "target"): "CoM position (3,), m (None: the start value)",
+    ("frame", "target"): "pose: position (m) and rotation (None: the start pose)",
+    ("posture", "target"): "full configuration (nq,), rad or m (None: the robot's default posture)",
+    ("contact_wrench", "contact"): "name of the contact task in the stack, e.g. left_foot_contact",
+    ("contact_wrench", "target"): "desired wrench (fx fy fz tx ty tz), N and N·m",
+    "axes": "controlled CoM axes, e.g. 'xy'",
+    "contact": "contact surface name under `contacts:` of the robot YAML",
+    "mu": "friction coefficient, unitless (None: the robot's)",
+    "fmin": "minimum normal force, N",
+    "bilateral": "allow pulling (no unilateral bound)",
+    "frame": "frame name or alias (see `wbc robots`)",
+    "mask": "'pose', 'position', 'orientation' or 6 flags (x y z rx ry rz)",
+    "dt": "control period used for the velocity bound, s",
+    "horizon": "look-ahead of the position bound, s",
+    "max_acceleration": "deceleration available to stop before a limit, rad/s² or m/s²",
+    "margin": "distance kept from the position limits, rad or m",
+    "joints": "joint names (None: every non-root joint)",
+    "scale": "fraction (0, 1] of the URDF torque limits",
+}
+
+
 def _cmd_tasks(args) -> int:
     from .tasks import TASK_TYPES
 
     for kind, cls in sorted(TASK_TYPES.items()):
-        doc = (inspect.getdoc(cls) or "").split("\n")[0]
+        doc = " ".join((inspect.getdoc(cls) or "").split("\n\n")[0].split())
         print(f"{kind}: {doc}")
         for p in list(inspect.signature(cls.__init__).parameters.values())[1:]:
-            default = "" if p.default is inspect.Parameter.empty else f" = {p.default!r}"
-            print(f"    {p.name}{default}")
+            default = " (required)" if p.default is inspect.Parameter.empty else f" = {p.default!r}"
+            about = PARAM_HELP.get((kind, p.name), PARAM_HELP.get(p.name, ""))
+            print(f"    {p.name + default:26s}" + (f" {about}" if about else ""))
     return 0
 
 
