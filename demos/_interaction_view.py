@@ -18,12 +18,13 @@ import pinocchio as pin
 
 from wbc.viz import Scene
 
-HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])
+HIDDEN = np.diag([1e-6, 1e-6, 1e-6, 1.0])
 COLORS = {"contact": 0xF39C12, "push": 0x8E44AD, "target": 0x2E86DE, "surface": 0x8D6E63}
 
 
-def arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.ndarray:
-    """Map meshcat's unit cylinder (axis y, centred at 0) onto the segment origin → origin + length·vec/|vec|."""
+def arrow_pose(origin: np.ndarray, vec: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """(rigid transform, scale) taking meshcat's unit cylinder (axis y, centred at 0) onto
+    the segment origin → origin + length·vec/|vec|: scale (1, length, 1) along the axis."""
     d = vec / max(np.linalg.norm(vec), 1e-12)
     y = np.array([0.0, 1.0, 0.0])
     axis, c = np.cross(y, d), float(y @ d)
@@ -33,9 +34,9 @@ def arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.nd
     else:
         R = pin.exp3(axis / s * np.arctan2(s, c))
     T = np.eye(4)
-    T[:3, :3] = R @ np.diag([1.0, length, 1.0])
+    T[:3, :3] = R
     T[:3, 3] = origin + 0.5 * length * d
-    return T
+    return T, np.array([1.0, length, 1.0])
 
 
 class InteractionView:
@@ -52,6 +53,7 @@ class InteractionView:
         self._next = 0.0
         self._wall0 = None
         self._frame = 0
+        self.kinds = dict(arrows)
         for name, kind in dict(arrows).items():
             self.vis[f"interaction/{name}"].set_object(mg.Cylinder(1.0, 0.008 if kind == "contact" else 0.012),
                                                        mg.MeshLambertMaterial(color=COLORS[kind]))
@@ -59,6 +61,9 @@ class InteractionView:
         for name in targets:
             self.vis[f"interaction/target_{name}"].set_object(mg.Sphere(0.015), mg.MeshLambertMaterial(
                 color=COLORS["target"], opacity=0.6))
+        # camera: 1.6 m from the arm's workspace, slightly above (meshcat's default is far away)
+        self.vis["/Cameras/default"].set_transform(mt.translation_matrix([0.3, 0.0, 0.4]))
+        self.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.0, 0.9, 1.0])
         if live:
             print(f"browser view: {self.scene.url}")
 
@@ -79,8 +84,9 @@ class InteractionView:
         return t + 1e-9 >= self._next
 
     def draw(self, q, t: float, arrows: dict | None = None, targets: dict | None = None) -> None:
-        """Draw one frame: the robot at q, each arrow (origin (m), force (N), world; the
-        arrow ends at the point of application), each target position."""
+        """Draw one frame: the robot at q, each arrow (point (m), force (N), world: a push
+        arrow ends at its point of application, a contact-force arrow starts there),
+        each target position."""
         if not self.due(t):
             return
         self._next = t + self.every
@@ -90,8 +96,12 @@ class InteractionView:
         for name, (p, f) in (arrows or {}).items():
             n = np.linalg.norm(f)
             length = n * self.scale
-            node[f"interaction/{name}"].set_transform(
-                HIDDEN if n < 1e-3 else arrow_transform(p - f / n * length, f, length))
+            if n < 1e-3:
+                T, scale = np.eye(4), np.full(3, 1e-6)
+            else:
+                start = p if self.kinds[name] == "contact" else p - f / n * length
+                T, scale = arrow_pose(start, f, length)
+            self._set(node[f"interaction/{name}"], T, scale)
         for name, p in (targets or {}).items():
             node[f"interaction/target_{name}"].set_transform(mt.translation_matrix(p))
         if self.live:
@@ -100,6 +110,15 @@ class InteractionView:
             lag = t - (time.perf_counter() - self._wall0)
             if lag > 0:
                 time.sleep(lag)
+
+    def _set(self, node, T: np.ndarray, scale: np.ndarray) -> None:
+        """Place a node with a scale. Live: one matrix. Recording: meshcat's animation keeps
+        position and quaternion only, so the scale goes in its own ``scale`` track."""
+        if self.scene.anim is None:
+            node.set_transform(T @ np.diag([*scale, 1.0]))
+        else:
+            node.set_transform(T)
+            node.set_property("scale", "vector3", [float(x) for x in scale])
 
     def finish(self, path: str | Path) -> None:
         if not self.live:

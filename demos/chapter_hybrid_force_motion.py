@@ -1,7 +1,7 @@
 """Hybrid force/motion control (chapter 5.3.3): the Panda's hand presses a table with
 10 N while sliding a 5 cm path along it.
 
-Environment (wbc.sim.compliant): a horizontal plane through the hand's start,
+Environment (wbc.sim.compliant): a horizontal plane through the fingertips' start,
 spring-damper contact K_e = 1e4 N/m, D_e = 30 N·s/m, Coulomb friction μ
 (default 0.3; 0 for the chapter's frictionless case), semi-implicit Euler at
 1 kHz. The controller: force along the constrained direction (−z) with the
@@ -64,8 +64,11 @@ def main() -> int:
             return P, vel, acc
         return ref
 
+    tip = np.array([0.0, 0.0, 0.1034])        # fingertip in the hand frame (m): the point that touches
+    table = p0.act(tip)
+
     def run(amplitude, view=None):
-        plane = CompliantPlane(p0.translation, [0.0, 0.0, 1.0], frame="hand", stiffness=1e4, damping=30.0,
+        plane = CompliantPlane(table, [0.0, 0.0, 1.0], frame="hand", offset=tip, stiffness=1e4, damping=30.0,
                                mu=args.mu)
         sim = InteractionSim(robot, robot.q_default, dt=DT, surfaces=[plane])
         ctrl = HybridForceMotion(robot, "hand", force_directions=[0.0, 0.0, -1.0], force=args.force,
@@ -79,16 +82,16 @@ def main() -> int:
             log["slide"].append(np.linalg.norm(ctrl.last["pose_error"][:2]))
             log["ft"].append(np.linalg.norm(h_e[:2]))
             if view is not None:
-                hand = sim.frame_pose("hand").translation
-                target = ctrl.reference(sim.t, p0)[0].translation
-                view.draw(sim.q, sim.t, arrows={"contact": (hand, -h_e[:3])}, targets={"hand": target})
+                fingertip = sim.frame_pose("hand").act(tip)
+                target = ctrl.reference(sim.t, p0)[0].act(tip)
+                view.draw(sim.q, sim.t, arrows={"contact": (fingertip, -h_e[:3])}, targets={"hand": target})
             sim.step(tau)
         return {k: np.array(v) for k, v in log.items()}
 
     print(f"Panda hand on a table (K_e = 1e4 N/m, μ = {args.mu}): press λ_D = {args.force} N, slide 5 cm "
           f"from t = {t0} s at 0.4 Hz; 1 kHz")
     view = InteractionView(robot, live, arrows={"contact": "contact"}, targets=["hand"], m_per_newton=0.01)
-    view.plate(p0.translation, [0.0, 0.0, 1.0])
+    view.plate(table, [0.0, 0.0, 1.0])
     slide = run(A, view)
     hold = run(0.0)
     late = slide["t"] > 2.0
