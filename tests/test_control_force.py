@@ -290,3 +290,53 @@ def test_hybrid_refuses_bad_directions_and_gains(panda):
     Sf, Sv = selection("x", np.array([[0.0, 0, -2, 0, 0, 0], [1.0, 0, 0, 0, 0, 0]]).T)
     assert np.allclose(Sf.T @ Sf, np.eye(2)) and np.allclose(Sf.T @ Sv, 0.0) and Sv.shape == (6, 4)
     assert np.allclose(Sf[:, 0], [0, 0, -1, 0, 0, 0])
+
+
+def test_singular_task_jacobian_raises_a_clear_error(panda):
+    """Λ_e = (J M⁻¹ Jᵀ)⁻¹ does not exist for a frame that moves with two joints only."""
+    with pytest.raises(wbc.SolverError, match="singular"):
+        StiffnessControl(panda, frame="panda_link2")(panda.q_default, np.zeros(panda.nv))
+    from wbc.control.null_space_impedance import NullSpaceImpedance
+
+    with pytest.raises(wbc.SolverError, match="singular"):
+        NullSpaceImpedance(panda, frame="panda_link3")(panda.q_default, np.zeros(panda.nv))
+
+
+def test_interaction_sim_applies_wrenches_and_surfaces_through_the_jacobian_transpose(panda, rng):
+    """One step of the simulator from a random state equals semi-implicit Euler on
+    M q̈ = τ − h + J_pᵀ f (5.26) for a wrench at the hand and a surface force at an offset point."""
+    import pinocchio as pin
+
+    m = panda.model
+    q = panda.random_configuration(rng)
+    v = rng.normal(size=panda.nv)
+    tau = rng.normal(size=panda.nv) * 5
+    wrench = np.array([3.0, -2.0, 5.0, 0.4, 0.1, -0.3])
+    offset = np.array([0.01, -0.02, 0.1])
+    data = m.createData()
+    pin.framesForwardKinematics(m, data, q)
+    hand = panda.frame_id("hand")
+    p = data.oMf[hand].act(offset)
+    plane = CompliantPlane(p + np.array([0.0, 0.0, 0.004]), [0.0, 0.0, 1.0], frame="hand", offset=offset,
+                           stiffness=1e4, damping=30.0, mu=0.4)
+    sim = InteractionSim(panda, q, v, dt=DT, surfaces=[plane], wrenches=[ExternalWrench("hand", wrench)])
+    h_e = sim.sensor_wrench("hand")
+    sim.step(tau)
+    f_surface = sim.surface_forces[0]
+    assert f_surface[2] > 30.0                          # 4 mm deep: K_e δ = 40 N, minus damping
+    # reference: Jacobians and dynamics by hand
+    pin.computeJointJacobians(m, data, q)
+    pin.updateFramePlacements(m, data)
+    J = pin.getFrameJacobian(m, data, hand, pin.LOCAL_WORLD_ALIGNED)
+    r = p - data.oMf[hand].translation
+    Jp = J[:3] - pin.skew(r) @ J[3:]                    # the offset point's linear Jacobian
+    M = pin.crba(m, data, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    h = pin.nonLinearEffects(m, data, q, v)
+    a = np.linalg.solve(M, tau - h + J.T @ wrench + Jp.T @ f_surface)
+    v_ref = v + DT * a
+    assert np.allclose(sim.v, v_ref, atol=1e-9 * max(1.0, np.abs(v_ref).max()))
+    assert np.allclose(sim.q, pin.integrate(m, q, DT * v_ref))
+    # the sensor reads minus everything applied at the hand, moments about its origin
+    expected = -(wrench + np.concatenate([f_surface, np.cross(r, f_surface)]))
+    assert np.allclose(h_e, expected, atol=1e-9)

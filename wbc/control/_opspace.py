@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..errors import FrameNotFound, TargetError
+from ..errors import FrameNotFound, SolverError, TargetError
 from ..model import WORLD_ALIGNED
 from .motion_common import ControllerDefinitionError, gain_matrix, vector
 
@@ -147,8 +147,10 @@ class OpSpace:
 
     @classmethod
     def of(cls, robot, fid: int, v: np.ndarray) -> OpSpace:
-        """Read M, J, J̇q̇ from the robot's cache (``robot.update`` was called)."""
+        """Read M, J, J̇q̇ from the robot's cache (``robot.update`` was called).
+        Raises :class:`~wbc.errors.SolverError` at a kinematic singularity (Λ_e undefined)."""
         J = robot.frame_jacobian(fid, WORLD_ALIGNED)
+        check_rank(robot, fid, J)
         Jdqd = robot.frame_drift(fid, WORLD_ALIGNED, classical=True)
         M = robot.M
         Minv = np.linalg.inv(M)
@@ -157,6 +159,17 @@ class OpSpace:
         Jsharp = Minv @ J.T @ Lam
         P = np.eye(robot.nv) - Jsharp @ J
         return cls(J, Jdqd, Minv, Lam, Jsharp, P, robot.frame_placement(fid).copy(), J @ v)
+
+
+def check_rank(robot, fid: int, J: np.ndarray, tol: float = 1e-6) -> None:
+    """SolverError when the frame Jacobian J (6 × nv) loses rank (σ_min < tol, in m or 1):
+    the operational-space inertia Λ_e = (J M⁻¹ Jᵀ)⁻¹ does not exist there."""
+    sv = np.linalg.svd(J, compute_uv=False)
+    if sv[-1] < tol:
+        raise SolverError(
+            f"robot '{robot.name}': the Jacobian of frame '{robot.model.frames[fid].name}' is singular at this "
+            f"configuration (smallest singular value {sv[-1]:.1e}): the operational-space controllers of 5.3 need "
+            "a full-rank 6-D task; move away from the singularity")
 
 
 def frame_id(owner: str, robot, frame: str) -> int:

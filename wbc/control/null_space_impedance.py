@@ -55,6 +55,7 @@ from ..errors import TargetError
 from ._opspace import (
     ControllerDefinitionError,
     PoseReference,
+    check_rank,
     frame_id,
     gain_matrix,
     pose_error,
@@ -103,6 +104,7 @@ def extended_task_space_terms(robot, data: pin.Data, fid: int, Z0: np.ndarray) -
     m, q, v = robot.model, robot.q, robot.v
     M = robot.M
     J = robot.frame_jacobian(fid, LWA)
+    check_rank(robot, fid, J)
     Jdqd = robot.frame_drift(fid, LWA, classical=True)
     pin.computeJointJacobiansTimeVariation(m, data, q, v)
     pin.updateFramePlacement(m, data, fid)
