@@ -36,13 +36,18 @@ class Controller:
     back-end (``"proxqp"``, ``"daqp"`` or any qpsolvers name). ``weighting``:
     generalised-inverse weight W of the projection solver (``"identity"``, or
     ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
-    joints such as grippers are the cheapest to accelerate and saturate first). ``sacrifice_tol``: residual above which a task is reported
-    as sacrificed (units of its rows, m/s² or rad/s²).
+    joints such as grippers are the cheapest to accelerate and saturate first).
+    ``sacrifice_tol``: residual above which a task is reported as sacrificed (units of
+    its rows, m/s² or rad/s²). ``warm_start`` (hqp, weighted): the cascade's least-norm
+    choices start from the previous cycle's solution while the stack's structure is
+    unchanged (see :meth:`HierarchicalQP.solve_levels`); False makes every cycle
+    independent of the last.
     """
 
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str = "daqp",
                  weighting: str = "identity", damping: Damping | None = None,
-                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3) -> None:
+                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
+                 warm_start: bool = True) -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
@@ -58,6 +63,8 @@ class Controller:
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
+        self.warm_start = bool(warm_start)
+        self._warm: tuple | None = None      # (structure key, x) of the last solved cycle
         self.dt = float(dt)
         # The cascade can make its least-norm choices in x̃ = (q̈, f / force_scale).
         # Measured: 100 makes level 0 pick interior forces (no QP there) but worsens
@@ -143,8 +150,11 @@ class Controller:
             if layout.nf and self.force_scale != 1.0:
                 scale = np.ones(layout.nx)
                 scale[nv:] = self.force_scale
-            res = self.solver.solve_levels(levels, layout.nx, scale=scale)
+            key = (layout.nx, tuple((n, s.start) for n, s in layout.contact_slices.items()))
+            x_ref = self._warm[1] if self.warm_start and self._warm is not None and self._warm[0] == key else None
+            res = self.solver.solve_levels(levels, layout.nx, scale=scale, x_ref=x_ref)
             x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
+            self._warm = (key, x.copy()) if ok and np.all(np.isfinite(x)) else None
         return self._finish(x, res, levels, layout, ok, message, qp_count)
 
     def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:

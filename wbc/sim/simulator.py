@@ -292,7 +292,7 @@ class Simulator:
     def point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points at the current state."""
         pin.forwardKinematics(self.model, self.data, self.q)
-        return np.array([self.data.oMi[j].act(r) for j, r in self.points])
+        return np.array([self.data.oMi[j].act(r) for j, r in self.points]).reshape(-1, 3)
 
     def energy(self) -> float:
         """Kinetic + gravitational potential energy (J)."""

@@ -74,15 +74,25 @@ class HierarchicalQP:
         self.tol = feasibility_tol
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None) -> CascadeResult:
+                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:
         """Solve the cascade. ``scale``: per-variable scale D, x = D x̃; the cascade's
-        least-norm choices are then made in x̃ (see :class:`~wbc.controller.Controller`)."""
+        least-norm choices are then made in x̃ (see :class:`~wbc.controller.Controller`).
+
+        ``x_ref``: the reference of the least-norm choices (default 0). Every level's
+        step is the smallest change that solves it, starting from x_ref instead of the
+        origin. With the previous cycle's solution (a warm start), level 0's point
+        already sits inside its friction cones and limits (from 0 the least-norm point
+        carries the weight on q̈, not on the contact forces, and needs a QP every cycle);
+        directions no level decides keep their previous value. Strict priority and each
+        level's optimum are unchanged."""
         if scale is not None:
             levels = [_scaled(lvl, scale) for lvl in levels]
-            res = self.solve_levels(levels, nx, key)
+            res = self.solve_levels(levels, nx, key, x_ref=None if x_ref is None else x_ref / scale)
             res.x = scale * res.x
             return res
         cas = Cascade(nx)
+        if x_ref is not None:
+            cas.x = np.array(x_ref, dtype=float)
         acc_C: list[np.ndarray] = []
         acc_lo: list[np.ndarray] = []
         acc_hi: list[np.ndarray] = []
@@ -276,13 +286,14 @@ class WeightedQP(HierarchicalQP):
         self.level_weight = level_weight
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None) -> CascadeResult:
+                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:
         if scale is not None:
-            res = self.solve_levels([_scaled(lvl, scale) for lvl in levels], nx, key)
+            res = self.solve_levels([_scaled(lvl, scale) for lvl in levels], nx, key,
+                                    x_ref=None if x_ref is None else x_ref / scale)
             res.x = scale * res.x
             return res
         if len(levels) <= 2:
-            return super().solve_levels(levels, nx, key)
+            return super().solve_levels(levels, nx, key, x_ref=x_ref)
         rest = levels[1:]
         w = [np.sqrt(self.level_weight ** k) for k in range(len(rest))]
         boxes = [l.box for l in rest if l.box is not None]
@@ -297,7 +308,7 @@ class WeightedQP(HierarchicalQP):
             box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
             eq_slices={}, in_slices={},
         )
-        res = super().solve_levels([levels[0], merged], nx, key)
+        res = super().solve_levels([levels[0], merged], nx, key, x_ref=x_ref)
         # report the merged level's info for every folded level
         res.levels = res.levels[:1] + [res.levels[1]] * len(rest)
         return res

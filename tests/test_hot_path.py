@@ -1,0 +1,166 @@
+"""The optimised paths of the control cycle give what the plain computations give.
+
+- the Gram-matrix eigen path of the cascade = the SVD path (tall, well-conditioned levels),
+  and is refused when the level is ill-conditioned or rank deficient;
+- the reused per-level buffers = rows stacked afresh, across cycles and stack changes;
+- the warm-started cascade keeps every fully solvable level exact, on average never does
+  worse on the sacrificed ones, and needs fewer QPs;
+- the simulator's contact Jacobians (one joint Jacobian per joint) = pinocchio's frame
+  Jacobian of an operational frame placed at each contact point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbc
+from wbc.sim.environment import ground
+from wbc.sim.simulator import Simulator
+from wbc.solvers import cascade
+from wbc.solvers.cascade import Cascade, Damping
+from wbc.stack import assemble_level
+
+from .stacks import random_state, randomise_targets, talos_stack
+
+
+def _svd_step(cas: Cascade, A, b, d):
+    """The same step with the Gram path switched off."""
+    ratio = cascade._GRAM_MIN_RATIO
+    cascade._GRAM_MIN_RATIO = np.inf
+    try:
+        return cas.ls_step(A, b, d)
+    finally:
+        cascade._GRAM_MIN_RATIO = ratio
+
+
+@pytest.mark.parametrize("m,n", [(32, 26), (38, 14), (12, 12), (40, 3)])
+def test_gram_path_equals_svd_path(m, n):
+    rng = np.random.default_rng(m * 100 + n)
+    d = Damping()
+    for trial in range(20):
+        cas = Cascade(n + 5)
+        # a random orthonormal Z of n directions, as a higher level would leave
+        B = rng.standard_normal((n + 5, 5))
+        cas.commit(cas.ls_step(B.T, rng.standard_normal(5), d))
+        assert cas.dof == n
+        A = rng.standard_normal((m, n + 5))
+        b = rng.standard_normal(m)
+        g = cas.ls_step(A, b, d)
+        s = _svd_step(cas, A, b, d)
+        assert g.Z_next.shape == s.Z_next.shape == (n + 5, 0)
+        assert g.rank == s.rank == n
+        # normal equations lose at most κ² ε ≈ 1e-8 relative at the accepted κ ≤ 1e4
+        assert np.linalg.norm(g.z - s.z) <= 1e-8 * max(1.0, np.linalg.norm(s.z))
+        assert abs(g.sigma_min - s.sigma_min) <= 1e-8 * s.sigma_max
+        assert abs(g.sigma_max - s.sigma_max) <= 1e-10 * s.sigma_max
+
+
+def test_gram_path_refuses_ill_conditioned_and_rank_deficient_levels():
+    rng = np.random.default_rng(0)
+    cas = Cascade(10)
+    U, _ = np.linalg.qr(rng.standard_normal((20, 10)))
+    V, _ = np.linalg.qr(rng.standard_normal((10, 10)))
+    for smin in (1e-5, 1e-12, 0.0):         # κ = 1e5, 1e12, singular
+        A = U @ np.diag(np.r_[np.ones(9), smin]) @ V.T
+        assert cas._gram_step(A, rng.standard_normal(20), Damping()) is None
+        step = cas.ls_step(A, rng.standard_normal(20), Damping())
+        assert step.rank == (10 if smin > 1e-9 else 9)      # the SVD path decides the rank
+    A = U @ np.diag(np.r_[np.ones(9), 1e-3]) @ V.T   # κ = 1e3: accepted
+    assert cas._gram_step(A, rng.standard_normal(20), Damping()) is not None
+
+
+def test_level_buffers_equal_rows_stacked_afresh():
+    robot = wbc.load_robot("talos")
+    stack = talos_stack()
+    ctrl = wbc.Controller(robot, stack)
+    rng = np.random.default_rng(1)
+    for k in range(6):
+        q, v = random_state(robot, rng)
+        robot.update(q, v)
+        randomise_targets(stack, robot, rng)
+        ctrl.solve(q, v)
+        if k == 3:      # a structural change: the buffers must be rebuilt, not reused wrongly
+            stack.remove("left_hand")
+            ctrl.solve(q, v)
+        layout = ctrl.layout
+        extra = ctrl._internal_constraints(layout)
+        reused = stack.assemble(robot, layout, extra)
+        groups = [list(extra) + stack.levels[0]] + stack.levels[1:]
+        for lvl, tasks in zip(reused, groups):
+            fresh = assemble_level(lvl.index, tasks, robot, layout, buffers=None)
+            for name in ("A", "b", "C", "lo", "hi"):
+                np.testing.assert_array_equal(getattr(lvl, name), getattr(fresh, name), err_msg=name)
+            for a, f in zip(lvl.inequalities(layout.nx), fresh.inequalities(layout.nx)):
+                np.testing.assert_array_equal(a, f)
+            assert lvl.eq_slices == fresh.eq_slices and lvl.in_slices == fresh.in_slices
+            if fresh.box is None:
+                assert lvl.box is None
+            else:
+                for a, f in zip(lvl.box, fresh.box):
+                    np.testing.assert_array_equal(a, f)
+
+
+def _moving_run(warm: bool, cycles: int = 600):
+    from wbc.bench import DT, moving_targets
+    from wbc.bench import talos_stack as bench_stack
+
+    robot = wbc.load_robot("talos")
+    stack = bench_stack()
+    ctrl = wbc.Controller(robot, stack, solver="hqp", warm_start=warm)
+    q, v = robot.q_default.copy(), np.zeros(robot.nv)
+    robot.update(q, v)
+    set_targets = moving_targets(robot, stack)
+    res, qps = [], 0
+    for k in range(cycles):
+        set_targets(k * DT)
+        sol = ctrl.solve(q, v)
+        assert sol.status == "ok"
+        res.append(sol.residuals)
+        qps += sol.qp_count
+        v = v + sol.qdd * DT
+        q = pin.integrate(robot.model, q, v * DT)
+    return np.array(res), qps
+
+
+def test_warm_started_cascade_keeps_optima_and_saves_qps():
+    warm, qp_warm = _moving_run(True)
+    cold, qp_cold = _moving_run(False)
+    print(f"\nmean residual per level: warm {np.round(warm.mean(0), 4)}, cold {np.round(cold.mean(0), 4)}; "
+          f"QPs {qp_warm} vs {qp_cold}")
+    # contacts + limits, CoM and hands are solvable: met (to the QPs' accuracy) either way,
+    # and the warm start is not worse on them
+    assert warm[:, :3].max() < 1e-3 and cold[:, :3].max() < 1e-3
+    assert warm[:, :3].mean() <= cold[:, :3].mean() + 1e-9
+    # the sacrificed levels (posture, force regularisation): no worse on average
+    assert np.all(warm.mean(0)[3:] <= 1.01 * cold.mean(0)[3:])
+    assert qp_warm < qp_cold
+
+
+def test_simulator_contact_jacobians_equal_frame_jacobians():
+    robot = wbc.load_robot("talos")
+    sim = Simulator.for_robot(robot, [ground()])
+    rng = np.random.default_rng(2)
+    model = pin.Model(sim.model)
+    fids = []
+    for i, (jid, r) in enumerate(sim.points):
+        fids.append(model.addFrame(pin.Frame(f"pt{i}", jid, 0, pin.SE3(np.eye(3), r), pin.FrameType.OP_FRAME)))
+    data = model.createData()
+    for _ in range(5):
+        # the default posture, 1 mm low and tilted by up to ~0.6°: soles in or near the ground
+        q = robot.q_default.copy()
+        q[2] -= 0.001
+        R = pin.rpy.rpyToMatrix(*(0.01 * rng.standard_normal(3)))
+        q[3:7] = pin.Quaternion(R).coeffs()
+        sim.q = q
+        pin.computeJointJacobians(sim.model, sim.data, q)
+        pin.updateFramePlacements(sim.model, sim.data)
+        rows, frames, depths, mus, ids = sim._contact_rows()
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        assert ids, "no point in contact"
+        for row, R, dep, i in zip(rows, frames, depths, ids):
+            J = pin.getFrameJacobian(model, data, fids[i], pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
+            np.testing.assert_allclose(row, R.T @ J, atol=1e-12)
+            assert dep == pytest.approx(-data.oMf[fids[i]].translation[2], abs=1e-12)
