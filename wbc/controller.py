@@ -18,7 +18,7 @@ from .errors import SolverError
 from .model import RobotModel
 from .rows import Layout, Level
 from .solution import LevelDiagnostics, Solution
-from .solvers.cascade import Damping, violation
+from .solvers.cascade import Damping
 from .solvers.hqp import CascadeResult, HierarchicalQP, WeightedQP
 from .solvers.projection import RecursiveProjection
 from .stack import Stack
