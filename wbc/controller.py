@@ -12,6 +12,8 @@ compensation on the first cycle).
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from .errors import SolverError
@@ -165,59 +167,23 @@ class Controller:
             tau_full -= layout.force_jacobian.T @ f
         tau_full[robot.unactuated_idx] = 0.0
         finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau_full))
-        residuals, task_res, diags = [], {}, []
-        relaxed = False
-        # The projection solver enforces equalities and joint-limit boxes in q̈; its
-        # friction cones are met (or relaxed) in force distribution and its torque
-        # limits are not enforced: those rows are reported apart, not as residuals.
+        # Per level, the row values this cycle produced (the level buffers are refilled
+        # next cycle); the per-task breakdown is done only if the caller asks for it.
         projection = self.solver_name == "projection"
-        tol_act, tol_sac = 1e-7, self.sacrifice_tol
+        rows = []
+        relaxed = False
         for lvl, info in zip(levels, res.levels):
             C, lo, hi = lvl.inequalities(layout.nx)
             if finite:
                 e = lvl.A @ x - lvl.b
                 y = C @ x
-                viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
-                act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
             else:
                 e = np.full(lvl.n_eq, np.inf)
-                viol = np.full(len(lo), np.inf)
-                act = np.zeros(len(lo), dtype=bool)
-            n_gen = lvl.C.shape[0]
-            unenforced = 0.0
-            if projection and n_gen:
-                unenforced = float(np.linalg.norm(viol[:n_gen]))
-                viol[:n_gen] = 0.0
-            residuals.append(float(np.sqrt(e @ e + viol @ viol)))
-            sacrificed, active = [], {}
-            for t in lvl.tasks:
-                r2 = 0.0
-                sl = lvl.eq_slices.get(t.name)
-                if sl is not None:
-                    es = e[sl]
-                    r2 += float(es @ es)
-                isl = lvl.in_slices.get(t.name)
-                if isl is not None:
-                    vs = viol[isl]
-                    r2 += float(vs @ vs)
-                    n_act = int(np.count_nonzero(act[isl]))
-                    if n_act:
-                        active[t.name] = n_act
-                r = r2**0.5
-                task_res[t.name] = r
-                if r > tol_sac:
-                    sacrificed.append(t.name)
-            if lvl.box is not None:
-                n_act = int(np.count_nonzero(act[n_gen:]))
-                if n_act:
-                    active["joint_limits"] = n_act
+                y = np.full(len(lo), np.inf)
+            rows.append((lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.C.shape[0],
+                         lvl.box is not None, e, y, lo.copy(), hi.copy(), info))
             relaxed |= info.relaxed
-            diags.append(LevelDiagnostics(
-                index=lvl.index, tasks=[t.name for t in lvl.tasks], residual=residuals[-1],
-                rank=info.rank, sigma_min=info.sigma_min, damping=info.damping,
-                dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
-                sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
-                unenforced_violation=unenforced))
+        evaluate = partial(_diagnostics, rows, projection, self.sacrifice_tol)
         status = "ok" if ok else "failed"
         if ok and relaxed:
             status = "relaxed"
@@ -233,8 +199,7 @@ class Controller:
         forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
         self._last_forces = forces
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx].copy(), tau_full=tau_full, forces=forces,
-                        x=x, residuals=residuals, task_residuals=task_res, status=status, message=message,
-                        diagnostics=diags, qp_count=qp_count)
+                        x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate)
 
     def _fallback_torque(self) -> np.ndarray:
         if self._last_tau is not None:
@@ -242,3 +207,49 @@ class Controller:
         tau = self.robot.data.g.copy() if hasattr(self.robot.data, "g") else self.robot.h.copy()
         tau[self.robot.unactuated_idx] = 0.0
         return tau
+
+
+def _diagnostics(rows, projection: bool, sacrifice_tol: float, tol_act: float = 1e-7):
+    """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
+    of one cycle (see :meth:`Controller._finish`). The projection solver enforces
+    equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
+    force distribution and its torque limits are not enforced: those rows are reported
+    apart (``unenforced_violation``), not as residuals."""
+    residuals, task_res, diags = [], {}, []
+    for index, tasks, eq_slices, in_slices, n_gen, has_box, e, y, lo, hi, info in rows:
+        viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+        act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
+        unenforced = 0.0
+        if projection and n_gen:
+            unenforced = float(np.linalg.norm(viol[:n_gen]))
+            viol[:n_gen] = 0.0
+        residuals.append(float(np.sqrt(e @ e + viol @ viol)))
+        sacrificed, active = [], {}
+        for t in tasks:
+            r2 = 0.0
+            sl = eq_slices.get(t.name)
+            if sl is not None:
+                es = e[sl]
+                r2 += float(es @ es)
+            isl = in_slices.get(t.name)
+            if isl is not None:
+                vs = viol[isl]
+                r2 += float(vs @ vs)
+                n_act = int(np.count_nonzero(act[isl]))
+                if n_act:
+                    active[t.name] = n_act
+            r = r2**0.5
+            task_res[t.name] = r
+            if r > sacrifice_tol:
+                sacrificed.append(t.name)
+        if has_box:
+            n_act = int(np.count_nonzero(act[n_gen:]))
+            if n_act:
+                active["joint_limits"] = n_act
+        diags.append(LevelDiagnostics(
+            index=index, tasks=[t.name for t in tasks], residual=residuals[-1],
+            rank=info.rank, sigma_min=info.sigma_min, damping=info.damping,
+            dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
+            sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
+            unenforced_violation=unenforced))
+    return residuals, task_res, diags

@@ -33,32 +33,56 @@ class LevelDiagnostics:
     unenforced_violation: float = 0.0
 
 
-@dataclass
 class Solution:
     """Result of :meth:`wbc.Controller.solve`.
 
     ``qdd`` (nv, m/s² rad/s²); ``tau`` (na actuated torques, N·m or N) and
     ``tau_full`` (nv, zeros on unactuated rows); ``forces``: contact task name ->
     force (3) or wrench (6) in the contact frame (N, N·m); ``residuals``: one
-    float per level; ``task_residuals``: per task name; ``status``: ``"ok"``,
+    float per level; ``task_residuals``: per task name; ``diagnostics``: one
+    :class:`LevelDiagnostics` per level; ``status``: ``"ok"``,
     ``"relaxed"`` (a level's inequalities could not all hold), ``"degraded"`` (a
     level's QP failed numerically and that level was held at the feasible point
     the higher levels left: priorities and limits intact, the level under-served)
     or ``"failed"`` (no usable solution: the torque falls back to the last good one).
+
+    ``residuals``, ``task_residuals`` and ``diagnostics`` are worked out on first
+    access, from row values the controller keeps for this cycle (a cycle whose
+    caller never reads them does not pay for them).
     """
 
-    qdd: np.ndarray
-    tau: np.ndarray
-    tau_full: np.ndarray
-    forces: dict[str, np.ndarray]
-    x: np.ndarray
-    residuals: list[float]
-    task_residuals: dict[str, float]
-    status: str
-    message: str
-    diagnostics: list[LevelDiagnostics]
-    qp_count: int = 0
+    def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
+                 x: np.ndarray, status: str, message: str, qp_count: int = 0, residuals=None,
+                 task_residuals=None, diagnostics=None, evaluate=None) -> None:
+        self.qdd, self.tau, self.tau_full, self.forces, self.x = qdd, tau, tau_full, forces, x
+        self.status, self.message, self.qp_count = status, message, qp_count
+        self._residuals, self._task_residuals, self._diagnostics = residuals, task_residuals, diagnostics
+        self._evaluate = evaluate
+
+    def _ensure(self) -> None:
+        if self._diagnostics is None and self._evaluate is not None:
+            self._residuals, self._task_residuals, self._diagnostics = self._evaluate()
+            self._evaluate = None
+
+    @property
+    def residuals(self) -> list[float]:
+        self._ensure()
+        return self._residuals
+
+    @property
+    def task_residuals(self) -> dict[str, float]:
+        self._ensure()
+        return self._task_residuals
+
+    @property
+    def diagnostics(self) -> list[LevelDiagnostics]:
+        self._ensure()
+        return self._diagnostics
 
     @property
     def ok(self) -> bool:
         return self.status != "failed"
+
+    def __repr__(self) -> str:
+        return (f"Solution(status={self.status!r}, qp_count={self.qp_count}, "
+                f"residuals={[round(r, 6) for r in self.residuals]})")
