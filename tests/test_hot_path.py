@@ -26,13 +26,43 @@ from .stacks import random_state, randomise_targets, talos_stack
 
 
 def _svd_step(cas: Cascade, A, b, d):
-    """The same step with the Gram path switched off."""
-    ratio = cascade._GRAM_MIN_RATIO
-    cascade._GRAM_MIN_RATIO = np.inf
+    """The same step with the Gram and QR paths switched off."""
+    ratio, rows = cascade._GRAM_MIN_RATIO, cascade._QR_MIN_ROWS
+    cascade._GRAM_MIN_RATIO, cascade._QR_MIN_ROWS = np.inf, 10**9
     try:
         return cas.ls_step(A, b, d)
     finally:
-        cascade._GRAM_MIN_RATIO = ratio
+        cascade._GRAM_MIN_RATIO, cascade._QR_MIN_ROWS = ratio, rows
+
+
+@pytest.mark.parametrize("m,n", [(18, 50), (12, 29), (8, 9)])
+def test_qr_path_equals_svd_path(m, n):
+    rng = np.random.default_rng(m * 100 + n)
+    d = Damping()
+    for trial in range(20):
+        cas = Cascade(n + 4)
+        B = rng.standard_normal((n + 4, 4))
+        cas.commit(cas.ls_step(B.T, rng.standard_normal(4), d))
+        A = rng.standard_normal((m, n + 4))
+        b = rng.standard_normal(m)
+        q = cas._qr_step(A @ cas.Z, b - A @ cas.x, d)
+        s = _svd_step(cas, A, b, d)
+        assert q is not None and q.rank == s.rank == m
+        np.testing.assert_allclose(q.z, s.z, atol=1e-12 * max(1.0, np.linalg.norm(s.z)))
+        assert abs(q.sigma_min - s.sigma_min) <= 1e-12 * s.sigma_max
+        # the same null space (bases differ by a rotation): equal projectors, orthonormal
+        np.testing.assert_allclose(q.Z_next @ q.Z_next.T, s.Z_next @ s.Z_next.T, atol=1e-12)
+        np.testing.assert_allclose(q.Z_next.T @ q.Z_next, np.eye(n - m), atol=1e-12)
+
+
+def test_qr_path_refuses_rank_deficient_and_near_singular_levels():
+    rng = np.random.default_rng(3)
+    cas = Cascade(30)
+    U, _ = np.linalg.qr(rng.standard_normal((10, 10)))
+    V, _ = np.linalg.qr(rng.standard_normal((30, 10)))
+    for smin in (0.0, 1e-12, 5e-4):          # singular, rank-deficient, below the damping threshold
+        A = U @ np.diag(np.r_[np.ones(9), smin]) @ V.T
+        assert cas._qr_step(A, rng.standard_normal(10), Damping()) is None
 
 
 @pytest.mark.parametrize("m,n", [(32, 26), (38, 14), (12, 12), (40, 3)])

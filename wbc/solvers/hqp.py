@@ -72,6 +72,7 @@ class HierarchicalQP:
         self.slack_regularization = slack_regularization
         self.margin = margin
         self.tol = feasibility_tol
+        self._hints: dict = {}
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
                      scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:
@@ -90,7 +91,7 @@ class HierarchicalQP:
             res = self.solve_levels(levels, nx, key, x_ref=None if x_ref is None else x_ref / scale)
             res.x = scale * res.x
             return res
-        cas = Cascade(nx)
+        cas = Cascade(nx, self._hints)
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
         acc_C: list[np.ndarray] = []

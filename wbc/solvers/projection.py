@@ -59,6 +59,7 @@ class RecursiveProjection:
         self.wrench_weight = 1e-2
         self.ramp_weight = 10.0
         self.force_regularization = 1e-6
+        self._hints: dict = {}
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, robot) -> CascadeResult:
@@ -74,7 +75,7 @@ class RecursiveProjection:
         else:
             b_idx = np.zeros(0, dtype=int)
             b_lo = b_hi = np.zeros(0)
-        cas = Cascade(nv)
+        cas = Cascade(nv, self._hints)
         if len(b_idx):
             # start from the feasible point nearest q̈ = 0 (a joint braking towards its
             # limit needs a non-zero acceleration even before any task)
