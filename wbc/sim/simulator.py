@@ -89,6 +89,7 @@ class Simulator:
         self.over_relax = 0.6
         self.points = [(model.getJointId(j), np.asarray(r, float)) for j, r in points]
         self._pgs: dict = {}     # PGS solver and cones per set of friction coefficients
+        self._tril = np.tril_indices(model.nv, -1)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
         self._warm: dict[int, np.ndarray] = {}
@@ -158,7 +159,18 @@ class Simulator:
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
         fext = self._external_forces()
-        a_free = pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
+        rows, frames, depths, mus, ids = self._contact_rows()
+        nh = self.differential_drive
+        Minv = None
+        if rows or nh:
+            # M⁻¹ is needed for the contact impulses anyway: then the free acceleration is
+            # M⁻¹(τ − h) (one matrix-vector product) rather than a second pass of ABA
+            Minv = pin.computeMinverse(m, d, q)
+            Minv[self._tril] = Minv.T[self._tril]        # computeMinverse fills the upper triangle
+        if Minv is None or fext:
+            a_free = pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
+        else:
+            a_free = Minv @ (tau - pin.nonLinearEffects(m, d, q, v))
         v_free = v + h * a_free
         if self._free_flyer:
             # The root's linear velocity is in the body frame: its rate holds the term
@@ -167,12 +179,8 @@ class Simulator:
             w = v[3:6]
             v_free[:3] = pin.exp3(-w * h) @ (v[:3] + h * (a_free[:3] + _cross(w, v[:3])))
 
-        rows, frames, depths, mus, ids = self._contact_rows()
         self.point_forces[:] = 0.0
-        nh = self.differential_drive
         if rows or nh:
-            Minv = pin.computeMinverse(m, d, q)
-            Minv = np.triu(Minv) + np.triu(Minv, 1).T
             v_new = v_free
             if rows:
                 J = np.vstack(rows)

@@ -121,6 +121,15 @@ def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
     return arr
 
 
+def rows_of(idx: np.ndarray) -> slice | np.ndarray:
+    """``idx`` as a slice when it is a contiguous ascending range (indexing by a slice
+    takes a view instead of copying), else unchanged."""
+    idx = np.asarray(idx)
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx
+
+
 def eq_buffer(task: Task, m: int, nx: int) -> tuple[np.ndarray, np.ndarray]:
     """Zeroed (m × nx, m) buffers owned by the task, reallocated only when nx changes."""
     buf = getattr(task, "_eq_buf", None)

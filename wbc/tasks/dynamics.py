@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rows import Layout, Rows
-from .base import Task
+from .base import Task, eq_buffer, rows_of
 
 
 class FloatingBaseDynamics(Task):
@@ -21,12 +21,17 @@ class FloatingBaseDynamics(Task):
         super().__init__(name)
 
     def rows(self, robot, layout: Layout) -> Rows:
-        u = robot.unactuated_idx
-        A = np.zeros((len(u), layout.nx))
+        u = getattr(self, "_u", None)
+        if u is None:
+            u = self._u = rows_of(robot.unactuated_idx)
+        A, b = eq_buffer(self, len(robot.unactuated_idx), layout.nx)
         A[:, : layout.nv] = robot.M[u]
         if layout.nf:
             A[:, layout.nv:] = -layout.force_jacobian[:, u].T
-        return Rows(A=A, b=-robot.h[u])
+        else:
+            A[:, layout.nv:] = 0.0
+        np.negative(robot.h[u], out=b)
+        return Rows(A=A, b=b)
 
 
 class DifferentialDrive(Task):

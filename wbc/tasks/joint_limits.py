@@ -49,6 +49,8 @@ class JointLimits(Task):
             qi, vi = np.array(qi, dtype=int), np.array(vi, dtype=int)
             # velocity-only coordinates (e.g. a planar base with finite v_max)
             extra = np.array([i for i in range(robot.nv) if i not in set(vi) and np.isfinite(robot.v_max[i])], dtype=int)
+            # the robot's limits, read once (they do not change)
+            self._lim = (robot.q_min[qi], robot.q_max[qi], robot.v_max[vi])
             self._map = (qi, vi, extra)
         return self._map
 
@@ -57,9 +59,9 @@ class JointLimits(Task):
         qi, vi, extra = self._indices(robot)
         dt, T, amax = self.dt, self.horizon, self.max_acceleration
         q, v = robot.q[qi], robot.v[vi]
-        qmin = robot.q_min[qi] + self.margin
-        qmax = robot.q_max[qi] - self.margin
-        vmax = robot.v_max[vi]
+        qmin, qmax, vmax = self._lim
+        if self.margin:
+            qmin, qmax = qmin + self.margin, qmax - self.margin
         with np.errstate(invalid="ignore"):
             hi = np.minimum((vmax - v) / dt, 2.0 * (qmax - q - v * T) / T**2)
             lo = np.maximum((-vmax - v) / dt, 2.0 * (qmin - q - v * T) / T**2)

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
-from .base import Task
+from .base import Task, rows_of
 
 
 class TorqueLimits(Task):
@@ -23,13 +23,16 @@ class TorqueLimits(Task):
         self.scale = float(scale)
 
     def rows(self, robot, layout: Layout) -> Rows:
-        a = robot.actuated_idx
-        a = a[np.isfinite(robot.tau_max[a])]
-        C = np.zeros((len(a), layout.nx))
+        buf = getattr(self, "_buf", None)
+        if buf is None or buf[0].shape[1] != layout.nx or buf[3] != self.scale:
+            a = robot.actuated_idx
+            a = a[np.isfinite(robot.tau_max[a])]
+            sel = rows_of(a)
+            buf = self._buf = (np.zeros((len(a), layout.nx)), sel, self.scale * robot.tau_max[a], self.scale)
+        C, a, tmax, _ = buf
         C[:, : layout.nv] = robot.M[a]
         if layout.nf:
             C[:, layout.nv:] = -layout.force_jacobian[:, a].T
-        tmax = self.scale * robot.tau_max[a]
         ha = robot.h[a]
         return Rows(C=C, lo=-tmax - ha, hi=tmax - ha)
 
