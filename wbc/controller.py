@@ -248,7 +248,7 @@ def _diagnostics(rows, projection: bool, sacrifice_tol: float, tol_act: float = 
                 active["joint_limits"] = n_act
         diags.append(LevelDiagnostics(
             index=index, tasks=[t.name for t in tasks], residual=residuals[-1],
-            rank=info.rank, sigma_min=info.sigma_min, damping=info.damping,
+            rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
             sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
             unenforced_violation=unenforced))

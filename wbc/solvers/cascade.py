@@ -55,6 +55,16 @@ class Step:
     damping: float
     AZ: np.ndarray
     r: np.ndarray
+    #: set by the QR path instead of the singular values: the triangular factor whose
+    #: singular values are those of AZ (see :func:`singular_values`), worked out only
+    #: if someone reads the diagnostics
+    R: np.ndarray | None = None
+
+
+def singular_values(R: np.ndarray) -> tuple[float, float]:
+    """(σ_min, σ_max) of an upper-triangular factor (its lower part ignored)."""
+    s = _gesdd(np.triu(R), compute_uv=0)[1]
+    return float(s[-1]), float(s[0])
 
 
 class Cascade:
@@ -140,27 +150,31 @@ class Cascade:
     def _qr_step(self, AZ: np.ndarray, r: np.ndarray, damping: Damping) -> Step | None:
         """A wide level (fewer rows than free directions) of full row rank, away from
         singularities: (AZ)ᵀ = Q R (Householder), then z = Q₁ R⁻ᵀ r and the null space
-        Q₂; the singular values are those of R (m × m). Two thirds of the SVD's cost at
-        18 × 50 (level 0 of a biped). Returns None when R shows a rank deficiency or a
-        σ_min under the damping threshold (the caller takes the SVD)."""
+        Q₂. The singular values of AZ are those of R; the rank and damping decisions
+        use the bounds σ_max ≤ ‖R‖_F and σ_min ≥ 1/‖R⁻¹‖_F (exact inverse of the m × m
+        triangle), so the full-rank, undamped step is taken only when it is certain;
+        otherwise None (the caller takes the SVD). Two thirds of the SVD's cost at
+        18 × 50 (level 0 of a biped)."""
         m, n = AZ.shape
         qr, tau, _, info = _geqrf(AZ.T)
         if info != 0:
             return None
-        R = np.triu(qr[:m, :m])
-        s = _gesdd(R, compute_uv=0)[1]
-        smax, smin = float(s[0]), float(s[-1])
-        if not smin > max(damping.rank_tol * max(1.0, smax), damping.threshold):
+        Rinv, info = _trtri(qr[:m, :m], lower=0)
+        if info != 0:
+            return None
+        Rinv = np.triu(Rinv)
+        ub_max = float(np.linalg.norm(AZ))             # ‖R‖_F = ‖AZ‖_F (Q is orthogonal)
+        lb_min = 1.0 / float(np.linalg.norm(Rinv))
+        if not lb_min > max(damping.rank_tol * max(1.0, ub_max), damping.threshold):
             return None
         Qin = np.empty((n, n), order="F")
         Qin[:, :m] = qr
         Q, _, info = _orgqr(Qin, tau)
-        y, info2 = _trtrs(R, r, lower=0, trans=1)
-        if info != 0 or info2 != 0:
+        if info != 0:
             return None
-        z = Q[:, :m] @ y
+        z = Q[:, :m] @ (Rinv.T @ r)
         null = Q[:, m:]
-        return Step(z, null if self._identity else self.Z @ null, m, smin, smax, 0.0, AZ, r)
+        return Step(z, null if self._identity else self.Z @ null, m, np.nan, np.nan, 0.0, AZ, r, qr[:m, :m].copy())
 
     def commit(self, step: Step, z: np.ndarray | None = None) -> None:
         """Apply a step (or another z of the same level, e.g. a QP's) and shrink Z."""
@@ -186,7 +200,7 @@ def _eye(n: int) -> np.ndarray:
     return e
 
 
-_gesdd, _syevd, _geqrf, _orgqr, _trtrs = get_lapack_funcs(("gesdd", "syevd", "geqrf", "orgqr", "trtrs"),
+_gesdd, _syevd, _geqrf, _orgqr, _trtri = get_lapack_funcs(("gesdd", "syevd", "geqrf", "orgqr", "trtri"),
                                                           (np.zeros((1, 1)),))
 #: fewest rows for the QR path of wide levels (below it the SVD's single call is cheaper)
 _QR_MIN_ROWS = 8

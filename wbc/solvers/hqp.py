@@ -27,7 +27,7 @@ import numpy as np
 
 from ..rows import Level
 from .backends import Backend, make_backend
-from .cascade import Cascade, Damping
+from .cascade import Cascade, Damping, singular_values
 
 
 @dataclass
@@ -44,6 +44,16 @@ class LevelInfo:
     relaxed: bool = False
     saturated: list = field(default_factory=list)
     scale: float = 1.0
+    #: triangular factor of J̄_k when the solver did not compute its singular values
+    #: (see :func:`wbc.solvers.cascade.singular_values`); ``sigma()`` works them out
+    R: np.ndarray | None = None
+
+    def sigma(self) -> float:
+        """σ_min of J̄_k (computed on demand from ``R`` if the solver took the QR path)."""
+        if self.R is not None:
+            self.sigma_min = singular_values(self.R)[0]
+            self.R = None
+        return self.sigma_min
 
 
 @dataclass
@@ -104,7 +114,7 @@ class HierarchicalQP:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
             step = cas.ls_step(lvl.A, lvl.b, self.damping)
-            info.rank, info.sigma_min, info.damping = step.rank, step.sigma_min, step.damping
+            info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             if acc_C and step.rank and _violated(acc_C, acc_lo, acc_hi, cas.candidate(step), tol):
                 info.used_qp = True
                 qp_count += 1

@@ -90,7 +90,7 @@ class RecursiveProjection:
             A = lvl.A[rows, :nv]
             Ay = A if T is None else A @ T
             step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
-            info.rank, info.sigma_min, info.damping = step.rank, step.sigma_min, step.damping
+            info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             infos.append(info)
         return CascadeResult(cas.x if T is None else T @ cas.x, infos)
 
