@@ -60,6 +60,8 @@ class RecursiveProjection:
         self.ramp_weight = 10.0
         self.force_regularization = 1e-6
         self._hints: dict = {}
+        self._rows_cache: dict = {}
+        self._force_cache: tuple | None = None
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, robot) -> CascadeResult:
@@ -151,14 +153,22 @@ class RecursiveProjection:
         cas.commit(step, s * step.z)
         return step
 
-    @staticmethod
-    def _motion_rows(lvl: Level) -> np.ndarray:
+    def _motion_rows(self, lvl: Level) -> slice | np.ndarray:
+        """The level's equality rows on q̈ (not on contact forces): a slice when they are
+        all of them, cached per level structure (the stack keeps ``eq_slices`` while its
+        structure is unchanged)."""
+        key = id(lvl.eq_slices)
+        got = self._rows_cache.get(lvl.index)
+        if got is not None and got[0] == key and got[1] is lvl.eq_slices:
+            return got[2]
         idx = []
         for t in lvl.tasks:
             sl = lvl.eq_slices.get(t.name)
             if sl is not None and not t.on_forces:
                 idx.extend(range(sl.start, sl.stop))
-        return np.array(idx, dtype=int)
+        rows = slice(0, lvl.n_eq) if idx == list(range(lvl.n_eq)) else np.array(idx, dtype=int)
+        self._rows_cache[lvl.index] = (key, lvl.eq_slices, rows)
+        return rows
 
     # ----------------------------------------------------------- forces
     def distribute_forces(self, qdd: np.ndarray, levels: list[Level], layout: Layout, robot) -> CascadeResult:
@@ -172,19 +182,25 @@ class RecursiveProjection:
         if nf == 0:
             return CascadeResult(np.zeros(0), [])
         contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-        f0 = np.zeros(nf)
-        blocks = []
-        for c in contacts:
-            sl = layout.contact_slices[c.name]
-            c0, V = c.generators()
-            f0[sl.start - nv: sl.stop - nv] = c0
-            blocks.append((sl.start - nv, V))
-        n_lam = sum(V.shape[1] for _, V in blocks)
-        G = np.zeros((nf, n_lam))
-        k = 0
-        for start, V in blocks:
-            G[start: start + V.shape[0], k: k + V.shape[1]] = V
-            k += V.shape[1]
+        gens = [c.generators() for c in contacts]
+        key = tuple((c.name, layout.contact_slices[c.name].start, id(V), id(c0)) for c, (c0, V) in zip(contacts, gens))
+        if self._force_cache is not None and self._force_cache[0] == key:
+            f0, G = self._force_cache[1], self._force_cache[2]
+        else:
+            f0 = np.zeros(nf)
+            blocks = []
+            for c, (c0, V) in zip(contacts, gens):
+                sl = layout.contact_slices[c.name]
+                f0[sl.start - nv: sl.stop - nv] = c0
+                blocks.append((sl.start - nv, V))
+            n_lam = sum(V.shape[1] for _, V in blocks)
+            G = np.zeros((nf, n_lam))
+            k = 0
+            for start, V in blocks:
+                G[start: start + V.shape[0], k: k + V.shape[1]] = V
+                k += V.shape[1]
+            self._force_cache = (key, f0, G, (contacts, gens))
+        n_lam = G.shape[1]
         u = robot.unactuated_idx
         rows, rhs = [], []
         if len(u):
@@ -203,8 +219,10 @@ class RecursiveProjection:
                 r[0, layout.contact_slices[c.name].start - nv + 2] = self.ramp_weight
                 rows.append(r)
                 rhs.append(np.array([self.ramp_weight * c.fmax]))
-        rows.append(self.force_regularization * np.eye(nf))
-        rhs.append(np.zeros(nf))
+        if getattr(self, "_reg", None) is None or self._reg[0].shape[0] != nf:
+            self._reg = (self.force_regularization * np.eye(nf), np.zeros(nf))
+        rows.append(self._reg[0])
+        rhs.append(self._reg[1])
         A = np.vstack(rows)
         b = np.concatenate(rhs) - A @ f0
         lam, _ = nnls(A @ G, b, maxiter=50 * n_lam)
