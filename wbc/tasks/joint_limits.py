@@ -49,8 +49,10 @@ class JointLimits(Task):
             qi, vi = np.array(qi, dtype=int), np.array(vi, dtype=int)
             # velocity-only coordinates (e.g. a planar base with finite v_max)
             extra = np.array([i for i in range(robot.nv) if i not in set(vi) and np.isfinite(robot.v_max[i])], dtype=int)
-            # the robot's limits, read once (they do not change)
-            self._lim = (robot.q_min[qi], robot.q_max[qi], robot.v_max[vi])
+            # the robot's limits, read once (they do not change), stacked for the mirrored
+            # computation of the lower bounds in :meth:`bounds`
+            self._lim2 = (np.vstack([robot.q_max[qi], -robot.q_min[qi]]), robot.v_max[vi])
+            self._sign = np.array([[1.0], [-1.0]])
             self._map = (qi, vi, extra)
         return self._map
 
@@ -58,17 +60,18 @@ class JointLimits(Task):
         """(v indices, lower, upper) acceleration bounds in rad/s² or m/s²."""
         qi, vi, extra = self._indices(robot)
         dt, T, amax = self.dt, self.horizon, self.max_acceleration
-        q, v = robot.q[qi], robot.v[vi]
-        qmin, qmax, vmax = self._lim
+        P, vmax = self._lim2
         if self.margin:
-            qmin, qmax = qmin + self.margin, qmax - self.margin
-        with np.errstate(invalid="ignore"):
-            hi = np.minimum((vmax - v) / dt, 2.0 * (qmax - q - v * T) / T**2)
-            lo = np.maximum((-vmax - v) / dt, 2.0 * (qmin - q - v * T) / T**2)
-            d_hi = np.maximum(qmax - q - v * dt, 0.0)
-            d_lo = np.maximum(q + v * dt - qmin, 0.0)
-            hi = np.minimum(hi, (np.sqrt(2.0 * amax * d_hi) - v) / dt)
-            lo = np.maximum(lo, (-np.sqrt(2.0 * amax * d_lo) - v) / dt)
+            P = P - self.margin
+        # upper bounds (row 0) and negated lower bounds (row 1) in one pass: the lower
+        # bound is the upper bound of the mirrored joint (q, q̇, q_max) -> (−q, −q̇, −q_min)
+        S = self._sign
+        Qs = robot.q[qi] * S
+        Vs = robot.v[vi] * S
+        H = np.minimum((vmax - Vs) / dt, (P - Qs - Vs * T) * (2.0 / T**2))
+        D = np.maximum(P - Qs - Vs * dt, 0.0)
+        H = np.minimum(H, (np.sqrt((2.0 * amax) * D) - Vs) / dt)
+        hi, lo = H[0], -H[1]
         crossed = lo > hi
         if np.any(crossed):
             mid = 0.5 * (lo[crossed] + hi[crossed])
