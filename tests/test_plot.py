@@ -49,11 +49,15 @@ def test_series_has_one_sample_per_control_cycle_in_every_array(balance_run):
     t = np.array(s["t"])
     assert len(t) == n
     assert np.allclose(np.diff(t), s["dt"])
-    arrays = [*s["task_errors"].values(), *s["level_residual"], *s["level_rank"], *s["level_sigma_min"],
-              s["torque"]["ratio_max"], *s["torque"]["joints"].values(), s["support_margin"]]
+    arrays = [*s["task_errors"].values(), s["torque"]["ratio_max"], *s["torque"]["joints"].values(),
+              s["support_margin"]]
     for c in s["contacts"].values():
         arrays += [c["normal_force"], c["friction_margin"]]
     assert {len(a) for a in arrays} == {n}
+    # the solver's per-level diagnostics: sampled every few cycles, on their own clock
+    tl = np.array(s["level_t"])
+    assert 0 < len(tl) < n and np.all(np.diff(tl) > 0) and tl[-1] <= t[-1]
+    assert {len(a) for a in (*s["level_residual"], *s["level_rank"], *s["level_sigma_min"])} == {len(tl)}
     assert set(s["task_errors"]) == {"com", "torso", "posture"}
     assert len(s["level_residual"]) == len(s["levels"]) == 4
 

@@ -57,6 +57,7 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
     levels = series["levels"]
     task_errors = {k: _arr(v) for k, v in series.get("task_errors", {}).items()}
     task_level = series.get("task_level", {})
+    tl = _arr(series.get("level_t", series["t"]))     # diagnostics are sampled every few cycles
     res = [_arr(r) for r in series["level_residual"]]
     rank = [_arr(r) for r in series["level_rank"]]
     sig = [_arr(r) for r in series["level_sigma_min"]]
@@ -79,9 +80,9 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
             ax.legend(loc="upper right", fontsize=7, frameon=False)
         elif k < len(res):
             if np.nanmax(res[k], initial=0.0) > 0.0:
-                ax.semilogy(t, np.maximum(res[k], 1e-16), color="0.3", lw=1.0, label="level residual")
+                ax.semilogy(tl, np.maximum(res[k], 1e-16), color="0.3", lw=1.0, label="level residual")
             else:
-                ax.plot(t, np.nan_to_num(res[k]), color="0.3", lw=1.0, label="level residual (exactly 0)")
+                ax.plot(tl, np.nan_to_num(res[k]), color="0.3", lw=1.0, label="level residual (exactly 0)")
             ax.set_ylabel("‖Ax − b‖")
             ax.legend(loc="upper right", fontsize=7, frameon=False)
         rk = rank[k] if k < len(rank) else np.array([np.nan])

@@ -57,10 +57,10 @@ class SupportPolygon:
 
     The hull's vertex indices (counter-clockwise, scipy's ConvexHull) are kept while the
     set of contact points is unchanged and refreshed every ``refresh`` cycles (feet may
-    creep); in between the margin is computed on the current positions of those
+    creep or turn); in between the margin is computed on the current positions of those
     vertices: a few flops instead of a Qhull call per cycle."""
 
-    def __init__(self, refresh: int = 200) -> None:
+    def __init__(self, refresh: int = 50) -> None:
         self.refresh = refresh
         self._key: tuple | None = None
         self._vertices: np.ndarray | None = None
@@ -92,26 +92,31 @@ class Series:
     """Time series of one run, in preallocated arrays (``n`` cycles at most).
 
     Per control cycle: ``t`` (s); ``task_errors[name]``: ‖error‖ of each task that has
-    one (m, rad or N); per priority level (the stack's levels at the start; NaN where a
-    level does not exist that cycle) the ``level_residual`` (units of its rows),
-    ``level_rank`` and ``level_sigma_min`` of J̄_k; per contact of the starting stack
+    one (m, rad or N); every ``level_every`` cycles (at times ``level_t``: the solver's
+    diagnostics are worked out only when read, ~0.1 ms), per priority level (the
+    stack's levels at the start; NaN where a level does not exist) the
+    ``level_residual`` (units of its rows), ``level_rank`` and ``level_sigma_min`` of
+    J̄_k; per contact of the starting stack
     the total ``normal_force`` (N) measured by the simulator and the ``friction_margin``
     μ F_n − ‖F_t‖ of the resultant force (N; ≥ 0 inside the friction cone); the
     ``torque_ratio`` |τ_i| / τ_max,i of every actuated joint; the CoM's
     ``support_margin`` (m, > 0 inside the support polygon).
     """
 
-    def __init__(self, n: int, dt: float, robot, stack, contacts: list[str], mu: float) -> None:
-        self.dt, self.mu, self.k = dt, mu, 0
+    def __init__(self, n: int, dt: float, robot, stack, contacts: list[str], mu: float,
+                 level_every: int = 10) -> None:
+        self.dt, self.mu, self.k, self.level_every, self.kl = dt, mu, 0, max(1, level_every), 0
+        nd = (n + self.level_every - 1) // self.level_every
         self.levels = [[t.name for t in lvl] for lvl in stack.levels]
         self.level_of = {t.name: k for k, lvl in enumerate(stack.levels) for t in lvl}
         self.error_names: list[str] = []
         nl = len(stack.levels) + 2          # room for levels added by events
         self.t = np.zeros(n)
         self.task_errors = None             # allocated on the first record (names known then)
-        self.level_residual = np.full((n, nl), np.nan)
-        self.level_rank = np.full((n, nl), np.nan)
-        self.level_sigma_min = np.full((n, nl), np.nan)
+        self.level_t = np.zeros(nd)
+        self.level_residual = np.full((nd, nl), np.nan)
+        self.level_rank = np.full((nd, nl), np.nan)
+        self.level_sigma_min = np.full((nd, nl), np.nan)
         self.contacts = contacts
         self.normal_force = np.zeros((n, len(contacts)))
         self.friction_margin = np.zeros((n, len(contacts)))
@@ -132,11 +137,15 @@ class Series:
             self.task_errors = np.full((len(self.t), len(errors)), np.nan)
         self.t[k] = t
         self.task_errors[k, :len(errors)] = errors
-        nl = self.level_residual.shape[1]
-        for d in sol.diagnostics[:nl]:
-            self.level_residual[k, d.index] = d.residual
-            self.level_rank[k, d.index] = d.rank
-            self.level_sigma_min[k, d.index] = d.sigma_min
+        if k % self.level_every == 0:
+            kl = self.kl
+            self.level_t[kl] = t
+            nl = self.level_residual.shape[1]
+            for d in sol.diagnostics[:nl]:
+                self.level_residual[kl, d.index] = d.residual
+                self.level_rank[kl, d.index] = d.rank
+                self.level_sigma_min[kl, d.index] = d.sigma_min
+            self.kl = kl + 1
         for j, f in enumerate(contact_forces):   # resultant force (world) of each contact's points
             fn = f[2]
             self.normal_force[k, j] = fn
@@ -148,15 +157,16 @@ class Series:
     def to_dict(self, worst: int = 6, digits: int = 5) -> dict:
         """JSON-ready: every array cut to the recorded length, ``digits`` significant
         digits; torques as the per-cycle worst ratio and the ``worst`` joints' traces."""
-        n = self.k
+        n, nd = self.k, self.kl
 
-        def lst(x):
-            return [None if not np.isfinite(v) else float(f"{v:.{digits}g}") for v in np.asarray(x[:n], float)]
+        def lst(x, m=None):
+            m = n if m is None else m
+            return [None if not np.isfinite(v) else float(f"{v:.{digits}g}") for v in np.asarray(x[:m], float)]
 
         tr = self.torque_ratio[:n].astype(float)
         peak = tr.max(axis=0) if n else np.zeros(tr.shape[1])
         order = np.argsort(-peak)[:worst]
-        nl = max(len(self.levels), int(np.max(np.nonzero(np.isfinite(self.level_residual[:n]).any(axis=0))[0],
+        nl = max(len(self.levels), int(np.max(np.nonzero(np.isfinite(self.level_residual[:nd]).any(axis=0))[0],
                                                 initial=-1)) + 1)
         return {
             "dt": self.dt, "mass": self.mass, "g": 9.81, "mu": self.mu,
@@ -165,9 +175,10 @@ class Series:
             "task_level": {name: self.level_of.get(name) for name in self.error_names},
             "task_errors": {name: lst(self.task_errors[:, j]) for j, name in enumerate(self.error_names)}
             if self.task_errors is not None else {},
-            "level_residual": [lst(self.level_residual[:, i]) for i in range(nl)],
-            "level_rank": [lst(self.level_rank[:, i]) for i in range(nl)],
-            "level_sigma_min": [lst(self.level_sigma_min[:, i]) for i in range(nl)],
+            "level_t": lst(self.level_t, nd),
+            "level_residual": [lst(self.level_residual[:, i], nd) for i in range(nl)],
+            "level_rank": [lst(self.level_rank[:, i], nd) for i in range(nl)],
+            "level_sigma_min": [lst(self.level_sigma_min[:, i], nd) for i in range(nl)],
             "contacts": {c: {"normal_force": lst(self.normal_force[:, j]),
                              "friction_margin": lst(self.friction_margin[:, j])}
                          for j, c in enumerate(self.contacts)},
@@ -284,9 +295,12 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     margin = np.nan
     for k in range(n):
         t = k * sc.dt
-        while pending and pending[0]["time"] <= t + 1e-9:
-            ev = pending.pop(0)
-            _apply_event(ev, ctrl, robot, sim, refs, start, t, switched)
+        if k == 0 or (pending and pending[0]["time"] <= t + 1e-9):
+            while pending and pending[0]["time"] <= t + 1e-9:
+                _apply_event(pending.pop(0), ctrl, robot, sim, refs, start, t, switched)
+            # what the metrics watch changes only at events
+            err_live = [(name, task, name in stack) for name, task in err_tasks]
+            watched = [(c.name, np.asarray(pts_of[c.name])) for c in contacts if c.name not in switched]
         for tname, (traj, absolute, t0) in refs.items():
             x, dx, ddx = traj.sample(t - t0)
             task = stack[tname]
@@ -302,11 +316,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         cycle.append(time.perf_counter() - t0)
         if sol.status == "failed":
             failures += 1
-        for name, task in err_tasks:
-            if name in stack:   # a task removed by an event keeps its last value
+        for name, task, live in err_live:
+            if live:
                 e = task.error(robot)
-                errs[name].append(float(np.sqrt(e @ e)))
-            elif errs[name]:
+                errs[name].append(math.sqrt(float(e @ e)))
+            elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].append(errs[name][-1])
         sim.step(sol.tau_full)
         if callback is not None:
@@ -328,18 +342,22 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         if np.any(np.linalg.norm(pf[:, :2], axis=1) > mu_max * fn + 1e-6):
             viol["friction"] += 1
         pts = sim.point_positions()
-        for c in contacts:
-            if c.name in switched:
-                continue
-            idx = pts_of[c.name]
-            slip[c.name] = max(slip[c.name], float(np.max(np.linalg.norm(pts[idx, :2] - p0[idx, :2], axis=1))))
-            lifted[c.name] |= bool(np.any(pts[idx, 2] - p0[idx, 2] > 1e-3))
-        active = [c for c in contacts if c.name in stack]
-        if active:
-            idx = [i for c in active for i in pts_of[c.name]]
+        d = pts - p0
+        slip2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+        up = d[:, 2] > 1e-3
+        for name, idx in watched:
+            s2 = float(slip2[idx].max())
+            slip[name] = max(slip[name], s2)          # squared until the end
+            if not lifted[name] and up[idx].any():
+                lifted[name] = True
+        # the controller removes a released contact when its force ramp ends: membership per cycle
+        support_idx = [i for c in contacts if c.name in stack for i in pts_of[c.name]]
+        if support_idx:
             robot_com = pin.centerOfMass(m, sim.data, qs)  # true CoM, simulator data
-            margin = hull.margin(idx, pts[:, :2], robot_com[:2])
+            margin = hull.margin(support_idx, pts[:, :2], robot_com[:2])
             margins.append(margin)
+        else:
+            margin = np.nan
         if rec is not None:
             rec.record(t, [e[-1] if e else np.nan for e in errs.values()], sol,
                        [pf[pts_of[c.name]].sum(axis=0) for c in contacts], margin)
@@ -361,7 +379,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         "backend": opts.get("backend", "daqp"), "duration": float(len(ct) * sc.dt), "fell": fell,
         "tasks": {k: _stats(v) for k, v in errs.items() if v},
         "violations": viol,
-        "contacts": {c.contact: {"slip": slip[c.name], "lifted": lifted[c.name]}
+        "contacts": {c.contact: {"slip": math.sqrt(slip[c.name]), "lifted": lifted[c.name]}
                      for c in contacts if c.name not in switched},
         "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)), "max": float(ct.max())},
         "solver_failures": failures,
