@@ -30,7 +30,7 @@ def _cmd_run(args) -> int:
     if not args.headless or args.record:
         from .viz import Scene, viewer_callback
 
-        scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps)
+        scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps, live=not args.headless)
         if not args.headless:
             print(f"wbc: browser view at {scene.url}  (Ctrl-C to stop)", flush=True)
         callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed,

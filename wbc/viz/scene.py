@@ -80,10 +80,13 @@ def _arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.n
 
 class Scene:
     """See the module docstring. ``force_scale``: N per mm of arrow (default 1 mm per 2 N);
-    ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s)."""
+    ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s);
+    ``live``: also draw on the server's page while recording (default: only without
+    ``record``)."""
 
     def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
-                 force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0) -> None:
+                 force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0,
+                 live: bool | None = None) -> None:
         self.robot = robot
         self.vis = meshcat.Visualizer(zmq_url=zmq_url) if zmq_url else meshcat.Visualizer()
         if open_browser:
@@ -96,6 +99,8 @@ class Scene:
         self.force_scale = force_scale
         self.record = record
         self.anim = Animation(default_framerate=fps) if record else None
+        self.live = (not record) if live is None else bool(live)   # draw to the server's page too
+        self._target = None        # where _draw writes: None (the live scene) or an animation frame
         self._frame = 0
         self._diag_frames: list[int] = []
         self._diag_text: list[list[tuple[str, str]]] = []
@@ -131,17 +136,20 @@ class Scene:
                                 mg.MeshLambertMaterial(color=COLORS["target"], opacity=0.7))
 
     def _node(self, path: str):
-        return self.vis[path] if self.anim is None else self._anim_frame[path]
+        return self.vis[path] if self._target is None else self._target[path]
 
     def show(self, q: np.ndarray, stack=None, sim=None, t: float = 0.0) -> None:
         """Draw the state q (and, when given, the stack's targets and the simulator's
         contact forces, support polygon and active pushes)."""
         if self.anim is not None:
             with self.anim.at_frame(self.vis, self._frame) as frame:
-                self._anim_frame = frame
-                self._draw(q, stack, sim, t)
+                self._target = frame
+                try:
+                    self._draw(q, stack, sim, t)
+                finally:
+                    self._target = None
             self._frame += 1
-        else:
+        if self.live or self.anim is None:
             self._draw(q, stack, sim, t)
 
     def _draw(self, q, stack, sim, t) -> None:
@@ -213,7 +221,8 @@ class Scene:
         if self.anim is not None:
             self._diag_frames.append(max(self._frame - 1, 0))
             self._diag_text.append(table_lines(sol, t))
-            return
+            if not self.live:
+                return
         png, w, h = render_png(sol, t)
         height = width * h / w
         half_h = np.tan(HUD_FOV / 2)
@@ -230,6 +239,9 @@ class Scene:
         (with the priority diagnostics panel when :meth:`show_diagnostics` was fed)."""
         if self.anim is None:
             raise RuntimeError("Scene(record=True) is needed to save a recording")
+        if self.hud_box is not None:      # the live panel: the replay has its own
+            self.vis[HUD_PATH].delete()
+            self.hud_box = None
         self.vis.set_animation(self.anim, play=True, repetitions=1)
         html = self.vis.static_html()
         if self._diag_text:
