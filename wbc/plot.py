@@ -46,8 +46,10 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
                 dpi: int = 100) -> Path:
     """Draw ``series`` (a :meth:`wbc.runner.Series.to_dict`) into the PNG ``out``;
     ``size`` in inches at ``dpi`` (default 1200 × 800 px). Returns the path."""
-    import matplotlib
-
+    try:
+        import matplotlib
+    except ImportError:
+        raise PlotError("plots need matplotlib: pip install matplotlib (it comes with wbc's [dev] extra)") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
