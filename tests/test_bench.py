@@ -42,6 +42,11 @@ def test_tiny_run_reports_every_section():
     assert set(res["placo_ms"]) == {"talos_dynamics", "talos_kinematics"}
     for key, val in res["placo_ms"].items():                    # a number, or reported missing
         assert (val is not None and val > 0) or "missing" in res["placo"][key]
+    sl = res["sim_loop"]                                        # the closed loop, both solvers
+    for solver in ("hqp", "projection"):
+        assert sl[solver]["real_time_factor"] > 0 and not sl[solver]["fell"]
+        assert 0 < sl[solver]["controller_median_ms"] and 0 < sl[solver]["simulator_median_ms"]
+    assert all(c["diagnostics_ms"] > 0 for c in cases)          # diagnostics timed apart, on demand
     sc = res["scaling"]
     assert [(p["nv"], p["solver"]) for p in sc["nv"]["points"]] == [(12, "hqp"), (12, "projection"),
                                                                    (18, "hqp"), (18, "projection")]

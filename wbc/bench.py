@@ -294,6 +294,7 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
     if phases:
         timer.instrument(ctrl)
     total = np.empty(cycles)
+    diag = np.empty(cycles)
     per_phase = {p: np.empty(cycles) for p in PHASES}
     statuses: Counter = Counter()
     warns: Counter = Counter()
@@ -311,9 +312,12 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
                 t0 = clock()
                 sol = ctrl.solve(q, v)
                 t1 = clock()
+                sol.diagnostics                      # worked out on demand: timed apart
+                t2 = clock()
                 if k >= warmup:
                     i = k - warmup
                     total[i] = t1 - t0
+                    diag[i] = t2 - t1
                     for p in PHASES:
                         per_phase[p][i] = timer.acc[p]
                     statuses[sol.status] += 1
@@ -343,8 +347,12 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
                             f"slowest {warm.max() * 1e3:.0f} ms)")
             return out
         total = total[:done]
+        diag = diag[:done]
         per_phase = {p: a[:done] for p, a in per_phase.items()}
     out.update(_stats(total))
+    # reading sol.diagnostics (per-level residuals, active sets, σ_min of J̄_k) costs this
+    # on top of the cycle; the controller computes them only when they are read
+    out["diagnostics_ms"] = float(np.median(diag) * 1e3)
     if phases:
         med = {p: float(np.median(per_phase[p]) * 1e3) for p in PHASES}
         mean = {p: float(per_phase[p].mean() * 1e3) for p in PHASES}
@@ -448,6 +456,53 @@ def floor_talos(robot: RobotModel, cycles: int, warmup: int = 20) -> dict:
     out["qp_size"] = {"variables": size[0], "equalities": size[1], "inequalities": size[2]}
     out["daqp_exitflags"] = {str(k): n for k, n in flags.items()}
     out["cycles"] = cycles
+    return out
+
+
+def sim_loop(scenario: str = "talos_balance", duration: float = 3.0, solvers=("hqp", "projection")) -> dict:
+    """The whole closed loop of ``wbc run tasks/<scenario>.yaml --headless`` (controller and
+    physics at 1 kHz, metrics collected, no viewer): the real-time factor (simulated time /
+    wall time, > 1 is faster than real time) and the median per cycle of the controller and
+    of the simulator step, per solver."""
+    from .runner import run as run_scenario
+    from .scenario import load_config
+    from .sim.simulator import Simulator
+
+    path = Path(__file__).resolve().parents[1] / "tasks" / f"{scenario}.yaml"
+    if not path.exists():
+        return {"missing": f"{path} not found (the scenarios ship with the repository)"}
+    out = {"scenario": scenario, "duration_s": duration}
+    for solver in solvers:
+        sc = load_config(path)
+        step_times: list[float] = []
+        step = Simulator.step
+
+        def timed_step(self, tau, _step=step, _acc=step_times):
+            t0 = time.perf_counter()
+            _step(self, tau)
+            _acc.append(time.perf_counter() - t0)
+
+        Simulator.step = timed_step
+        try:
+            m = run_scenario(sc, solver=solver, duration=duration)
+        finally:
+            Simulator.step = step
+        out[solver] = {"real_time_factor": m["real_time_factor"], "fell": m["fell"],
+                       "controller_median_ms": m["cycle_time"]["median"] * 1e3,
+                       "simulator_median_ms": float(np.median(step_times) * 1e3)}
+    return out
+
+
+def _fmt_sim_loop(sl: dict) -> list[str]:
+    if "missing" in sl:
+        return [f"missing: {sl['missing']}"]
+    out = []
+    for solver in ("hqp", "projection"):
+        r = sl.get(solver)
+        if r:
+            out.append(f"{sl['scenario']} ({sl['duration_s']:g} s simulated), {solver}: real-time factor "
+                       f"{r['real_time_factor']:.2f}; median per cycle: controller {r['controller_median_ms']:.3f} ms, "
+                       f"simulator {r['simulator_median_ms']:.3f} ms" + ("; FELL" if r["fell"] else ""))
     return out
 
 
@@ -810,23 +865,24 @@ def _case_line(c: dict) -> str:
     return (f"{c['robot']:6s} {c['solver']:10s} {be:9s} {c['levels']:2d} {c['nv']:3d} "
             f"{c['median_ms']:7.3f} {c['p99_ms']:7.3f} {c['max_ms']:7.2f} | "
             + " ".join(f"{ph.get(p, float('nan')):6.3f}" for p in (*PHASES, "other"))
-            + f" | {c.get('phase_coverage', float('nan')):5.3f} {c['qp_per_cycle']:4.1f} {st}"
+            + f" | {c.get('phase_coverage', float('nan')):5.3f} {c['qp_per_cycle']:4.1f}"
+            + f" {c.get('diagnostics_ms', float('nan')):6.3f} {st}"
             + (f" TRUNCATED ({c['cycles']} cycles)" if "truncated" in c else "")
             + f" warm-up max {c['warmup_max_ms']:.0f} ms")
 
 
 HEADER = ("robot  solver     backend   lv  nv  median     p99     max | update   rows  solve finish  other"
-          " | cover qp/c status")
+          " | cover qp/c  diag status")
 
 
 def cases_markdown(cases: list[dict]) -> str:
     rows = ["| robot | solver | backend | levels | nv | median ms | p99 ms | max ms | update | rows | solve | "
-            "finish | other | coverage | QPs/cycle | statuses |",
-            "|" + " --- |" * 16]
+            "finish | other | coverage | QPs/cycle | diagnostics ms | statuses |",
+            "|" + " --- |" * 17]
     for c in cases:
         be = c.get("backend") or "-"
         if "error" in c:
-            rows.append(f"| {c['robot']} | {c['solver']} | {be} | failed: {c['error']} |" + " |" * 12)
+            rows.append(f"| {c['robot']} | {c['solver']} | {be} | failed: {c['error']} |" + " |" * 13)
             continue
         ph = c["phases"]
         st = ", ".join(f"{k} {n}" for k, n in c["statuses"].items())
@@ -834,7 +890,8 @@ def cases_markdown(cases: list[dict]) -> str:
             st += f" (truncated: {c['cycles']} cycles)"
         rows.append(f"| {c['robot']} | {c['solver']} | {be} | {c['levels']} | {c['nv']} | {c['median_ms']:.3f} | "
                     f"{c['p99_ms']:.3f} | {c['max_ms']:.2f} | " + " | ".join(f"{ph[p]:.3f}" for p in (*PHASES, "other"))
-                    + f" | {c['phase_coverage']:.3f} | {c['qp_per_cycle']:.2f} | {st} |")
+                    + f" | {c['phase_coverage']:.3f} | {c['qp_per_cycle']:.2f} | {c.get('diagnostics_ms', float('nan')):.3f}"
+                    f" | {st} |")
     return "\n".join(rows)
 
 
@@ -921,6 +978,10 @@ def results_markdown(res: dict) -> str:
         "",
         _fmt_floor(fl),
         "",
+        "## Closed loop (controller + physics, no viewer)",
+        "",
+        *[f"- {ln}" for ln in _fmt_sim_loop(res.get("sim_loop", {"missing": "not run"}))],
+        "",
         "## Peer (PlaCo)",
         "",
         *[f"- {ln}" for ln in _fmt_placo(pl.get("talos_dynamics", {"missing": "not run"}),
@@ -967,7 +1028,7 @@ def _notes(res: dict) -> list[str]:
 
 # -------------------------------------------------------------------- run
 def run(cycles: int = 2000, warmup: int = WARMUP, backends=BACKENDS, robots=("talos", "tiago"),
-        floor: bool = True, peer: bool = True, scaling_nv=CHAIN_NV, scaling_levels=LEVELS,
+        floor: bool = True, peer: bool = True, sim: bool = True, scaling_nv=CHAIN_NV, scaling_levels=LEVELS,
         scaling_cycles: int = 300, scaling_warmup: int = 30, budget_s: float | None = None, svd_reps: int = 20,
         progress: Callable[[str], None] | None = None) -> dict:
     """The whole benchmark as a dict (what ``--json`` writes). ``budget_s``: wall-time
@@ -988,6 +1049,10 @@ def run(cycles: int = 2000, warmup: int = WARMUP, backends=BACKENDS, robots=("ta
         fl = floor_talos(talos, min(cycles, 500), min(warmup, 50))
         res["floor_ms"] = {"talos": fl["sum"], "talos_parts": fl}
         say("floor: " + _fmt_floor(fl))
+    if sim and talos is not None:
+        res["sim_loop"] = sim_loop(duration=1.0 if cycles < 1000 else 5.0)
+        for ln in _fmt_sim_loop(res["sim_loop"]):
+            say(ln)
     if peer and talos is not None:
         try:
             pd = placo_dynamics(talos, cycles, warmup)
