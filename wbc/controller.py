@@ -39,8 +39,10 @@ class Controller:
     generalised-inverse weight W of the projection solver (``"identity"``, or
     ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
     joints such as grippers are the cheapest to accelerate and saturate first).
-    ``sacrifice_tol``: residual above which a task is reported as sacrificed (units of
-    its rows, m/s² or rad/s²). ``warm_start`` (hqp, weighted): the cascade's least-norm
+    ``sacrifice_tol`` and ``sacrifice_rel``: a task is reported as sacrificed when its
+    residual exceeds sacrifice_tol + sacrifice_rel·‖b‖, b what its rows ask (units of its
+    rows, m/s², rad/s², N): by default 0.1 % of the request, so a task met to the QPs'
+    accuracy is not flagged. ``warm_start`` (hqp, weighted): the cascade's least-norm
     choices start from the previous cycle's solution while the stack's structure is
     unchanged (see :meth:`HierarchicalQP.solve_levels`); False makes every cycle
     independent of the last.
@@ -49,13 +51,14 @@ class Controller:
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str = "daqp",
                  weighting: str = "identity", damping: Damping | None = None,
                  sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
-                 warm_start: bool = True) -> None:
+                 warm_start: bool = True, sacrifice_rel: float = 1e-3) -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
             stack = Stack(stack)
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol = sacrifice_tol
+        self.sacrifice_rel = sacrifice_rel
         if solver == "projection":
             self.solver = RecursiveProjection(weighting=weighting, damping=damping, backend=backend)
         elif solver == "hqp":
@@ -181,9 +184,9 @@ class Controller:
                 e = np.full(lvl.n_eq, np.inf)
                 y = np.full(len(lo), np.inf)
             rows.append((lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.C.shape[0],
-                         lvl.box is not None, e, y, lo.copy(), hi.copy(), info))
+                         lvl.box is not None, e, y, lo.copy(), hi.copy(), info, lvl.b.copy()))
             relaxed |= info.relaxed
-        evaluate = partial(_diagnostics, rows, projection, self.sacrifice_tol)
+        evaluate = partial(_diagnostics, rows, projection, self.sacrifice_tol, self.sacrifice_rel)
         status = "ok" if ok else "failed"
         if ok and relaxed:
             status = "relaxed"
@@ -209,14 +212,15 @@ class Controller:
         return tau
 
 
-def _diagnostics(rows, projection: bool, sacrifice_tol: float, tol_act: float = 1e-7):
+def _diagnostics(rows, projection: bool, sacrifice_tol: float, sacrifice_rel: float = 0.0,
+                 tol_act: float = 1e-7):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
     of one cycle (see :meth:`Controller._finish`). The projection solver enforces
     equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
     force distribution and its torque limits are not enforced: those rows are reported
     apart (``unenforced_violation``), not as residuals."""
     residuals, task_res, diags = [], {}, []
-    for index, tasks, eq_slices, in_slices, n_gen, has_box, e, y, lo, hi, info in rows:
+    for index, tasks, eq_slices, in_slices, n_gen, has_box, e, y, lo, hi, info, b in rows:
         viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
         act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
         unenforced = 0.0
@@ -227,10 +231,13 @@ def _diagnostics(rows, projection: bool, sacrifice_tol: float, tol_act: float = 
         sacrificed, active = [], {}
         for t in tasks:
             r2 = 0.0
+            tol = sacrifice_tol
             sl = eq_slices.get(t.name)
             if sl is not None:
                 es = e[sl]
                 r2 += float(es @ es)
+                if sacrifice_rel:
+                    tol += sacrifice_rel * float(np.linalg.norm(b[sl]))
             isl = in_slices.get(t.name)
             if isl is not None:
                 vs = viol[isl]
@@ -240,7 +247,7 @@ def _diagnostics(rows, projection: bool, sacrifice_tol: float, tol_act: float = 
                     active[t.name] = n_act
             r = r2**0.5
             task_res[t.name] = r
-            if r > sacrifice_tol:
+            if r > tol:
                 sacrificed.append(t.name)
         if has_box:
             n_act = int(np.count_nonzero(act[n_gen:]))
