@@ -49,7 +49,7 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
     try:
         import matplotlib
     except ImportError:
-        raise PlotError("plots need matplotlib: pip install matplotlib (it comes with wbc's [dev] extra)") from None
+        raise PlotError("plots need matplotlib (a dependency of wbc): pip install matplotlib") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
