@@ -162,7 +162,7 @@ class Cascade:
         Rinv, info = _trtri(qr[:m, :m], lower=0)
         if info != 0:
             return None
-        Rinv = np.triu(Rinv)
+        Rinv *= _upper(m)                              # trtri leaves the input's lower part
         ub_max = float(np.linalg.norm(AZ))             # ‖R‖_F = ‖AZ‖_F (Q is orthogonal)
         lb_min = 1.0 / float(np.linalg.norm(Rinv))
         if not lb_min > max(damping.rank_tol * max(1.0, ub_max), damping.threshold):
@@ -188,6 +188,16 @@ class Cascade:
 
 
 _EYE: dict[int, np.ndarray] = {}
+_UPPER: dict[int, np.ndarray] = {}
+
+
+def _upper(m: int) -> np.ndarray:
+    """The m × m upper-triangular mask of ones (with its diagonal), built once."""
+    u = _UPPER.get(m)
+    if u is None:
+        u = _UPPER[m] = np.triu(np.ones((m, m)))
+        u.flags.writeable = False
+    return u
 
 
 def _eye(n: int) -> np.ndarray:
