@@ -5,7 +5,12 @@
 (b) the LIVE Meshcat server page while a run is being served: Chromium is driven
     over the DevTools protocol (``--remote-debugging-port``; a websocket client from
     tornado, which meshcat's server already needs), so each screenshot is taken
-    once the scene has arrived over meshcat's websocket, at chosen wall times.
+    once the scene has arrived over meshcat's websocket, at chosen wall times;
+(c) a recorded push: the replay page driven over the DevTools protocol, its
+    animation paused and set to chosen times (``viewer.animator.seek``), so that the
+    push arrow shows while the push acts and only then, and the contact-force arrows
+    have their length (meshcat's animations keep position and quaternion only: the
+    scene records scale and visibility as tracks of their own).
 
 Each test compares the canvas with the empty scene's background: the robot covers
 a substantial share of pixels, and the share that changes between two times shows
@@ -126,6 +131,24 @@ def test_recorded_replay_draws_the_robot_and_moves(recordings):
 
 
 # ------------------------------------------------------------ (b) live server page
+def launch_devtools(chromium: str, url: str, root: Path) -> tuple[subprocess.Popen, int]:
+    """Chromium on ``url`` with a DevTools port (profiles under ``root``): (process, port).
+    The caller kills the process (:func:`_kill`)."""
+    for attempt in range(2):      # headless Chromium occasionally hangs at start-up: once more
+        profile = root / f"profile{attempt}"
+        proc = subprocess.Popen([chromium, *FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0",
+                                 "--remote-allow-origins=*", url],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        port_file = profile / "DevToolsActivePort"
+        t_end = time.monotonic() + 20
+        while not (port_file.is_file() and port_file.read_text().strip()) and time.monotonic() < t_end:
+            time.sleep(0.1)
+        if port_file.is_file() and port_file.read_text().strip():
+            return proc, int(port_file.read_text().split()[0])
+        _kill(proc)
+    pytest.fail("Chromium did not open its DevTools port (twice 20 s)")
+
+
 class DevTools:
     """A minimal Chrome DevTools protocol client (one page target) on tornado's websocket."""
 
@@ -204,21 +227,7 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
         q = sc.robot.q_default.copy()
         q[2] = 200.0                              # first the empty scene: the robot far above the camera
         scene.show(q)
-        for attempt in range(2):      # headless Chromium occasionally hangs at start-up: once more
-            profile = tmp_path / f"profile{attempt}"
-            proc = subprocess.Popen([chromium, *FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0",
-                                     "--remote-allow-origins=*", scene.url],
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-            port_file = profile / "DevToolsActivePort"
-            t_end = time.monotonic() + 20
-            while not (port_file.is_file() and port_file.read_text().strip()) and time.monotonic() < t_end:
-                time.sleep(0.1)
-            if port_file.is_file():
-                break
-            _kill(proc)
-            proc = None
-        assert proc is not None, "Chromium did not open its DevTools port (twice 20 s)"
-        port = int(port_file.read_text().split()[0])
+        proc, port = launch_devtools(chromium, scene.url, tmp_path)
         done = threading.Event()
 
         def serve():          # the run, played at real time into the live page
@@ -274,3 +283,92 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
     assert drawn > 0.02
     assert moved > 0.002
     assert panel > 0.3
+
+
+# ------------------------------------------------------------ (c) a recorded push, animation times set
+# the replay's animation loaded and played to its end (the player then rewinds, paused)
+ANIMATION_DONE = """(function () {
+  try { var a = viewer.animator; return (a.actions.length > 0 && !a.playing) ? a.actions.length : -1; }
+  catch (e) { return -1; } })()"""
+# the push arrow's and the contact-force arrows' states in the page: [visible, scale x, y, z]
+ARROW_STATES = """(function () {
+  function state(o) { return [o.visible, o.scale.x, o.scale.y, o.scale.z]; }
+  var m = viewer.scene_tree.children["meshcat"].children, forces = m["forces"].children;
+  return [state(m["pushes"].children["0"].object)].concat(
+    Object.keys(forces).map(function (k) { return state(forces[k].object); })); })()"""
+
+
+def purple(img: np.ndarray) -> np.ndarray:
+    """Pixels of the push arrow's colour (0x8E44AD, lit): red and blue well above green
+    (the sky, the ground, the robot and the orange contact arrows are not)."""
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    return (r - g > 40) & (b - g > 60)
+
+
+def test_recorded_replay_shows_the_push_arrow_only_while_it_acts(chromium, tmp_path):
+    from wbc.runner import run
+    from wbc.scenario import load_config
+    from wbc.viz import Scene, viewer_callback
+
+    sc = load_config(ROOT / "tasks" / "talos_push.yaml")     # 150 N at the torso from t = 1.0 s for 0.1 s
+    (push,) = sc.pushes
+    assert (push["start"], push["duration"]) == (1.0, 0.1)
+    scene = Scene(sc.robot, sc.environment, record=True)
+    try:
+        run(sc, duration=1.25, callback=viewer_callback(scene, sc.stack, sc.dt, realtime=False, diagnostics_hz=0))
+        html = scene.save_html(tmp_path / "push.html")
+    finally:
+        scene.close()
+    tracks = {path.lower(): set(clip.tracks) for path, clip in scene.anim.clips.items()}
+    for node in ("/meshcat/pushes/0", "/meshcat/forces/p0"):
+        assert {"position", "quaternion", "scale", "visible"} <= tracks[node], (node, tracks[node])
+
+    # frames are drawn every 33 ms of simulated time and played at 30 per second: the push's
+    # frames play from 1.033 s to 1.133 s
+    times = {"before": 0.95, "during": 1.07, "after": 1.2}
+    proc, port = launch_devtools(chromium, html.as_uri(), tmp_path)
+
+    async def drive():
+        dt = await DevTools.attach(port)
+        loaded = await _wait_for(dt, ANIMATION_DONE, 1, 30)
+        assert loaded > 0, "the replay's animation never played"
+        # a view from behind on the left, close to the torso (the default camera looks at the
+        # robot's front: the arrow, behind the torso, would be hidden); camera coordinates are y-up
+        await dt.evaluate('viewer.set_property(["Cameras", "default", "rotated", "<object>"], "position", '
+                          '[-0.8, 1.3, 1.2]); viewer.controls.target.set(0.0, 0.9, 0.0); 0')
+        shots, states = {}, {}
+        for name, t in times.items():
+            await dt.evaluate(f"viewer.animator.pause(); viewer.animator.seek({t}); 0")
+            await asyncio.sleep(0.5)                          # drawn by the page's animation loop
+            states[name] = await dt.evaluate(ARROW_STATES)
+            shots[name] = await dt.screenshot(tmp_path / f"push_{name}.png")
+        dt.conn.close()
+        return shots, states
+
+    try:
+        shots, states = asyncio.run(asyncio.wait_for(drive(), 60))
+    finally:
+        _kill(proc)
+    arrow = {name: int(purple(img).sum()) for name, img in shots.items()}
+    region = purple(shots["during"])
+    rows, cols = np.nonzero(region)
+    box = (slice(max(rows.min() - 10, 0), rows.max() + 10), slice(max(cols.min() - 10, 0), cols.max() + 10)) \
+        if region.any() else (slice(0, 0), slice(0, 0))
+    changed = {name: differing_share(shots["during"][box], shots[name][box]) for name in ("before", "after")}
+    push_state = {name: st[0] for name, st in states.items()}
+    forces = [f for st in states.values() for f in st[1:] if f[0]]     # the contact-force arrows shown
+    lengths = [f[2] for f in forces]
+    print(f"push replay: push-arrow pixels {arrow}; in its box (rows {box[0].start}-{box[0].stop}, columns "
+          f"{box[1].start}-{box[1].stop}) {changed['before']:.0%} / {changed['after']:.0%} of the pixels differ "
+          f"from before / after the push; push arrow [visible, scale] {push_state}; {len(forces)} contact-force "
+          f"arrows shown, {min(lengths, default=0):.3f}-{max(lengths, default=0):.3f} m; screenshots in {tmp_path}")
+    assert push_state["during"][0] is True and np.allclose(push_state["during"][1:], [1.0, 0.3, 1.0], atol=1e-4)
+    for name in ("before", "after"):
+        assert push_state[name][0] is False and max(push_state[name][1:]) < 1e-3
+    # the loaded foot corners' arrows (1 mm per 2 N: up to some 40 cm), not unit cylinders
+    assert len(forces) >= 3 * len(times)
+    assert all(f[1] == f[3] == 1.0 and 0.0 < f[2] < 0.8 for f in forces), forces
+    assert max(lengths) > 0.05
+    assert arrow["during"] > 100
+    assert arrow["before"] == arrow["after"] == 0
+    assert min(changed.values()) > 0.1

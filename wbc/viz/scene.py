@@ -32,7 +32,9 @@ from pinocchio.visualize import MeshcatVisualizer
 from ..sim.environment import Box, HalfSpace
 from .diagnostics import overlay_html, render_png, table_lines
 
-HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node, also in animations
+HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
+#: a hidden node's scale in a recording (with a ``visible`` track set to false; not 0: singular matrices)
+HIDDEN_SCALE = (1e-6, 1e-6, 1e-6)
 COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF39C12, "push": 0x8E44AD}
 
 
@@ -63,8 +65,10 @@ class _OnTopMesh(mg.Mesh):
         return data
 
 
-def _arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.ndarray:
-    """Transform taking meshcat's unit cylinder (axis y, centred) onto a segment."""
+def _arrow_pose(origin: np.ndarray, vec: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """(rigid transform, scale) taking meshcat's unit cylinder (axis y, centred) onto the
+    segment origin → origin + length·vec/|vec|: the scale is (1, length, 1), in the
+    cylinder's frame (applied before the rigid transform)."""
     d = vec / max(np.linalg.norm(vec), 1e-12)
     y = np.array([0.0, 1.0, 0.0])
     axis = np.cross(y, d)
@@ -73,9 +77,24 @@ def _arrow_transform(origin: np.ndarray, vec: np.ndarray, length: float) -> np.n
     if s < 1e-9 and c < 0:
         R = np.diag([1.0, -1.0, -1.0])
     T = np.eye(4)
-    T[:3, :3] = R @ np.diag([1.0, length, 1.0])
+    T[:3, :3] = R
     T[:3, 3] = origin + 0.5 * length * d
-    return T
+    return T, np.array([1.0, length, 1.0])
+
+
+def _three_decomposition(T: np.ndarray, scale) -> tuple[np.ndarray, list[float]]:
+    """T·diag(scale) (T rigid) as (rigid transform, scale) the way three.js's
+    ``Matrix4.decompose`` splits it (a negative determinant goes to the x scale): a
+    mirrored mesh, scale (1, -1, 1), becomes scale (-1, 1, 1) after a rotation. A
+    recording keys the same values as the live page's matrix gives, so that whichever
+    of the static scene and the animation a replay page applies last, it shows the same."""
+    s = np.asarray(scale, float)
+    canonical = np.abs(s)
+    if np.prod(s) < 0:
+        canonical[0] = -canonical[0]
+    R = T.copy()
+    R[:3, :3] = T[:3, :3] @ np.diag(np.sign(s) * np.sign(canonical))   # a proper rotation
+    return R, [float(x) for x in canonical]
 
 
 class Scene:
@@ -101,6 +120,7 @@ class Scene:
         self.anim = Animation(default_framerate=fps) if record else None
         self.live = (not record) if live is None else bool(live)   # draw to the server's page too
         self._target = None        # where _draw writes: None (the live scene) or an animation frame
+        self._poses: dict[str, np.ndarray] = {}   # recording: each node's last rigid transform
         self._frame = 0
         self._diag_frames: list[int] = []
         self._diag_text: list[list[tuple[str, str]]] = []
@@ -138,6 +158,37 @@ class Scene:
     def _node(self, path: str):
         return self.vis[path] if self._target is None else self._target[path]
 
+    def _place(self, path: str, T: np.ndarray, scale=None, hideable: bool = False) -> None:
+        """Place a node with a rigid transform T and a scale (in the node's frame: T·diag(scale)).
+        Live: one matrix. Recording: meshcat's animation keeps position and quaternion only
+        (a scaled or mirrored matrix would give a wrong rotation, and its scale would be lost),
+        so the scale goes in its own ``scale`` track, and a ``hideable`` node (one that
+        :meth:`_hide` may hide) gets a ``visible`` track too."""
+        node = self._node(path)
+        if self._target is None:
+            node.set_transform(T if scale is None else T @ np.diag([*scale, 1.0]))
+            return
+        if scale is not None:
+            T, scale = _three_decomposition(T, scale)
+            node.set_property("scale", "vector3", scale)
+        node.set_transform(T)
+        if hideable:
+            node.set_property("visible", "boolean", True)
+            self._poses[path] = T
+
+    def _hide(self, path: str) -> None:
+        """Hide a node. Live: the zero-scale ``HIDDEN`` transform. Recording: ``visible``
+        false (the animation player steps booleans: hidden from this frame to the next one
+        that shows it) and a tiny scale, at the node's last pose (so that the scale, linearly
+        interpolated between frames, shrinks the arrow in place)."""
+        node = self._node(path)
+        if self._target is None:
+            node.set_transform(HIDDEN)
+            return
+        node.set_transform(self._poses.get(path, np.eye(4)))
+        node.set_property("scale", "vector3", list(HIDDEN_SCALE))
+        node.set_property("visible", "boolean", False)
+
     def show(self, q: np.ndarray, stack=None, sim=None, t: float = 0.0) -> None:
         """Draw the state q (and, when given, the stack's targets and the simulator's
         contact forces, support polygon and active pushes)."""
@@ -159,8 +210,11 @@ class Scene:
         for k, go in enumerate(self.geom.geometryObjects):
             M = self.viz.visual_data.oMg[k]
             T = M.homogeneous
-            self._node(f"robot/visuals/{self.viz.getViewerNodeName(go, pin.GeometryType.VISUAL).split('/')[-1]}") \
-                .set_transform(T @ np.diag([*go.meshScale, 1.0]) if go.meshScale is not None else T)
+            scale = go.meshScale   # e.g. (1, -1, 1): a mirrored mesh, not a rotation
+            if scale is not None and np.allclose(scale, 1.0):
+                scale = None
+            self._place(f"robot/visuals/{self.viz.getViewerNodeName(go, pin.GeometryType.VISUAL).split('/')[-1]}",
+                        T, scale)
         com = pin.centerOfMass(m, d, q)
         self._node("overlay/com").set_transform(mt.translation_matrix(com))
         self._node("overlay/com_ground").set_transform(
@@ -178,11 +232,10 @@ class Scene:
         pts = sim.point_positions()
         for i, (p, f) in enumerate(zip(pts, sim.point_forces)):
             n = np.linalg.norm(f)
-            node = self._node(f"forces/p{i}")
             if n < 1e-3:
-                node.set_transform(HIDDEN)
+                self._hide(f"forces/p{i}")
                 continue
-            node.set_transform(_arrow_transform(p, f, n / self.force_scale * 1e-3))
+            self._place(f"forces/p{i}", *_arrow_pose(p, f, n / self.force_scale * 1e-3), hideable=True)
         loaded = pts[np.linalg.norm(sim.point_forces, axis=1) > 1e-3]
         if len(loaded) >= 3:
             from scipy.spatial import ConvexHull, QhullError
@@ -195,15 +248,14 @@ class Scene:
             except QhullError:  # degenerate hull (collinear points): keep the last polygon
                 pass
         for k, p in enumerate(sim.pushes):
-            node = self._node(f"pushes/{k}")
             if p.active(t):
                 fid = sim.model.getFrameId(p.frame)
                 pin.updateFramePlacement(sim.model, sim.data, fid)
                 origin = sim.data.oMf[fid].translation
-                node.set_transform(_arrow_transform(origin - p.force / np.linalg.norm(p.force) * 0.3,
-                                                    p.force, 0.3))
+                self._place(f"pushes/{k}", *_arrow_pose(origin - p.force / np.linalg.norm(p.force) * 0.3, p.force, 0.3),
+                            hideable=True)
             else:
-                node.set_transform(HIDDEN)
+                self._hide(f"pushes/{k}")
 
     def init_contact_markers(self, sim) -> None:
         for i in range(len(sim.points)):
