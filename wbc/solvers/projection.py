@@ -56,8 +56,12 @@ class RecursiveProjection:
         self.weighting = weighting
         self.damping = damping or Damping()
         self.box_tol = box_tol
+        # weights of the force-distribution rows: the unactuated dynamics must hold to
+        # ~1e-9 of the wrench targets' conflict ((wrench/dynamics)² = 1e-10), a ramping
+        # contact's normal force comes first of all (10 × the dynamics)
+        self.dynamics_weight = 1e3
         self.wrench_weight = 1e-2
-        self.ramp_weight = 10.0
+        self.ramp_weight = 1e4
         self.force_regularization = 1e-6
         self._hints: dict = {}
         self._rows_cache: dict = {}
@@ -175,9 +179,10 @@ class RecursiveProjection:
         """Contact forces for q̈: each contact's force is f₀ + V λ, λ ≥ 0, V the generators
         of its friction/CoP cone (:meth:`~wbc.tasks.Contact.generators`), so every
         candidate is admissible by construction. Non-negative least squares (scipy
-        ``nnls``) on, in decreasing weight: the unactuated dynamics rows
-        S_u J_fᵀ f = S_u (M q̈ + h), ContactWrench targets (×``wrench_weight``), and a
-        small least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
+        ``nnls``) on, in decreasing weight: a ramping contact's normal force
+        (×``ramp_weight``), the unactuated dynamics rows S_u J_fᵀ f = S_u (M q̈ + h)
+        (×``dynamics_weight``), ContactWrench targets (×``wrench_weight``), and a small
+        least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return CascadeResult(np.zeros(0), [])
@@ -205,8 +210,8 @@ class RecursiveProjection:
         rows, rhs = [], []
         if len(u):
             A0 = layout.force_jacobian[:, u].T
-            rows.append(A0)
-            rhs.append(robot.M[u] @ qdd + robot.h[u])
+            rows.append(self.dynamics_weight * A0)
+            rhs.append(self.dynamics_weight * (robot.M[u] @ qdd + robot.h[u]))
         for lvl in levels:
             for t in lvl.tasks:
                 esl = lvl.eq_slices.get(t.name)
