@@ -195,6 +195,7 @@ class _LevelBuffer:
                 ni = sl.stop
         self.n_gen = ni
         idx = [r.box[0] for r in rows if r.box is not None]
+        self.box_srcs = idx           # the tasks' index arrays (identity check next cycle)
         self.box_idx = np.concatenate(idx).astype(int) if idx else None
         nb = 0 if self.box_idx is None else len(self.box_idx)
         # box slices, in order, in the all-inequalities arrays
@@ -217,13 +218,22 @@ def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: di
     kept apart as ``box`` and also appended as unit rows to the level's inequalities."""
     nx = layout.nx
     rows = [t.rows(robot, layout) for t in tasks]
+    if len(rows) == 1 and buffers is not None:
+        lvl = _single_task_level(k, tasks[0], rows[0], nx, buffers)
+        if lvl is not None:
+            return lvl
     sig = (nx,) + tuple((id(t), r.n_eq, 0 if r.C is None else r.C.shape[0], None if r.box is None else len(r.box[0]),
                          t.weight) for t, r in zip(tasks, rows))
     buf = None if buffers is None else buffers.get(k)
+    if buf is not None and not isinstance(buf, _LevelBuffer):
+        buf = None
     if buf is not None and buf.box_idx is not None:
         ng = buf.n_gen
-        same_box = all(np.array_equal(r.box[0], buf.box_idx[sl.start - ng: sl.stop - ng]) for r, sl in
-                       zip((r for r in rows if r.box is not None), buf.box_parts))
+        srcs = [r.box[0] for r in rows if r.box is not None]
+        same_box = (len(srcs) == len(buf.box_srcs) and all(a is b for a, b in zip(srcs, buf.box_srcs))) or all(
+            np.array_equal(a, buf.box_idx[sl.start - ng: sl.stop - ng]) for a, sl in zip(srcs, buf.box_parts))
+        if same_box:
+            buf.box_srcs = srcs
     else:
         same_box = True
     if buf is None or buf.sig != sig or not same_box:
@@ -258,4 +268,22 @@ def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: di
     lvl = Level(index=k, tasks=list(tasks), A=buf.A, b=buf.b, C=buf.C_all[:ng], lo=buf.lo_all[:ng],
                 hi=buf.hi_all[:ng], box=box, eq_slices=buf.eq_slices, in_slices=buf.in_slices)
     lvl._ineq = (buf.C_all, buf.lo_all, buf.hi_all)
+    return lvl
+
+
+def _single_task_level(k: int, task: Task, r: Rows, nx: int, buffers: dict) -> Level | None:
+    """A level of one unweighted equality task (a CoM, a posture): its Level views the
+    task's own row buffers (which, like the level buffers, live until the next cycle),
+    nothing is copied. None when the task has inequality rows or a weight."""
+    if r.A is None or r.C is not None or r.box is not None or task.weight != 1.0 or r.A.shape[1] != nx:
+        return None
+    key = ("single", id(task), r.A.shape[0], nx)
+    got = buffers.get(k)
+    if not (isinstance(got, tuple) and got[0] == key and got[1] is task):
+        empty = (np.zeros((0, nx)), np.zeros(0), np.zeros(0))
+        got = buffers[k] = (key, task, {task.name: slice(0, r.A.shape[0])}, empty)
+    _, _, eq_slices, empty = got
+    lvl = Level(index=k, tasks=[task], A=r.A, b=r.b, C=empty[0], lo=empty[1], hi=empty[2], box=None,
+                eq_slices=eq_slices, in_slices={})
+    lvl._ineq = empty
     return lvl
