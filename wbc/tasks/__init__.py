@@ -7,14 +7,16 @@ from .contact_wrench import ContactWrench
 from .dynamics import DifferentialDrive, FloatingBaseDynamics
 from .frame import Frame
 from .joint_limits import JointLimits
+from .null_space_impedance import NullSpaceImpedance
 from .posture import Posture
 from .torque_limits import TorqueLimits
 
 #: task types a YAML stack may name, by their ``type:`` key
-TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench)}
+TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench,
+                                        NullSpaceImpedance)}
 
 __all__ = [
-    "Task", "MotionTask", "CoM", "Contact", "ContactWrench", "Frame", "JointLimits", "Posture",
+    "Task", "MotionTask", "CoM", "Contact", "ContactWrench", "Frame", "JointLimits", "NullSpaceImpedance", "Posture",
     "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
     "friction_pyramid", "wrench_cone_generators",
 ]

@@ -37,7 +37,10 @@ from .base import Task, as_vector, eq_buffer, gain
 
 
 class NullSpaceImpedance(Task):
-    """See the module docstring."""
+    """Compliant impedance on the self-motion of a frame task one level above (5.43-5.44):
+    the arm yields to external torques where the task does not care.
+
+    See the module docstring for the rows and parameters."""
 
     kind = "null_space_impedance"
 
