@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..checks import se3_from
 from ..errors import FrameNotFound, SolverError, TargetError
 from ..model import WORLD_ALIGNED
 from .motion_common import ControllerDefinitionError, gain_matrix, vector
@@ -70,22 +71,7 @@ def wrench(owner: str, value) -> np.ndarray:
 def to_se3(owner: str, value, current: pin.SE3 | None = None) -> pin.SE3:
     """An SE3 from an SE3, a 4 × 4 homogeneous matrix, or a 3-vector position
     (orientation of ``current``)."""
-    if isinstance(value, pin.SE3):
-        return value.copy()
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TargetError(f"{owner}: pose must be a pinocchio.SE3, a 4x4 matrix or a position, got {value!r}") from exc
-    if arr.shape == (4, 4):
-        R = arr[:3, :3]
-        if not np.all(np.isfinite(arr)) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
-            raise TargetError(f"{owner}: the pose's rotation block is not a rotation matrix (or not finite)")
-        return pin.SE3(R.copy(), arr[:3, 3].copy())
-    if arr.shape == (3,):
-        rot = np.eye(3) if current is None else current.rotation.copy()
-        return pin.SE3(rot, vector(owner, "position", arr, 3))
-    raise TargetError(f"{owner}: pose must be a pinocchio.SE3, a 4x4 homogeneous matrix or a 3-vector "
-                      f"position, got shape {arr.shape}")
+    return se3_from(owner, "pose", value, current)
 
 
 class PoseReference:

@@ -21,6 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ..checks import finite_vector
 from ..errors import TargetError, WbcError
 
 Vector = np.ndarray
@@ -72,15 +73,7 @@ def gain_matrix(owner: str, key: str, value, n: int, definite: bool = True) -> M
 
 def vector(owner: str, key: str, value, n: int) -> Vector:
     """A finite float vector of exactly ``n`` entries, or a :class:`~wbc.errors.TargetError`."""
-    try:
-        arr = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise TargetError(f"{owner}: {key} must be {n} numbers, got {value!r}") from exc
-    if arr.shape != (n,):
-        raise TargetError(f"{owner}: {key} must have shape ({n},), got shape {np.shape(value)}")
-    if not np.all(np.isfinite(arr)):
-        raise TargetError(f"{owner}: {key} contains NaN or inf")
-    return arr
+    return finite_vector(owner, key, value, n)
 
 
 class Reference:

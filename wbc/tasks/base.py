@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import TaskDefinitionError, TargetError
+from ..checks import finite_vector
+from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
 
 if TYPE_CHECKING:
@@ -110,15 +111,7 @@ class MotionTask(Task):
 
 def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
     """A float vector of exactly ``dim`` entries, or a TargetError naming the task."""
-    try:
-        arr = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise TargetError(f"task '{task_name}': {what} must be {dim} numbers, got {value!r}") from exc
-    if arr.shape != (dim,):
-        raise TargetError(f"task '{task_name}': {what} must have shape ({dim},), got shape {np.shape(value)}")
-    if not np.all(np.isfinite(arr)):
-        raise TargetError(f"task '{task_name}': {what} contains NaN or inf")
-    return arr
+    return finite_vector(f"task '{task_name}'", what, value, dim)
 
 
 def rows_of(idx: np.ndarray) -> slice | np.ndarray:

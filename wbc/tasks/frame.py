@@ -8,6 +8,7 @@ import pinocchio as pin
 from ..errors import TargetError, TaskDefinitionError
 from ..model import WORLD_ALIGNED
 from ..rows import Layout, Rows
+from ..checks import se3_from
 from .base import MotionTask, as_vector, eq_buffer
 
 _MASKS = {
@@ -20,8 +21,6 @@ _MASKS = {
 def to_se3(task_name: str, value, current: pin.SE3 | None) -> pin.SE3:
     """Accept an SE3, a 4×4 homogeneous matrix, ``{position: [3], rotation: [[3×3]]}``
     (the YAML form), or a 3-vector position (orientation kept)."""
-    if isinstance(value, pin.SE3):
-        return value.copy()
     if isinstance(value, dict):
         if set(value) - {"position", "rotation"} or "position" not in value:
             raise TargetError(f"task '{task_name}': a target mapping needs position (and optionally rotation)")
@@ -35,19 +34,7 @@ def to_se3(task_name: str, value, current: pin.SE3 | None) -> pin.SE3:
         elif current is not None:
             T[:3, :3] = current.rotation
         return to_se3(task_name, T, current)
-    arr = np.asarray(value, dtype=float)
-    if arr.shape == (4, 4):
-        R = arr[:3, :3]
-        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
-            raise TargetError(f"task '{task_name}': target rotation block is not a rotation matrix")
-        return pin.SE3(R.copy(), arr[:3, 3].copy())
-    if arr.shape == (3,):
-        rot = np.eye(3) if current is None else current.rotation.copy()
-        return pin.SE3(rot, as_vector(task_name, "target", arr, 3))
-    raise TargetError(
-        f"task '{task_name}': target must be a pinocchio.SE3, a 4x4 homogeneous matrix or a "
-        f"3-vector position, got shape {arr.shape}"
-    )
+    return se3_from(f"task '{task_name}'", "target", value, current)
 
 
 class Frame(MotionTask):
