@@ -173,3 +173,35 @@ def null_space_posture(owner: str, robot, kp, kd, q_rest) -> tuple[np.ndarray, n
     Dq = gain_matrix(owner, "null_kd", kd, robot.nv, definite=False)
     qr = robot.q_default.copy() if q_rest is None else vector(owner, "q_rest", q_rest, robot.nq)
     return Kq, Dq, qr
+
+
+class FrameController:
+    """What the one-frame interaction controllers (stiffness, impedance, admittance,
+    hybrid force/motion) share: the frame, the pose reference, the null-space posture
+    γ = K_q (q_rest ⊖ q) − D_q q̇ projected with Pᵀ, and the start of each call."""
+
+    def __init__(self, kind: str, robot, frame: str, target, null_kp, null_kd, q_rest) -> None:
+        self.name = f"{kind}({frame})"
+        self.robot, self.frame = robot, frame
+        self.fid = frame_id(self.name, robot, frame)
+        self.Kq, self.Dq, self.q_rest = null_space_posture(self.name, robot, null_kp, null_kd, q_rest)
+        self.reference = PoseReference(self.name, target)
+        self.last: dict = {}
+
+    def _begin(self, q, v) -> tuple[np.ndarray, np.ndarray, OpSpace]:
+        """Checked (q, v), the robot's cache updated, the frame's operational-space terms."""
+        r = self.robot
+        q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
+        r.update(q, v)
+        return q, v, OpSpace.of(r, self.fid, v)
+
+    def _null_torque(self, q, v) -> np.ndarray:
+        """γ of the null-space posture (N·m), to be projected with Pᵀ."""
+        return self.Kq @ self.robot.difference(q, self.q_rest) - self.Dq @ v
+
+
+def impedance_gains(owner: str, km, kd, kp) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """K_M (PD), K_D, K_P (PSD), 6 × 6 each, and K_M⁻¹ of the impedance 5.37."""
+    KM = gain_matrix(owner, "km", km, 6)
+    return (KM, gain_matrix(owner, "kd", kd, 6, definite=False), gain_matrix(owner, "kp", kp, 6, definite=False),
+            np.linalg.inv(KM))

@@ -31,19 +31,16 @@ import numpy as np
 import pinocchio as pin
 
 from ._opspace import (
-    OpSpace,
-    PoseReference,
-    frame_id,
+    FrameController,
     gain_matrix,
-    null_space_posture,
+    impedance_gains,
     pose_error,
     positive,
-    vector,
     wrench,
 )
 
 
-class AdmittanceControl:
+class AdmittanceControl(FrameController):
     """Admittance filter (5.37) + inner motion loop. Call: ``tau = ctrl(q, v, t, h_e=...)``,
     once per control period ``dt``.
 
@@ -60,19 +57,13 @@ class AdmittanceControl:
 
     def __init__(self, robot, frame: str = "hand", dt: float = 1e-3, km=2.0, kd=40.0, kp=400.0,
                  inner_kp=1e4, inner_kd=None, target=None, null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        name = f"AdmittanceControl({frame})"
-        self.robot, self.frame, self.name = robot, frame, name
-        self.fid = frame_id(name, robot, frame)
+        super().__init__("AdmittanceControl", robot, frame, target, null_kp, null_kd, q_rest)
+        name = self.name
         self.dt = positive(name, "dt", dt)
-        self.KM = gain_matrix(name, "km", km, 6)
-        self.KD = gain_matrix(name, "kd", kd, 6, definite=False)
-        self.KP = gain_matrix(name, "kp", kp, 6, definite=False)
-        self.KM_inv = np.linalg.inv(self.KM)
+        self.KM, self.KD, self.KP, self.KM_inv = impedance_gains(name, km, kd, kp)
         self.Kp_in = gain_matrix(name, "inner_kp", inner_kp, 6)
         self.Kd_in = gain_matrix(name, "inner_kd", 2.0 * np.sqrt(np.diag(self.Kp_in)) if inner_kd is None
                                  else inner_kd, 6)
-        self.Kq, self.Dq, self.q_rest = null_space_posture(name, robot, null_kp, null_kd, q_rest)
-        self.reference = PoseReference(name, target)
         self.reset()
 
     def reset(self) -> None:
@@ -83,11 +74,8 @@ class AdmittanceControl:
 
     def __call__(self, q, v, t: float = 0.0, h_e=None) -> np.ndarray:
         """Joint torques τ (N·m) from q (rad), v (rad/s), t (s) and the measured h_e (N, N·m)."""
-        r = self.robot
-        q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
         he = wrench(self.name, h_e)
-        r.update(q, v)
-        ops = OpSpace.of(r, self.fid, v)
+        q, v, ops = self._begin(q, v)
         pose_d, vel_d, acc_d = self.reference(t, ops.pose)
         if self.x_c is None:
             self.x_c = ops.pose.copy()
@@ -98,8 +86,8 @@ class AdmittanceControl:
         acc_c = acc_d - self.KM_inv @ (he - self.KD @ dv_dc - self.KP @ dx_dc)
         # inner loop: track (x_c, v_c, v̇_c)
         a = acc_c + self.Kd_in @ (self.v_c - ops.twist) + self.Kp_in @ pose_error(self.x_c, ops.pose)
-        gamma = self.Kq @ r.difference(q, self.q_rest) - self.Dq @ v
-        tau = ops.J.T @ (ops.Lam @ (a - ops.Jdqd)) + r.h + ops.P.T @ gamma
+        gamma = self._null_torque(q, v)
+        tau = ops.J.T @ (ops.Lam @ (a - ops.Jdqd)) + self.robot.h + ops.P.T @ gamma
         self.last = {"dx": pose_error(pose_d, ops.pose), "dx_c": dx_dc, "tracking": pose_error(self.x_c, ops.pose),
                      "Lambda": ops.Lam}
         # advance the compliant frame by one period (semi-implicit Euler on SE(3))

@@ -49,11 +49,8 @@ import numpy as np
 from ..errors import TargetError
 from ._opspace import (
     ControllerDefinitionError,
-    OpSpace,
-    PoseReference,
-    frame_id,
+    FrameController,
     gain_matrix,
-    null_space_posture,
     pose_error,
     positive,
     vector,
@@ -82,7 +79,7 @@ def selection(owner: str, directions) -> tuple[np.ndarray, np.ndarray]:
     return Sf, U[:, m:]
 
 
-class HybridForceMotion:
+class HybridForceMotion(FrameController):
     """Hybrid force/motion control (5.3.3) of one frame. Call: ``tau = ctrl(q, v, t, h_e=...)``.
 
     Parameters
@@ -102,9 +99,8 @@ class HybridForceMotion:
                  kp_force: float = 0.5, ki_force: float = 5.0, mass_force: float = 5.0,
                  damping_force: float = 400.0, kp_motion=400.0, kd_motion=40.0, ki_motion=0.0,
                  null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        name = f"HybridForceMotion({frame})"
-        self.robot, self.frame, self.name = robot, frame, name
-        self.fid = frame_id(name, robot, frame)
+        super().__init__("HybridForceMotion", robot, frame, motion, null_kp, null_kd, q_rest)
+        name = self.name
         self.Sf, self.Sv = selection(name, force_directions)
         m = self.Sf.shape[1]
         self.m = m
@@ -116,8 +112,6 @@ class HybridForceMotion:
         self.Kp = gain_matrix(name, "kp_motion", kp_motion, nf, definite=False)
         self.Kd = gain_matrix(name, "kd_motion", kd_motion, nf, definite=False)
         self.Ki = gain_matrix(name, "ki_motion", ki_motion, nf, definite=False)
-        self.Kq, self.Dq, self.q_rest = null_space_posture(name, robot, null_kp, null_kd, q_rest)
-        self.reference = PoseReference(name, motion)
         self._force: Callable[[float], np.ndarray] | np.ndarray
         if callable(force):
             self._force = force
@@ -145,13 +139,10 @@ class HybridForceMotion:
         The integrators advance by the increase of ``t`` between calls: pass the
         control time, or the integral actions (K_Iλ, K_Iν) stay idle.
         """
-        r = self.robot
-        q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
         he = wrench(self.name, h_e)
         if not np.isfinite(t):
             raise TargetError(f"{self.name}: t must be finite, got {t!r}")
-        r.update(q, v)
-        ops = OpSpace.of(r, self.fid, v)
+        q, v, ops = self._begin(q, v)
         Sf, Sv = self.Sf, self.Sv
         # measurements in the task frame
         lam = Sf.T @ he
@@ -170,7 +161,7 @@ class HybridForceMotion:
         # motion loop
         alpha_v = Sv.T @ acc_d + self.Kd @ e_dot + self.Kp @ e + self.Ki @ self.int_motion
         hc = ops.Lam @ (Sv @ alpha_v + Sf @ alpha_f - ops.Jdqd) + he
-        gamma = self.Kq @ r.difference(q, self.q_rest) - self.Dq @ v
+        gamma = self._null_torque(q, v)
         self.last = {"lambda": lam, "lambda_d": lam_d, "force_error": lam_d - lam, "motion_error": e,
                      "f_lambda": f_lam, "pose_error": pose_error(pose_d, ops.pose)}
-        return ops.J.T @ hc + r.h + ops.P.T @ gamma
+        return ops.J.T @ hc + self.robot.h + ops.P.T @ gamma

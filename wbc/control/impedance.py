@@ -33,18 +33,14 @@ from __future__ import annotations
 import numpy as np
 
 from ._opspace import (
-    OpSpace,
-    PoseReference,
-    frame_id,
-    gain_matrix,
-    null_space_posture,
+    FrameController,
+    impedance_gains,
     pose_error,
-    vector,
     wrench,
 )
 
 
-class ImpedanceControl:
+class ImpedanceControl(FrameController):
     """Impedance control (5.36) of one frame. Call: ``tau = ctrl(q, v, t, h_e=...)``.
 
     Parameters
@@ -60,29 +56,18 @@ class ImpedanceControl:
 
     def __init__(self, robot, frame: str = "hand", km=2.0, kd=40.0, kp=400.0, target=None,
                  null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        name = f"ImpedanceControl({frame})"
-        self.robot, self.frame, self.name = robot, frame, name
-        self.fid = frame_id(name, robot, frame)
-        self.KM = gain_matrix(name, "km", km, 6)
-        self.KD = gain_matrix(name, "kd", kd, 6, definite=False)
-        self.KP = gain_matrix(name, "kp", kp, 6, definite=False)
-        self.KM_inv = np.linalg.inv(self.KM)
-        self.Kq, self.Dq, self.q_rest = null_space_posture(name, robot, null_kp, null_kd, q_rest)
-        self.reference = PoseReference(name, target)
-        self.last: dict = {}
+        super().__init__("ImpedanceControl", robot, frame, target, null_kp, null_kd, q_rest)
+        self.KM, self.KD, self.KP, self.KM_inv = impedance_gains(self.name, km, kd, kp)
 
     def __call__(self, q, v, t: float = 0.0, h_e=None) -> np.ndarray:
         """Joint torques τ (N·m) from q (rad), v (rad/s), t (s) and the measured h_e (N, N·m)."""
-        r = self.robot
-        q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
         he = wrench(self.name, h_e)
-        r.update(q, v)
-        ops = OpSpace.of(r, self.fid, v)
+        q, v, ops = self._begin(q, v)
         pose_d, vel_d, acc_d = self.reference(t, ops.pose)
         dx = pose_error(pose_d, ops.pose)
         dv = vel_d - ops.twist
         alpha = acc_d + self.KM_inv @ (self.KD @ dv + self.KP @ dx - he)
         hc = ops.Lam @ (alpha - ops.Jdqd) + he
-        gamma = self.Kq @ r.difference(q, self.q_rest) - self.Dq @ v
+        gamma = self._null_torque(q, v)
         self.last = {"dx": dx, "dv": dv, "alpha": alpha, "Lambda": ops.Lam}
-        return ops.J.T @ hc + r.h + ops.P.T @ gamma
+        return ops.J.T @ hc + self.robot.h + ops.P.T @ gamma

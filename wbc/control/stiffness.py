@@ -30,17 +30,13 @@ import numpy as np
 import pinocchio as pin
 
 from ._opspace import (
-    OpSpace,
-    PoseReference,
-    frame_id,
+    FrameController,
     gain_matrix,
-    null_space_posture,
     pose_error,
-    vector,
 )
 
 
-class StiffnessControl:
+class StiffnessControl(FrameController):
     """Stiffness control (5.34) of one frame. Call: ``tau = ctrl(q, v, t)``.
 
     Parameters
@@ -58,15 +54,10 @@ class StiffnessControl:
 
     def __init__(self, robot, frame: str = "hand", kp=500.0, kd=50.0, target=None,
                  null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        name = f"StiffnessControl({frame})"
-        self.robot, self.frame, self.name = robot, frame, name
-        self.fid = frame_id(name, robot, frame)
-        self.KP = gain_matrix(name, "kp", kp, 6)
-        self.KD = gain_matrix(name, "kd", kd, 6, definite=False)
-        self.Kq, self.Dq, self.q_rest = null_space_posture(name, robot, null_kp, null_kd, q_rest)
-        self.reference = PoseReference(name, target)
+        super().__init__("StiffnessControl", robot, frame, target, null_kp, null_kd, q_rest)
+        self.KP = gain_matrix(self.name, "kp", kp, 6)
+        self.KD = gain_matrix(self.name, "kd", kd, 6, definite=False)
         self._data = robot.model.createData()   # for g(q): the robot's cached Data stays untouched
-        self.last: dict = {}
 
     @property
     def compliance(self) -> np.ndarray:
@@ -75,14 +66,11 @@ class StiffnessControl:
 
     def __call__(self, q, v, t: float = 0.0) -> np.ndarray:
         """Joint torques τ (N·m) for the state q (rad), v (rad/s) at time t (s)."""
-        r = self.robot
-        q, v = vector(self.name, "q", q, r.nq), vector(self.name, "v", v, r.nv)
-        r.update(q, v)
-        ops = OpSpace.of(r, self.fid, v)
+        q, v, ops = self._begin(q, v)
         pose_d, _, _ = self.reference(t, ops.pose)
         dx = pose_error(pose_d, ops.pose)
         hc = self.KP @ dx - self.KD @ ops.twist
-        g = pin.computeGeneralizedGravity(r.model, self._data, q)
-        gamma = self.Kq @ r.difference(q, self.q_rest) - self.Dq @ v
+        g = pin.computeGeneralizedGravity(self.robot.model, self._data, q)
+        gamma = self._null_torque(q, v)
         self.last = {"dx": dx, "h_c": hc, "Lambda": ops.Lam}
         return ops.J.T @ hc + g + ops.P.T @ gamma
