@@ -17,57 +17,38 @@ Prints the figures; with --viz (or a display) it plays live in the browser (Mesh
 
 from __future__ import annotations
 
-import argparse
-import os
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
-    parser.add_argument("--headless", action="store_true", help="never open a browser; record HTML")
-    parser.add_argument("--record", default=str(ROOT / "recordings" / "chapter_elastic_joints.html"),
-                        help="where the headless run writes its HTML replay")
-    args = parser.parse_args()
+    from _arm_view import ArmView, demo_args
+
+    args, live = demo_args(__doc__, "chapter_elastic_joints")
 
     import wbc
     from wbc.control import MotorPD, PDGravity, TorqueFeedback
     from wbc.sim import Simulator
     from wbc.sim.elastic import ElasticJointSimulator
-    from wbc.viz import Scene
 
-    live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
-    scene = Scene(robot, [], open_browser=live, record=not live)
-    # the arm is 1 m tall: bring Meshcat's default camera (y-up coordinates) closer
-    scene.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.4, 0.9, 1.4])
-    if live:
-        print(f"browser view: {scene.url}")
+    view = ArmView(robot, live)
     q0 = robot.q_default.copy()
     qd = q0 + np.array([0.3, -0.2, 0.3, 0.3, -0.3, 0.3, 0.4])
-    clock = {"sim": 0.0, "wall": time.perf_counter()}
+    clock = {"t": 0.0}           # the demo's time across its runs (for the view)
 
     def run(sim, ctrl, duration, show=True):
         """Closed loop on ``sim`` for ``duration`` s; the link trajectory (one row per period)."""
-        every = max(1, round(1.0 / (30 * sim.dt)))
         Q = []
         for k in range(round(duration / sim.dt)):
             t = k * sim.dt
             sim.step(ctrl(sim.measure(), t) if isinstance(sim, ElasticJointSimulator) else ctrl(sim.q, sim.v, t))
             Q.append(sim.q.copy())
-            if show and k % every == 0:
-                scene.show(sim.q)
-                if live:
-                    clock["sim"] += every * sim.dt
-                    lag = clock["sim"] - (time.perf_counter() - clock["wall"])
-                    if lag > 0:
-                        time.sleep(lag)
+            if show:
+                clock["t"] += sim.dt
+                view.draw(sim.q, clock["t"])
         return np.array(Q)
 
     probe = ElasticJointSimulator(robot)
@@ -92,10 +73,7 @@ def main() -> int:
         Q = run(sim, TorqueFeedback(sim.B, sim.B / ratio, TorqueFeedback.rigid(pd)), 1.5)
         print(f"3. torque feedback (5.10), B_m/B_θ = {ratio:4.0f}: max |q − q_rigid| over 1.5 s = "
               f"{np.abs(Q - QR).max() * 1e3:5.1f} mrad (motion 400 mrad)")
-    if not live:
-        Path(args.record).parent.mkdir(parents=True, exist_ok=True)
-        print(f"replay written to {scene.save_html(args.record)} (open it in a browser; works offline)")
-    scene.close()
+    view.finish(args.record)
     return 0
 
 

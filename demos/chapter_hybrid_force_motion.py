@@ -19,34 +19,29 @@ as an arrow), else an HTML replay under recordings/.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 DT = 1e-3
 
 
 def main() -> int:
+    from _arm_view import ArmView, demo_args
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--mu", type=float, default=0.3, help="Coulomb friction coefficient of the table")
     parser.add_argument("--force", type=float, default=10.0, help="desired pressing force λ_D (N)")
     parser.add_argument("--duration", type=float, default=6.0)
-    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
-    parser.add_argument("--headless", action="store_true", help="never open a browser; record HTML")
-    parser.add_argument("--record", default=str(ROOT / "recordings" / "chapter_hybrid_force_motion.html"))
-    args = parser.parse_args()
+    args, live = demo_args(__doc__, "chapter_hybrid_force_motion", parser)
 
-    from _interaction_view import InteractionView
 
     import wbc
     from wbc.control import HybridForceMotion
     from wbc.sim.compliant import CompliantPlane, InteractionSim
 
-    live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
     robot.update(robot.q_default, np.zeros(robot.nv))
     p0 = robot.frame_placement(robot.frame_id("hand")).copy()
@@ -90,7 +85,7 @@ def main() -> int:
 
     print(f"Panda hand on a table (K_e = 1e4 N/m, μ = {args.mu}): press λ_D = {args.force} N, slide 5 cm "
           f"from t = {t0} s at 0.4 Hz; 1 kHz")
-    view = InteractionView(robot, live, arrows={"contact": "contact"}, targets=["hand"], m_per_newton=0.01)
+    view = ArmView(robot, live, arrows={"contact": "contact"}, targets=["hand"], m_per_newton=0.01)
     view.plate(table, [0.0, 0.0, 1.0])
     slide = run(A, view)
     hold = run(0.0)

@@ -24,37 +24,32 @@ display), else an HTML replay under recordings/.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 DT = 1e-3
 
 
 def main() -> int:
+    from _arm_view import ArmView, demo_args
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--mode", default="all", choices=["all", "stiffness", "impedance", "admittance"])
     parser.add_argument("--joint-friction", type=float, default=0.0,
                         help="viscous joint friction in the simulated arm, unknown to the controllers (N·m·s/rad)")
-    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
-    parser.add_argument("--headless", action="store_true", help="never open a browser; record HTML")
-    parser.add_argument("--record", default=str(ROOT / "recordings" / "chapter_impedance.html"))
-    args = parser.parse_args()
+    args, live = demo_args(__doc__, "chapter_impedance", parser)
 
-    from _interaction_view import InteractionView
     from scipy.linalg import expm
 
     import wbc
     from wbc.control import AdmittanceControl, ImpedanceControl, StiffnessControl
     from wbc.sim.compliant import ExternalWrench, InteractionSim
 
-    live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
-    view = InteractionView(robot, live, arrows={"push": "push"}, m_per_newton=0.03)
+    view = ArmView(robot, live, arrows={"push": "push"}, m_per_newton=0.03)
     KM = np.diag([1.5] * 3 + [0.05] * 3)
     KD = np.diag([30.0] * 3 + [1.0] * 3)
     KP = np.diag([300.0] * 3 + [20.0] * 3)

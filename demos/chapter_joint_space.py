@@ -16,25 +16,17 @@ Prints the figures; with --viz (or a display) it plays live in the browser (Mesh
 
 from __future__ import annotations
 
-import argparse
-import os
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
 DT = 1e-3
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
-    parser.add_argument("--headless", action="store_true", help="never open a browser; record HTML")
-    parser.add_argument("--record", default=str(ROOT / "recordings" / "chapter_joint_space.html"),
-                        help="where the headless run writes its HTML replay")
-    args = parser.parse_args()
+    from _arm_view import ArmView, demo_args
+
+    args, live = demo_args(__doc__, "chapter_joint_space")
 
     import wbc
     from wbc.control import (
@@ -45,19 +37,11 @@ def main() -> int:
     )
     from wbc.sim import Simulator
     from wbc.trajectories import Sinusoid
-    from wbc.viz import Scene
 
-    live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
-    scene = Scene(robot, [], open_browser=live, record=not live)
-    # the arm is 1 m tall: bring Meshcat's default camera (y-up coordinates) closer
-    scene.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.4, 0.9, 1.4])
-    if live:
-        print(f"browser view: {scene.url}")
-    every = round(1.0 / (30 * DT))
+    view = ArmView(robot, live)
     q0 = robot.q_default.copy()
     sim = Simulator(robot.model, [], [], q0, dt=DT)
-    state = {"t_wall": time.perf_counter(), "t_sim": 0.0}
 
     def run(ctrl, duration, ref=None):
         """Closed loop for ``duration`` s; returns times, |e| per step, peak |τ| per joint."""
@@ -71,13 +55,7 @@ def main() -> int:
                 T.append(t)
                 E.append(np.linalg.norm(ref(t)[0] - sim.q))
             sim.step(tau)
-            if k % every == 0:
-                scene.show(sim.q)
-                if live:
-                    state["t_sim"] += every * DT
-                    lag = state["t_sim"] - (time.perf_counter() - state["t_wall"])
-                    if lag > 0:
-                        time.sleep(lag)
+            view.draw(sim.q, sim.t)
         return np.array(T), np.array(E), tau_max
 
     def moving(amplitude, frequency):
@@ -122,10 +100,7 @@ def main() -> int:
         T, E, tm = run(ctrl, 5.0, ref)
         print(f"3. Slotine-Li (5.6), π̂(0) = 0.6 π, {label}: tracking error over the last 2 s "
               f"{E[T > 3.0].max() * 1e3:6.1f} mrad; {limits(tm)}")
-    if not live:
-        Path(args.record).parent.mkdir(parents=True, exist_ok=True)
-        print(f"replay written to {scene.save_html(args.record)} (open it in a browser; works offline)")
-    scene.close()
+    view.finish(args.record)
     return 0
 
 

@@ -20,39 +20,32 @@ replay under recordings/.
 
 from __future__ import annotations
 
-import argparse
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 DT = 1e-3
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
-    parser.add_argument("--headless", action="store_true", help="never open a browser; record HTML")
-    parser.add_argument("--record", default=str(ROOT / "recordings" / "chapter_multipriority_interaction.html"))
-    args = parser.parse_args()
+    from _arm_view import ArmView, demo_args
+
+    args, live = demo_args(__doc__, "chapter_multipriority_interaction")
 
     import pinocchio as pin
-    from _interaction_view import InteractionView
 
     import wbc
     from wbc.control import NullSpaceImpedance, PDGravity
     from wbc.sim.compliant import ExternalWrench, InteractionSim
 
-    live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
     q0 = robot.q_default.copy()
     K = np.diag([3000.0] * 3 + [100.0] * 3)       # N/m, N·m/rad: the glass is held stiffly
     D = np.diag([150.0] * 3 + [2.5] * 3)
     k_q, B_nu = 20.0, 3.0                           # N·m/rad, N·m·s/rad: a soft null space
-    view = InteractionView(robot, live, arrows={"elbow_push": "push", "hand_push": "push"}, m_per_newton=0.01)
+    view = ArmView(robot, live, arrows={"elbow_push": "push", "hand_push": "push"}, m_per_newton=0.01)
     elbow_f, hand_f = np.array([0.0, 25.0, 0.0]), np.array([0.0, 0.0, -10.0])
     t_on, t_off, T = 0.3, 1.8, 2.8
     start = {"t": 0.0}

@@ -17,49 +17,28 @@ HTML replay under recordings/.
 
 from __future__ import annotations
 
-import argparse
-import os
 import sys
-import time
-from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
 DT = 1e-3
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--viz", action="store_true", help="play live in the browser (Meshcat)")
-    parser.add_argument("--headless", action="store_true", help="never open a browser; record HTML")
-    parser.add_argument("--record", default=str(ROOT / "recordings" / "chapter_task_space.html"),
-                        help="where the headless run writes its HTML replay")
-    args = parser.parse_args()
+    from _arm_view import ArmView, demo_args
 
-    import pinocchio as pin
+    args, live = demo_args(__doc__, "chapter_task_space")
+
 
     import wbc
     from wbc.control import JacobianTransposePD, TaskSpaceInverseDynamics
     from wbc.sim import Simulator
-    from wbc.viz import Scene
 
-    live = not args.headless and (args.viz or bool(os.environ.get("DISPLAY")))
     robot = wbc.load_robot("panda")
     hand, elbow = robot.frame_id("hand"), robot.frame_id("elbow")
-    scene = Scene(robot, [], open_browser=live, record=not live)
-    # the arm is 1 m tall: bring Meshcat's default camera (y-up coordinates) closer
-    scene.vis["/Cameras/default/rotated/<object>"].set_property("position", [1.4, 0.9, 1.4])
-    if live:
-        print(f"browser view: {scene.url}")
-    # the scene draws a marker for every "frame" item with a target (duck-typed like a stack's tasks)
-    marker = SimpleNamespace(kind="frame", name="hand_target", target=pin.SE3.Identity())
-    scene.set_targets([marker])
-    every = round(1.0 / (30 * DT))
+    view = ArmView(robot, live, targets=["hand"])
     q0 = robot.q_default.copy()
     sim = Simulator(robot.model, [], [], q0, dt=DT)
-    wall = {"t0": time.perf_counter()}
 
     def positions(q):
         robot.update(q, np.zeros(robot.nv))
@@ -75,13 +54,8 @@ def main() -> int:
             err.append(np.linalg.norm(ctrl.error(sim.q, t)))
             elb.append(positions(sim.q)[1])
             sim.step(tau)
-            if k % every == 0:
-                marker.target = pin.SE3(np.eye(3), ctrl.reference(t)[0])
-                scene.show(sim.q, [marker])
-                if live:
-                    lag = (t - 0.0) - (time.perf_counter() - wall["t0"])
-                    if lag > 0:
-                        time.sleep(lag)
+            if view.due(t):
+                view.draw(sim.q, t, targets={"hand": ctrl.reference(t)[0]})
         return np.array(err), np.array(elb), tau_max
 
     x0, _ = positions(q0)
@@ -113,10 +87,7 @@ def main() -> int:
           f"Lyapunov V {V0:.2f} → {jt.lyapunov(sim.q, sim.v):.1e} J")
     peak = np.max(np.maximum(np.maximum(tm1, tm2), tm3) / robot.tau_max)
     print(f"   peak |τ| / torque limit over the run: {peak:.0%}")
-    if not live:
-        Path(args.record).parent.mkdir(parents=True, exist_ok=True)
-        print(f"replay written to {scene.save_html(args.record)} (open it in a browser; works offline)")
-    scene.close()
+    view.finish(args.record)
     return 0
 
 

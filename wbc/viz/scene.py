@@ -189,21 +189,35 @@ class Scene:
         node.set_property("scale", "vector3", list(HIDDEN_SCALE))
         node.set_property("visible", "boolean", False)
 
-    def show(self, q: np.ndarray, stack=None, sim=None, t: float = 0.0) -> None:
+    def add_arrow(self, name: str, color: int, radius: float = 0.008) -> None:
+        """An arrow ``extras/<name>`` that :meth:`show` places with ``arrows={name: ...}``
+        (hidden until then)."""
+        self.vis[f"extras/{name}"].set_object(mg.Cylinder(1.0, radius), mg.MeshLambertMaterial(color=color))
+        self.vis[f"extras/{name}"].set_transform(HIDDEN)
+
+    def add_point(self, name: str, color: int, radius: float = 0.015, opacity: float = 0.6) -> None:
+        """A sphere ``extras/<name>`` that :meth:`show` places with ``points={name: p}``."""
+        self.vis[f"extras/{name}"].set_object(mg.Sphere(radius),
+                                              mg.MeshLambertMaterial(color=color, opacity=opacity))
+
+    def show(self, q: np.ndarray, stack=None, sim=None, t: float = 0.0, arrows: dict | None = None,
+             points: dict | None = None) -> None:
         """Draw the state q (and, when given, the stack's targets and the simulator's
-        contact forces, support polygon and active pushes)."""
+        contact forces, support polygon and active pushes). ``arrows``: {name: (start (m),
+        direction, length (m)) or None to hide} and ``points``: {name: position (m)}, for
+        the nodes made by :meth:`add_arrow` and :meth:`add_point`."""
         if self.anim is not None:
             with self.anim.at_frame(self.vis, self._frame) as frame:
                 self._target = frame
                 try:
-                    self._draw(q, stack, sim, t)
+                    self._draw(q, stack, sim, t, arrows, points)
                 finally:
                     self._target = None
             self._frame += 1
         if self.live or self.anim is None:
-            self._draw(q, stack, sim, t)
+            self._draw(q, stack, sim, t, arrows, points)
 
-    def _draw(self, q, stack, sim, t) -> None:
+    def _draw(self, q, stack, sim, t, arrows=None, points=None) -> None:
         m, d = self.robot.model, self.viz.data
         pin.forwardKinematics(m, d, q)
         pin.updateGeometryPlacements(m, d, self.geom, self.viz.visual_data)
@@ -227,6 +241,13 @@ class Scene:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
         if sim is not None:
             self._draw_contacts(sim, t)
+        for name, arrow in (arrows or {}).items():
+            if arrow is None:
+                self._hide(f"extras/{name}")
+            else:
+                self._place(f"extras/{name}", *_arrow_pose(*arrow), hideable=True)
+        for name, p in (points or {}).items():
+            self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
 
     def _draw_contacts(self, sim, t) -> None:
         pts = sim.point_positions()
