@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.linalg import expm
 
 import wbc
 from wbc.control.admittance import AdmittanceControl
@@ -19,21 +18,14 @@ from wbc.control.motion_common import ControllerDefinitionError
 from wbc.control.stiffness import StiffnessControl
 from wbc.sim.compliant import CompliantPlane, ExternalWrench, InteractionSim
 
+from .closed_form import msd_response
+
 DT = 1e-3
 
 
 @pytest.fixture(scope="module")
 def panda() -> wbc.RobotModel:
     return wbc.load_robot("panda")
-
-
-def msd_response(Lam, D, K, h, t):
-    """x(t) of Λ ẍ + D ẋ + K x = h (h constant from t = 0, x(0) = ẋ(0) = 0); Λ, D, K n × n."""
-    n = len(h)
-    Li = np.linalg.inv(Lam)
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Li @ K, -Li @ D]])
-    z_ss = np.concatenate([np.linalg.solve(K, h), np.zeros(n)])
-    return np.array([(z_ss + expm(A * s) @ (-z_ss))[:n] for s in t])
 
 
 def run(panda, ctrl, sim, T, force_feedback: bool, t_on: float = 0.0):

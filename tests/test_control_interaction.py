@@ -7,12 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from scipy.linalg import expm
 
 import wbc
 from wbc.control.motion_common import ControllerDefinitionError
 from wbc.control.null_space_impedance import NullSpaceImpedance
 from wbc.sim.compliant import ExternalWrench, InteractionSim
+
+from .closed_form import msd_response
 
 DT = 1e-3
 K_TASK = np.diag([3000.0] * 3 + [60.0] * 3)     # N/m, N·m/rad
@@ -100,15 +101,6 @@ def test_null_space_obeys_the_impedance_equation_5_44(panda):
     # and the terms are not trivially small: inertia, damping and spring all carry load
     assert np.abs(log["Lam_nu"][k] * nu_t_dot).max() > 0.2 * scale
     assert np.abs(B_NU * nu_t[k]).max() > 0.1 * scale
-
-
-def msd_response(Lam, D, K, h, t):
-    """x(t) of Λ ẍ + D ẋ + K x = h (constant h from t = 0, x(0) = ẋ(0) = 0)."""
-    n = len(h)
-    Li = np.linalg.inv(Lam)
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Li @ K, -Li @ D]])
-    z_ss = np.concatenate([np.linalg.solve(K, h), np.zeros(n)])
-    return np.array([(z_ss + expm(A * s) @ (-z_ss))[:n] for s in t])
 
 
 def test_hand_wrench_meets_the_task_impedance_5_46(panda):
