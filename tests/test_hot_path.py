@@ -18,7 +18,7 @@ import pytest
 import wbc
 from wbc.sim.environment import ground
 from wbc.sim.simulator import Simulator
-from wbc.solvers import cascade
+from wbc.solvers import cascade, level_kernel
 from wbc.solvers.cascade import Cascade, Damping
 from wbc.stack import assemble_level
 
@@ -26,13 +26,8 @@ from .stacks import random_state, randomise_targets, talos_stack
 
 
 def _svd_step(cas: Cascade, A, b, d):
-    """The same step with the Gram and QR paths switched off."""
-    ratio, rows = cascade._GRAM_MIN_RATIO, cascade._QR_MIN_ROWS
-    cascade._GRAM_MIN_RATIO, cascade._QR_MIN_ROWS = np.inf, 10**9
-    try:
-        return cas.ls_step(A, b, d)
-    finally:
-        cascade._GRAM_MIN_RATIO, cascade._QR_MIN_ROWS = ratio, rows
+    """The same step by the SVD route."""
+    return cas.route_step(A, b, d, level_kernel.SVD)
 
 
 @pytest.mark.parametrize("m,n", [(18, 50), (12, 29), (8, 9)])
@@ -45,7 +40,7 @@ def test_qr_path_equals_svd_path(m, n):
         cas.commit(cas.ls_step(B.T, rng.standard_normal(4), d))
         A = rng.standard_normal((m, n + 4))
         b = rng.standard_normal(m)
-        q = cas._qr_step(A @ cas.Z, b - A @ cas.x, d)
+        q = cas.route_step(A, b, d, level_kernel.QR)
         s = _svd_step(cas, A, b, d)
         assert q is not None and q.rank == s.rank == m
         np.testing.assert_allclose(q.z, s.z, atol=1e-12 * max(1.0, np.linalg.norm(s.z)))
@@ -63,7 +58,7 @@ def test_qr_path_refuses_rank_deficient_and_near_singular_levels():
     V, _ = np.linalg.qr(rng.standard_normal((30, 10)))
     for smin in (0.0, 1e-12, 5e-4):          # singular, rank-deficient, below the damping threshold
         A = U @ np.diag(np.r_[np.ones(9), smin]) @ V.T
-        assert cas._qr_step(A, rng.standard_normal(10), Damping()) is None
+        assert cas.route_step(A, rng.standard_normal(10), Damping(), level_kernel.QR) is None
 
 
 @pytest.mark.parametrize("m,n", [(32, 26), (38, 14), (12, 12), (40, 3)])
@@ -95,11 +90,12 @@ def test_gram_path_refuses_ill_conditioned_and_rank_deficient_levels():
     V, _ = np.linalg.qr(rng.standard_normal((10, 10)))
     for smin in (1e-5, 1e-12, 0.0):         # κ = 1e5, 1e12, singular
         A = U @ np.diag(np.r_[np.ones(9), smin]) @ V.T
-        assert cas._gram_step(A, rng.standard_normal(20), Damping()) is None
+        assert cas.route_step(A, rng.standard_normal(20), Damping(), level_kernel.GRAM) is None
         step = cas.ls_step(A, rng.standard_normal(20), Damping())
-        assert step.rank == (10 if smin > 1e-9 else 9)      # the SVD path decides the rank
+        assert step.rank == (10 if smin > 1e-9 else 9)      # another route decides the rank
+        assert step.route != level_kernel.GRAM
     A = U @ np.diag(np.r_[np.ones(9), 1e-3]) @ V.T   # κ = 1e3: accepted
-    assert cas._gram_step(A, rng.standard_normal(20), Damping()) is not None
+    assert cas.route_step(A, rng.standard_normal(20), Damping(), level_kernel.GRAM) is not None
 
 
 def test_level_buffers_equal_rows_stacked_afresh():
@@ -195,3 +191,42 @@ def test_simulator_contact_jacobians_equal_frame_jacobians():
             J = pin.getFrameJacobian(model, data, fids[i], pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
             np.testing.assert_allclose(row, R.T @ J, atol=1e-12)
             assert dep == pytest.approx(-data.oMf[fids[i]].translation[2], abs=1e-12)
+
+
+@pytest.mark.parametrize("m,n,rank", [(32, 17, 11), (12, 29, 9), (6, 6, 3), (40, 20, 19)])
+def test_cod_route_equals_svd_path_on_rank_deficient_levels(m, n, rank):
+    """A posture level leaves the internal contact forces free: its rows have exact null
+    directions. The complete orthogonal decomposition gets the SVD's rank, step and null
+    space, and the cascade takes it when the level's first route refuses."""
+    rng = np.random.default_rng(m * 1000 + n * 10 + rank)
+    d = Damping()
+    for trial in range(20):
+        cas = Cascade(n + 3)
+        B = rng.standard_normal((n + 3, 3))
+        cas.commit(cas.ls_step(B.T, rng.standard_normal(3), d))
+        A = rng.standard_normal((m, rank)) @ rng.standard_normal((rank, n)) @ cas.Z.T
+        b = rng.standard_normal(m)
+        c = cas.route_step(A, b, d, level_kernel.COD)
+        s = _svd_step(cas, A, b, d)
+        assert c is not None and c.rank == s.rank == rank
+        smin, smax = cascade.singular_values(c.R)       # σ of J̄_k, on demand, from T
+        assert abs(smin - s.sigma_min) <= 1e-9 * s.sigma_max and abs(smax - s.sigma_max) <= 1e-9 * s.sigma_max
+        np.testing.assert_allclose(c.z, s.z, atol=1e-9 * max(1.0, np.linalg.norm(s.z)))
+        np.testing.assert_allclose(c.Z_next @ c.Z_next.T, s.Z_next @ s.Z_next.T, atol=1e-9)
+        np.testing.assert_allclose(c.Z_next.T @ c.Z_next, np.eye(n - rank), atol=1e-12)
+        assert cas.ls_step(A, b, d).route == level_kernel.COD
+
+
+def test_cod_route_refuses_what_it_cannot_prove():
+    """Below the damping threshold, or a singular value between the rank tolerance and
+    the certificate's reach: the SVD decides."""
+    rng = np.random.default_rng(5)
+    U, _ = np.linalg.qr(rng.standard_normal((20, 10)))
+    V, _ = np.linalg.qr(rng.standard_normal((10, 10)))
+    cas = Cascade(10)
+    for smin in (5e-4, 1e-8):
+        A = U @ np.diag(np.r_[np.ones(7), smin, 0.0, 0.0]) @ V.T
+        b = rng.standard_normal(20)
+        assert cas.route_step(A, b, Damping(), level_kernel.COD) is None
+        step = cas.ls_step(A, b, Damping())
+        assert step.route == level_kernel.SVD and step.rank == 8

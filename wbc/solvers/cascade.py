@@ -16,6 +16,11 @@ smallest singular value of A Z kept in its rank,
     λ² = 0                                   if σ_min ≥ ε,
     λ² = (1 − (σ_min/ε)²) λ_max²             otherwise,
 and the step uses σ/(σ² + λ²) in place of 1/σ. Rank counts σ > ``rank_tol``·max(1, σ_max).
+
+One level is one call of a compiled kernel (:func:`wbc.solvers.level_kernel.level_step`):
+the products, the factorisation and the new basis without the interpreter in between
+(measured on Talos, 5 levels: the cascade's Python and f2py overhead was about half
+of its 0.19 ms; see ``benchmarks/optimisation.md``).
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import get_lapack_funcs
+
+from . import level_kernel
 
 
 @dataclass
@@ -59,6 +66,12 @@ class Step:
     #: singular values are those of AZ (see :func:`singular_values`), worked out only
     #: if someone reads the diagnostics
     R: np.ndarray | None = None
+    #: x̂ + Z z, the point the step leads to (computed with it)
+    x_next: np.ndarray | None = None
+    #: False when a forced route refused the level (see :meth:`Cascade.route_step`)
+    ok: bool = True
+    #: the factorisation that gave the step (a route of :mod:`~wbc.solvers.level_kernel`)
+    route: int = 0
 
 
 def singular_values(R: np.ndarray) -> tuple[float, float]:
@@ -71,13 +84,14 @@ class Cascade:
     """x = x̂ + Z z over R^n, levels applied one after the other (see module doc).
 
     Hot path: Z starts as the identity and is not multiplied while it is one. A level
-    is factorised by the cheapest exact route its shape and conditioning allow:
-    wide and of full rank, a Householder QR of (AZ)ᵀ; tall and well conditioned, the
-    eigen-decomposition of the Gram matrix; otherwise (rank deficient, near a
-    singularity, damped) LAPACK's SVD ``gesdd``, with the full V only when AZ is
-    wide. ``hints`` (a dict kept by the solver across cycles) remembers which
-    levels needed the SVD last time, so they go straight to it; each such hint is
-    retried every ``_HINT_RETRY`` cycles."""
+    is factorised by the cheapest route its shape and conditioning allow, each fast
+    route accepted only when it can prove what the SVD would decide
+    (:mod:`~wbc.solvers.level_kernel`): wide and of full rank, a Householder QR of
+    (AZ)ᵀ; tall and well conditioned, the eigen-decomposition of the Gram matrix;
+    rank deficient with a clear rank, a complete orthogonal decomposition; otherwise
+    (near a singularity, damped) the SVD. ``hints`` (a dict kept by the solver across
+    cycles) remembers the route a level needed last time, so it goes straight there;
+    each hint is retried every ``_HINT_RETRY`` cycles."""
 
     def __init__(self, n: int, hints: dict | None = None) -> None:
         self.n = n
@@ -94,110 +108,52 @@ class Cascade:
 
     def ls_step(self, A: np.ndarray, b: np.ndarray, damping: Damping) -> Step:
         """Least-squares step of ``A x = b`` inside the current null space (not applied)."""
-        AZ = A if self._identity else A @ self.Z
-        r = b - A @ self.x
-        m, r_dim = AZ.shape
+        m, r_dim = A.shape[0], self.Z.shape[1]
         if m == 0 or r_dim == 0:
-            return Step(np.zeros(r_dim), self.Z, 0, np.inf, 0.0, 0.0, AZ, r)
+            AZ = A if self._identity else A @ self.Z
+            return Step(np.zeros(r_dim), self.Z, 0, np.inf, 0.0, 0.0, AZ, b - A @ self.x, x_next=self.x)
         key = (self._calls, m, r_dim)
         self._calls += 1
         hints = self._hints
-        skip = False
+        path = level_kernel.AUTO
         if hints is not None:
-            left = hints.get(key, 0)
+            route, left = hints.get(key, (0, 0))
             if left:
-                hints[key] = left - 1
-                skip = True
-        if not skip and (m >= r_dim or m >= _QR_MIN_ROWS):
-            step = self._gram_step(AZ, r, damping) if m >= r_dim else self._qr_step(AZ, r, damping)
-            if step is not None:
-                return step
-            if hints is not None:
-                hints[key] = _HINT_RETRY
-        U, s, Vt, info = _gesdd(AZ, compute_uv=1, full_matrices=int(m < r_dim))
-        if info != 0:
-            # divide-and-conquer did not converge (rare): the QR-iteration SVD
-            U, s, Vt = np.linalg.svd(AZ, full_matrices=m < r_dim)
-        smax = float(s[0])
-        rank = int(np.count_nonzero(s > damping.rank_tol * max(1.0, smax)))
-        smin = float(s[rank - 1]) if rank else 0.0
-        lam2 = damping.lambda2(smin) if rank else 0.0
-        if rank == len(s) and lam2 == 0.0:
-            z = Vt[:rank].T @ ((U.T[:rank] @ r) / s)
-        else:
-            sr = s[:rank]
-            z = Vt[:rank].T @ ((sr / (sr * sr + lam2)) * (U[:, :rank].T @ r))
-        null = Vt[rank:]
-        Z_next = null.T if self._identity else self.Z @ null.T
-        return Step(z, Z_next, rank, smin, smax, float(lam2), AZ, r)
+                hints[key] = (route, left - 1)
+                path = route
+        step = self._kernel(A, b, damping, path)
+        if hints is not None and step.route != path and step.route != _FIRST[m >= r_dim]:
+            hints[key] = (step.route, _HINT_RETRY)
+        return step
 
-    def _gram_step(self, AZ: np.ndarray, r: np.ndarray, damping: Damping) -> Step | None:
-        """A level with at least as many rows as free directions, well conditioned: the
-        eigen-decomposition of the Gram matrix (AZ)ᵀAZ = V Σ² Vᵀ, half the cost of the
-        SVD. Used only when κ(AZ) ≤ 1e4 (the normal equations then lose at most ~1e-8 of
-        relative accuracy); the level then has full rank and leaves no free direction.
-        Returns None otherwise (the caller takes the SVD)."""
-        G = AZ.T @ AZ
-        w, V, info = _syevd(G)
-        if info != 0 or not w[-1] > 0.0 or w[0] < _GRAM_MIN_RATIO * w[-1]:
-            return None
-        smin, smax = float(np.sqrt(w[0])), float(np.sqrt(w[-1]))
-        lam2 = damping.lambda2(smin)
-        z = V @ ((V.T @ (AZ.T @ r)) / (w + lam2))
-        return Step(z, np.zeros((self.n, 0)) if self._identity else self.Z[:, :0], len(w), smin, smax,
-                    float(lam2), AZ, r)
+    def _kernel(self, A: np.ndarray, b: np.ndarray, damping: Damping, path: int, strict: bool = False) -> Step:
+        ok, route, z, Z_next, AZ, r, R, x_next, rank, smin, smax, lam2 = level_kernel.level_step(
+            np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), self.x,
+            _NO_BASIS if self._identity else self.Z, self._identity, path, strict, damping.rank_tol,
+            damping.threshold, damping.max_damping, _GRAM_MIN_RATIO)
+        return Step(z, Z_next, rank, smin, smax, lam2, AZ, r, R if R.size else None, x_next, ok, route)
 
-    def _qr_step(self, AZ: np.ndarray, r: np.ndarray, damping: Damping) -> Step | None:
-        """A wide level (fewer rows than free directions) of full row rank, away from
-        singularities: (AZ)ᵀ = Q R (Householder), then z = Q₁ R⁻ᵀ r and the null space
-        Q₂. The singular values of AZ are those of R; the rank and damping decisions
-        use the bounds σ_max ≤ ‖R‖_F and σ_min ≥ 1/‖R⁻¹‖_F (exact inverse of the m × m
-        triangle), so the full-rank, undamped step is taken only when it is certain;
-        otherwise None (the caller takes the SVD). Two thirds of the SVD's cost at
-        18 × 50 (level 0 of a biped)."""
-        m, n = AZ.shape
-        qr, tau, _, info = _geqrf(AZ.T)
-        if info != 0:
-            return None
-        Rinv, info = _trtri(qr[:m, :m], lower=0)
-        if info != 0:
-            return None
-        Rinv *= _upper(m)                              # trtri leaves the input's lower part
-        ub_max = float(np.linalg.norm(AZ))             # ‖R‖_F = ‖AZ‖_F (Q is orthogonal)
-        lb_min = 1.0 / float(np.linalg.norm(Rinv))
-        if not lb_min > max(damping.rank_tol * max(1.0, ub_max), damping.threshold):
-            return None
-        Qin = np.empty((n, n), order="F")
-        Qin[:, :m] = qr
-        Q, _, info = _orgqr(Qin, tau)
-        if info != 0:
-            return None
-        z = Q[:, :m] @ (Rinv.T @ r)
-        null = Q[:, m:]
-        return Step(z, null if self._identity else self.Z @ null, m, np.nan, np.nan, 0.0, AZ, r, qr[:m, :m].copy())
+    def route_step(self, A: np.ndarray, b: np.ndarray, damping: Damping, route: int) -> Step | None:
+        """The step by one route of :mod:`~wbc.solvers.level_kernel` only (``SVD``, ``QR``,
+        ``GRAM``, ``COD``), or None if that route refuses the level: what the tests
+        compare the routes with."""
+        step = self._kernel(A, b, damping, route, strict=True)
+        return step if step.ok else None
 
     def commit(self, step: Step, z: np.ndarray | None = None) -> None:
         """Apply a step (or another z of the same level, e.g. a QP's) and shrink Z."""
-        self.x = self.x + self.Z @ (step.z if z is None else z)
+        self.x = step.x_next if z is None and step.x_next is not None else self.x + self.Z @ (step.z if z is None else z)
         if step.Z_next is not self.Z:
             self._identity = False
         self.Z = step.Z_next
 
     def candidate(self, step: Step) -> np.ndarray:
-        return self.x + self.Z @ step.z
+        return step.x_next if step.x_next is not None else self.x + self.Z @ step.z
 
 
 _EYE: dict[int, np.ndarray] = {}
-_UPPER: dict[int, np.ndarray] = {}
-
-
-def _upper(m: int) -> np.ndarray:
-    """The m × m upper-triangular mask of ones (with its diagonal), built once."""
-    u = _UPPER.get(m)
-    if u is None:
-        u = _UPPER[m] = np.triu(np.ones((m, m)))
-        u.flags.writeable = False
-    return u
+#: stands for Z while Z is the identity (the kernel then skips the products with it)
+_NO_BASIS = np.zeros((0, 0))
 
 
 def _eye(n: int) -> np.ndarray:
@@ -210,11 +166,10 @@ def _eye(n: int) -> np.ndarray:
     return e
 
 
-_gesdd, _syevd, _geqrf, _orgqr, _trtri = get_lapack_funcs(("gesdd", "syevd", "geqrf", "orgqr", "trtri"),
-                                                          (np.zeros((1, 1)),))
-#: fewest rows for the QR path of wide levels (below it the SVD's single call is cheaper)
-_QR_MIN_ROWS = 8
-#: cycles a level that needed the SVD goes straight to it before the cheaper path is retried
+_gesdd, = get_lapack_funcs(("gesdd",), (np.zeros((1, 1)),))
+#: the route a level is first tried with, by ``tall`` (m ≥ free directions)
+_FIRST = {False: level_kernel.QR, True: level_kernel.GRAM}
+#: cycles a level goes straight to the route it last needed before its first route is retried
 _HINT_RETRY = 50
 #: smallest eigenvalue ratio of the Gram matrix for the eigen path (κ(AZ) ≤ 1e4)
 _GRAM_MIN_RATIO = 1e-8

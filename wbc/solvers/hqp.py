@@ -28,6 +28,7 @@ import numpy as np
 from ..rows import Level
 from .backends import Backend, make_backend
 from .cascade import Cascade, Damping, singular_values
+from .level_kernel import max_violation
 
 
 @dataclass
@@ -273,10 +274,8 @@ def _violated(Cs, los, his, x, tol: float) -> bool:
     """Whether x violates any block l ≤ C x ≤ u by more than ``tol`` (block by block:
     nothing is stacked on the path where no QP is needed)."""
     for C, lo, hi in zip(Cs, los, his):
-        if C.shape[0]:
-            y = C @ x
-            if (lo - y).max() > tol or (y - hi).max() > tol:
-                return True
+        if C.shape[0] and max_violation(C, lo, hi, x) > tol:
+            return True
     return False
 
 

@@ -42,6 +42,7 @@ from ..errors import SolverError
 from ..rows import Layout, Level
 from .cascade import NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo
+from .level_kernel import box_excess_max
 
 
 class RecursiveProjection:
@@ -78,6 +79,7 @@ class RecursiveProjection:
         boxes = [l.box for l in levels if l.box is not None]
         if boxes:
             b_idx, b_lo, b_hi = (np.concatenate(p) for p in zip(*boxes))
+            b_idx = b_idx.astype(np.int64, copy=False)
         else:
             b_idx = np.zeros(0, dtype=int)
             b_lo = b_hi = np.zeros(0)
@@ -121,7 +123,7 @@ class RecursiveProjection:
         blocked: set[int] = set()
         while True:
             step = cas.ls_step(Ay, b, self.damping)
-            if not len(b_idx):
+            if not len(b_idx) or (T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol):
                 cas.commit(step)
                 return step
             q_now = q_of(cas.x)

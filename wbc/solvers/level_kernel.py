@@ -1,0 +1,299 @@
+"""One level of the lexicographic cascade, compiled (numba): x = x̂ + Z z, one call.
+
+Same mathematics as described in :mod:`wbc.solvers.cascade`; this module only
+removes the Python interpreter from it. A level used to cost ~25 µs of numpy and
+f2py call overhead on top of its LAPACK work (products A Z and A x̂, a
+factorisation, the step, the new basis, the candidate point); compiled, the
+LAPACK work is what remains. The factorisations are LAPACK's, called directly:
+``geqrf``/``orgqr``/``trtri`` through scipy's ``cython_lapack`` table, ``gesdd`` and
+``syevd`` through numba's own ``np.linalg`` bindings.
+
+Given A (m × n), b (m), x̂ (n) and the basis Z (n × k, or the identity), with
+AZ = A Z and r = b − A x̂, :func:`level_step` returns the damped least-squares step
+
+    z = Σ σ_i/(σ_i² + λ²) v_i u_iᵀ r      (σ_i > rank_tol · max(1, σ_max)),
+
+λ² = (1 − (σ_min/ε)²) λ_max² when σ_min < ε (``threshold`` ε, ``max_damping``
+λ_max), else 0; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
+
+- ``GRAM`` (m ≥ k): eigen-decomposition of (AZ)ᵀAZ, accepted only if κ(AZ)² ≤
+  1/``gram_min_ratio`` (full rank, nothing left free);
+- ``QR`` (m < k): Householder QR of (AZ)ᵀ, accepted only if the bound
+  1/‖R⁻¹‖_F ≤ σ_min proves full row rank above the damping threshold
+  (σ_max ≤ ‖AZ‖_F bounds the rank tolerance);
+- ``COD`` (either shape, when the first route refuses): a complete orthogonal
+  decomposition from a column-pivoted QR, for rank-deficient levels whose rank
+  it can prove (a posture level has no say on the internal contact forces);
+- ``SVD`` otherwise (near a singularity, damped, or rank not proven).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+from llvmlite import binding as _llvm
+from numba import types
+from numba.extending import get_cython_function_address
+
+AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
+
+
+def _lapack(name: str, nargs: int):
+    """A LAPACK routine of scipy's ``cython_lapack`` (Fortran calling convention: every
+    argument a pointer) as a function numba can call and cache."""
+    symbol = f"wbc_{name}"
+    _llvm.add_symbol(symbol, get_cython_function_address("scipy.linalg.cython_lapack", name))
+    return types.ExternalFunction(symbol, types.void(*([types.voidptr] * nargs)))
+
+
+_dgeqrf = _lapack("dgeqrf", 8)    # m, n, a, lda, tau, work, lwork, info
+_dorgqr = _lapack("dorgqr", 9)    # m, n, k, a, lda, tau, work, lwork, info
+_dtrtri = _lapack("dtrtri", 6)    # uplo, diag, n, a, lda, info
+_dgeqp3 = _lapack("dgeqp3", 9)    # m, n, a, lda, jpvt, tau, work, lwork, info
+
+_UPLO_DIAG = np.frombuffer(b"UN", dtype=np.uint8)
+
+
+@nb.njit(cache=True)
+def damping_lambda2(smin: float, threshold: float, max_damping: float) -> float:
+    """λ² of the Chiaverini/Maciejewski rule (see :class:`~wbc.solvers.cascade.Damping`)."""
+    if threshold <= 0.0 or smin >= threshold:
+        return 0.0
+    t = smin / threshold
+    return (1.0 - t * t) * max_damping * max_damping
+
+
+@nb.njit(cache=True)
+def _gram(AZ, r, threshold, max_damping, gram_min_ratio):
+    k = AZ.shape[1]
+    w, V = np.linalg.eigh(AZ.T @ AZ)
+    if not w[k - 1] > 0.0 or w[0] < gram_min_ratio * w[k - 1]:
+        return False, np.empty(0), 0.0, 0.0, 0.0
+    smin, smax = np.sqrt(w[0]), np.sqrt(w[k - 1])
+    lam2 = damping_lambda2(smin, threshold, max_damping)
+    z = V @ ((V.T @ (AZ.T @ r)) / (w + lam2))
+    return True, z, smin, smax, lam2
+
+
+@nb.njit(cache=True)
+def _qr(AZ, r, rank_tol, threshold):
+    m, k = AZ.shape
+    Q = np.empty((k, k)).T                       # Fortran order, k × k
+    Q[:, :m] = AZ.T
+    tau = np.empty(m)
+    lwork = 64 * k
+    work = np.empty(lwork)
+    iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
+    _dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
+            iw[3:].ctypes, iw[4:].ctypes)
+    R = np.zeros((m, m))
+    Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
+    if iw[4] != 0:
+        return False, np.empty(0), np.empty((0, 0)).T, R
+    for j in range(m):
+        for i in range(j + 1):
+            R[i, j] = Q[i, j]
+            Rinv[i, j] = Q[i, j]
+    mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
+    _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
+            mi[2:].ctypes)
+    if mi[2] != 0:
+        return False, np.empty(0), np.empty((0, 0)).T, R
+    ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
+    lb_min = 1.0 / np.sqrt(np.sum(Rinv * Rinv))  # ≤ σ_min
+    if not lb_min > max(rank_tol * max(1.0, ub_max), threshold):
+        return False, np.empty(0), np.empty((0, 0)).T, R
+    _dorgqr(iw[0:].ctypes, iw[5:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes,
+            work.ctypes, iw[3:].ctypes, iw[4:].ctypes)
+    if iw[4] != 0:
+        return False, np.empty(0), np.empty((0, 0)).T, R
+    y = Rinv.T @ r
+    z = np.zeros(k)
+    for j in range(m):                           # z = Q₁ y (Q₁ a Fortran-order slice)
+        z += y[j] * Q[:, j]
+    return True, z, Q[:, m:], R
+
+
+@nb.njit(cache=True)
+def _cod(AZ, r, rank_tol, threshold):
+    """Complete orthogonal decomposition (LAPACK's xGELSY route) of a rank-deficient level:
+    AZ P = Q₁ [R₁₁ R₁₂; 0 R₂₂] (QR with column pivoting), rank ρ from |R_ii|, then
+    [R₁₁ R₁₂]ᵀ = Q₂ T. With E the dropped R₂₂ block, AZ = Q₁ Tᵀ Q₂ᵀ Pᵀ + E and
+    z = P Q₂ T⁻ᵀ Q₁ᵀ r, null(AZ) ≈ P Q₂[:, ρ:]. Accepted only when the decision is
+    certain: σ_{ρ+1} ≤ ‖E‖_F ≤ rank_tol·max(1, max column norm) (so below the SVD's
+    rank tolerance) and σ_ρ ≥ 1/‖T⁻¹‖_F − ‖E‖_F above both that tolerance and the
+    damping threshold (Weyl's inequalities)."""
+    m, k = AZ.shape
+    a = np.empty((k, m)).T                       # Fortran order, m × k
+    a[:, :] = AZ
+    jpvt = np.zeros(k, dtype=np.int32)
+    mn = min(m, k)
+    tau = np.empty(mn)
+    lwork = 64 * (m + k)
+    work = np.empty(lwork)
+    iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
+    fail = (False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0)))
+    _dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
+            iw[3:].ctypes, iw[4:].ctypes)
+    if iw[4] != 0:
+        return fail
+    colmax = 0.0
+    for j in range(k):
+        c = np.sqrt(np.sum(AZ[:, j] * AZ[:, j]))
+        if c > colmax:
+            colmax = c
+    tol = rank_tol * max(1.0, colmax)
+    rho = 0
+    while rho < mn and abs(a[rho, rho]) > tol:
+        rho += 1
+    if rho == 0:
+        return fail
+    e2 = 0.0                                      # ‖R₂₂‖_F²
+    for j in range(rho, k):
+        for i in range(rho, min(j + 1, m)):
+            e2 += a[i, j] * a[i, j]
+    e = np.sqrt(e2)
+    if e > tol:
+        return fail
+    W = np.empty((k, k)).T                        # Fortran order, k × k; [R₁₁ R₁₂]ᵀ first
+    W[:, :] = 0.0
+    for j in range(k):
+        for i in range(min(j + 1, rho)):
+            W[j, i] = a[i, j]
+    tau2 = np.empty(rho)
+    iw2 = np.array([k, rho, k, lwork, 0, k], dtype=np.int32)
+    _dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
+            iw2[3:].ctypes, iw2[4:].ctypes)
+    if iw2[4] != 0:
+        return fail
+    Tinv = np.zeros((rho, rho)).T
+    T = np.zeros((rho, rho))
+    for j in range(rho):
+        for i in range(j + 1):
+            Tinv[i, j] = W[i, j]
+            T[i, j] = W[i, j]
+    ti = np.array([rho, rho, 0], dtype=np.int32)
+    _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
+            ti[2:].ctypes)
+    if ti[2] != 0:
+        return fail
+    lb = 1.0 / np.sqrt(np.sum(Tinv * Tinv)) - e
+    if not lb > max(rank_tol * max(1.0, np.sqrt(np.sum(AZ * AZ))), threshold):
+        return fail
+    # Q₁ᵀ r through the first ρ reflectors of the pivoted QR
+    iq = np.array([m, rho, rho, m, lwork, 0], dtype=np.int32)
+    _dorgqr(iq[0:].ctypes, iq[1:].ctypes, iq[2:].ctypes, a.ctypes, iq[3:].ctypes, tau.ctypes, work.ctypes,
+            iq[4:].ctypes, iq[5:].ctypes)
+    _dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
+            work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
+    if iq[5] != 0 or iw2[4] != 0:
+        return fail
+    c = np.zeros(rho)
+    for j in range(rho):
+        c[j] = np.sum(a[:, j] * r)
+    y = Tinv.T @ c
+    z = np.zeros(k)
+    for j in range(rho):
+        z += y[j] * W[:, j]
+    zp = np.empty(k)
+    null = np.empty((k, k - rho))
+    for i in range(k):
+        zp[jpvt[i] - 1] = z[i]
+        null[jpvt[i] - 1, :] = W[i, rho:]
+    return True, zp, null, rho, T
+
+
+@nb.njit(cache=True)
+def _svd(AZ, r, rank_tol, threshold, max_damping):
+    m, k = AZ.shape
+    U, s, Vt = np.linalg.svd(AZ, full_matrices=m < k)
+    smax = s[0]
+    tol = rank_tol * max(1.0, smax)
+    rank = 0
+    for i in range(s.shape[0]):
+        if s[i] > tol:
+            rank += 1
+    smin = s[rank - 1] if rank else 0.0
+    lam2 = damping_lambda2(smin, threshold, max_damping) if rank else 0.0
+    z = np.zeros(k)
+    for j in range(rank):                         # Σ σ_j/(σ_j² + λ²) v_j u_jᵀ r
+        z += (s[j] / (s[j] * s[j] + lam2) * np.sum(U[:, j] * r)) * Vt[j, :]
+    return z, np.ascontiguousarray(Vt[rank:].T), rank, smin, smax, lam2
+
+
+@nb.njit(cache=True)
+def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damping, gram_min_ratio):
+    """(ok, route, z, Z_next, AZ, r, R, x_new, rank, σ_min, σ_max, λ²) of one level (module
+    doc). Routes are tried from ``path`` along GRAM or QR → COD → SVD (``AUTO``: GRAM for
+    a tall level, QR for a wide one); ``route`` is the one that gave the step; with
+    ``strict`` a refusal of ``path`` itself returns ok = False. ``R`` is the QR route's
+    triangular factor, the COD route's T (σ_min, σ_max are then NaN and come from R on
+    demand: those of AZ, to within the dropped block's ‖E‖_F ≤ rank_tol), empty
+    otherwise. Non-finite rows give a NaN step, never an exception: the controller reports
+    the cycle as failed."""
+    n = x.shape[0]
+    AZ = A if identity else A @ Z
+    r = b - A @ x
+    m, k = AZ.shape
+    R = np.empty((0, 0))
+    none = np.empty((n, 0))
+    if not (np.all(np.isfinite(AZ)) and np.all(np.isfinite(r))):
+        return True, path, np.full(k, np.nan), none, AZ, r, R, np.full(n, np.nan), 0, np.nan, np.nan, 0.0
+    route = path
+    if route == AUTO:
+        route = GRAM if m >= k else QR
+    if route == GRAM:
+        ok, z, smin, smax, lam2 = _gram(AZ, r, threshold, max_damping, gram_min_ratio)
+        if ok:
+            return True, GRAM, z, none, AZ, r, R, x + (z if identity else Z @ z), k, smin, smax, lam2
+        if strict:
+            return False, GRAM, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
+        route = COD
+    elif route == QR:
+        ok, z, null, Rq = _qr(AZ, r, rank_tol, threshold)
+        if ok:
+            null_c = np.ascontiguousarray(null)
+            Z_next = null_c if identity else Z @ null_c
+            return True, QR, z, Z_next, AZ, r, Rq, x + (z if identity else Z @ z), m, np.nan, np.nan, 0.0
+        if strict:
+            return False, QR, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
+        route = COD
+    if route == COD:
+        ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
+        if ok:
+            Z_next = null if identity else Z @ null
+            return True, COD, z, Z_next, AZ, r, T, x + (z if identity else Z @ z), rank, np.nan, np.nan, 0.0
+        if strict:
+            return False, COD, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
+    z, null, rank, smin, smax, lam2 = _svd(AZ, r, rank_tol, threshold, max_damping)
+    Z_next = null if identity else Z @ null
+    return True, SVD, z, Z_next, AZ, r, R, x + (z if identity else Z @ z), rank, smin, smax, lam2
+
+
+@nb.njit(cache=True)
+def max_violation(C, lo, hi, x) -> float:
+    """max over rows of how far l ≤ C x ≤ u is violated (0 where it holds, −inf for no rows)."""
+    worst = -np.inf
+    if C.shape[0] == 0:
+        return worst
+    y = C @ x
+    for i in range(y.shape[0]):
+        v = max(lo[i] - y[i], y[i] - hi[i])
+        if v > worst:
+            worst = v
+    return worst
+
+
+@nb.njit(cache=True)
+def box_excess_max(x, x_new, idx, lo, hi) -> float:
+    """max_i of how much more q[idx_i] violates lo_i ≤ q ≤ hi_i at x_new than at x (−inf
+    for no bounds): the projection solver's test that a step keeps every joint limit."""
+    worst = -np.inf
+    for i in range(idx.shape[0]):
+        a, c = x[idx[i]], x_new[idx[i]]
+        over_a = max(lo[i] - a, 0.0) + max(a - hi[i], 0.0)
+        over_c = max(lo[i] - c, 0.0) + max(c - hi[i], 0.0)
+        if over_c - over_a > worst:
+            worst = over_c - over_a
+    return worst
+
