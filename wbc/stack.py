@@ -211,6 +211,13 @@ class _LevelBuffer:
         self.hi_all = np.zeros(ni + nb)
         if nb:
             self.C_all[ni + np.arange(nb), self.box_idx] = 1.0
+        # each task's part of the arrays as views, made once
+        self.eq_views = [(self.A[sl], self.b[sl], w) for sl, w in self.eq_parts]
+        self.in_views = [(self.C_all[sl], self.lo_all[sl], self.hi_all[sl]) for sl in self.in_parts]
+        self.box_views = [(self.lo_all[sl], self.hi_all[sl]) for sl in self.box_parts]
+        #: the Level handed out, reused while the structure is unchanged (its arrays
+        #: are these buffers)
+        self.level: Level | None = None
 
 
 def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: dict | None = None) -> Level:
@@ -240,27 +247,30 @@ def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: di
         buf = _LevelBuffer(sig, tasks, rows, nx)
         if buffers is not None:
             buffers[k] = buf
-    eq = iter(buf.eq_parts)
-    ineq = iter(buf.in_parts)
-    boxes = iter(buf.box_parts)
+    eq = iter(buf.eq_views)
+    ineq = iter(buf.in_views)
+    boxes = iter(buf.box_views)
+    copyto = np.copyto
     for r in rows:
         if r.A is not None:
-            sl, w = next(eq)
+            A, b, w = next(eq)
             if w == 1.0:
-                buf.A[sl] = r.A
-                buf.b[sl] = r.b
+                copyto(A, r.A)
+                copyto(b, r.b)
             else:
-                np.multiply(r.A, w, out=buf.A[sl])
-                np.multiply(r.b, w, out=buf.b[sl])
+                np.multiply(r.A, w, out=A)
+                np.multiply(r.b, w, out=b)
         if r.C is not None and r.C.shape[0]:
-            sl = next(ineq)
-            buf.C_all[sl] = r.C
-            buf.lo_all[sl] = r.lo
-            buf.hi_all[sl] = r.hi
+            C, lo, hi = next(ineq)
+            copyto(C, r.C)
+            copyto(lo, r.lo)
+            copyto(hi, r.hi)
         if r.box is not None:
-            sl = next(boxes)
-            buf.lo_all[sl] = r.box[1]
-            buf.hi_all[sl] = r.box[2]
+            lo, hi = next(boxes)
+            copyto(lo, r.box[1])
+            copyto(hi, r.box[2])
+    if buf.level is not None:
+        return buf.level
     ng = buf.n_gen
     box = None
     if buf.box_idx is not None:
@@ -268,6 +278,8 @@ def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: di
     lvl = Level(index=k, tasks=list(tasks), A=buf.A, b=buf.b, C=buf.C_all[:ng], lo=buf.lo_all[:ng],
                 hi=buf.hi_all[:ng], box=box, eq_slices=buf.eq_slices, in_slices=buf.in_slices)
     lvl._ineq = (buf.C_all, buf.lo_all, buf.hi_all)
+    if buffers is not None:
+        buf.level = lvl
     return lvl
 
 

@@ -140,8 +140,7 @@ def _cod(AZ, r, rank_tol, threshold):
     colmax = 0.0
     for j in range(k):
         c = np.sqrt(np.sum(AZ[:, j] * AZ[:, j]))
-        if c > colmax:
-            colmax = c
+        colmax = max(colmax, c)
     tol = rank_tol * max(1.0, colmax)
     rho = 0
     while rho < mn and abs(a[rho, rho]) > tol:
@@ -279,8 +278,7 @@ def max_violation(C, lo, hi, x) -> float:
     y = C @ x
     for i in range(y.shape[0]):
         v = max(lo[i] - y[i], y[i] - hi[i])
-        if v > worst:
-            worst = v
+        worst = max(worst, v)
     return worst
 
 
@@ -293,7 +291,6 @@ def box_excess_max(x, x_new, idx, lo, hi) -> float:
         a, c = x[idx[i]], x_new[idx[i]]
         over_a = max(lo[i] - a, 0.0) + max(a - hi[i], 0.0)
         over_c = max(lo[i] - c, 0.0) + max(c - hi[i], 0.0)
-        if over_c - over_a > worst:
-            worst = over_c - over_a
+        worst = max(worst, over_c - over_a)
     return worst
 
