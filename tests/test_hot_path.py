@@ -230,3 +230,40 @@ def test_cod_route_refuses_what_it_cannot_prove():
         assert cas.route_step(A, b, Damping(), level_kernel.COD) is None
         step = cas.ls_step(A, b, Damping())
         assert step.route == level_kernel.SVD and step.rank == 8
+
+
+def test_compiled_joint_acceleration_bounds_match_the_docstring_formula():
+    """JointLimits' compiled bounds = the three limits of its docstring written out joint
+    by joint in plain Python, at random states inside and outside the limits (crossed
+    bounds collapse to their midpoint)."""
+    robot = wbc.load_robot("talos")
+    task = wbc.tasks.JointLimits(margin=0.01)
+    rng = np.random.default_rng(7)
+    dt, T, amax, mg = task.dt, task.horizon, task.max_acceleration, task.margin
+    qi, _, _ = task._indices(robot)
+    crossed = 0
+    for trial in range(20):
+        q, v = random_state(robot, rng)
+        v = v * (5.0 if trial % 2 else 1.0)
+        if trial % 3 == 2:          # a few joints past their upper limit, moving on outwards
+            q[qi[:6]] = robot.q_max[qi[:6]] + 0.05
+            v[:] = 0.0
+            v[qi[:6] - 1] = 3.0
+        robot.update(q, v)
+        vi, lo, hi = task.bounds(robot)
+        assert len(vi) == len(qi) > 0
+        for k, (iq, iv) in enumerate(zip(qi, vi)):
+            qk, vk = q[iq], v[iv]
+
+            def upper(lim, x, xd, vmax):
+                d = max(lim - x - xd * dt, 0.0)
+                return min((vmax - xd) / dt, 2.0 * (lim - x - xd * T) / T**2, (np.sqrt(2 * amax * d) - xd) / dt)
+
+            u = upper(robot.q_max[iq] - mg, qk, vk, robot.v_max[iv])
+            low = -upper(-robot.q_min[iq] - mg, -qk, -vk, robot.v_max[iv])
+            if low > u:
+                u = low = 0.5 * (u + low)
+                crossed += 1
+            assert lo[k] == pytest.approx(low, rel=1e-12, abs=1e-9)
+            assert hi[k] == pytest.approx(u, rel=1e-12, abs=1e-9)
+    assert crossed > 0

@@ -8,7 +8,7 @@ import pinocchio as pin
 from ..errors import TaskDefinitionError
 from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
 from ..rows import Layout, Rows
-from .base import MotionTask, eq_buffer
+from .base import MotionTask, eq_buffer, pd_reference
 
 
 def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
@@ -142,12 +142,20 @@ class Contact(MotionTask):
         A, b = eq_buffer(self, m, layout.nx)
         A[:, : layout.nv] = self.force_jacobian(robot)
         e, vel, drift = self._errors(robot)
-        b[:] = self.kp * e - self.kd * vel - drift
+        kp, kd = self.gain_vectors(m)
+        zero, axes = self._zero_axes(m)
+        pd_reference(b, axes, zero, kp, e, kd, zero, vel, drift)        # K_p e − K_d v_c − J̇_c q̇
         if self.bilateral:
             return Rows(A=A, b=b)
         C = self._friction_rows(layout)
         self._hi[-1] = self.fmax
         return Rows(A=A, b=b, C=C, lo=self._lo, hi=self._hi)
+
+    def _zero_axes(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        got = getattr(self, "_za", None)
+        if got is None or len(got[0]) != m:
+            got = self._za = (np.zeros(m), np.arange(m))
+        return got
 
     def _friction_rows(self, layout: Layout) -> np.ndarray:
         sl = layout.contact_slices[self.name]
