@@ -28,7 +28,8 @@ import numpy as np
 from ..rows import Level
 from .backends import Backend, make_backend
 from .cascade import Cascade, Damping, singular_values
-from .level_kernel import max_violation
+from .cascade import _NO_BASIS
+from .level_kernel import higher_rows, least_squares_objective, max_violation
 
 
 @dataclass
@@ -189,15 +190,12 @@ class HierarchicalQP:
         """Higher levels' inequality rows in z; z = 0 stays feasible (a row at, or a hair
         past, its bound stays there). Rows Z has no say on are dropped. Rows with room
         keep ``margin`` of it, so the solution stays off the limits where it can."""
-        Ca = np.vstack(acc_C)
-        CaZ = Ca @ cas.Z
-        keep = np.abs(CaZ).max(axis=1) > 1e-12 if cas.dof else np.zeros(len(Ca), bool)
-        ya = Ca[keep] @ cas.x
-        la, ha = np.concatenate(acc_lo)[keep], np.concatenate(acc_hi)[keep]
-        d = np.minimum(self.margin, 0.25 * (ha - la))
-        lo = np.minimum(la - ya + d, 0.0)
-        hi = np.maximum(ha - ya - d, 0.0)
-        return CaZ[keep], lo, hi
+        if len(acc_C) == 1:
+            Ca, la, ha = acc_C[0], acc_lo[0], acc_hi[0]
+        else:
+            Ca, la, ha = np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
+        return higher_rows(np.ascontiguousarray(Ca), la, ha, cas.x, _NO_BASIS if cas._identity else cas.Z,
+                           cas._identity, self.margin)
 
     def _fallback(self) -> Backend:
         if getattr(self, "_fb", None) is None:
@@ -219,6 +217,15 @@ class HierarchicalQP:
         the point nearest the least-squares one.
         """
         r = cas.dof
+        if AZ is not None and C is None:
+            # equality sub-level (the common case): no slack, the higher rows as they are
+            H, g = least_squares_objective(AZ, r_eq, self.regularization)
+            eps = self.regularization
+            if acc_C:
+                Cq, lq, hq = self._higher_rows(cas, acc_C, acc_lo, acc_hi)
+            else:
+                Cq, lq, hq = np.zeros((0, r)), np.zeros(0), np.zeros(0)
+            return self._solve_qp(H, g, Cq, lq, hq, r, 0, eps, key)
         m = 0 if lo is None else len(lo)
         n = r + m
         H = np.zeros((n, n))
@@ -251,6 +258,10 @@ class HierarchicalQP:
         Cq = np.vstack(rows) if rows else np.zeros((0, n))
         lq = np.concatenate(los) if los else np.zeros(0)
         hq = np.concatenate(his) if his else np.zeros(0)
+        return self._solve_qp(H, g, Cq, lq, hq, r, m, eps, key)
+
+    def _solve_qp(self, H, g, Cq, lq, hq, r, m, eps, key):
+        """Solve the QP of :meth:`_qp` (z = 0 feasible), with the fallbacks; (z, slack, status)."""
         res = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
         if not res.ok:
             # z = 0 is feasible by construction, so a failure is numerical (a degenerate

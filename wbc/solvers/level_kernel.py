@@ -294,3 +294,45 @@ def box_excess_max(x, x_new, idx, lo, hi) -> float:
         worst = max(worst, over_c - over_a)
     return worst
 
+
+
+@nb.njit(cache=True)
+def higher_rows(Ca, la, ha, x, Z, identity, margin):
+    """Higher levels' inequality rows l ≤ C x ≤ u in the free directions z of x = x̂ + Z z:
+    (C Z, lo, hi) over the rows Z has a say on (some |(CZ)_ij| > 1e-12), with bounds
+    relative to x̂ that keep z = 0 feasible (a row at, or a hair past, its bound stays
+    there) and, where a row has room, ``margin`` of it (see ``HierarchicalQP._higher_rows``)."""
+    CaZ = Ca if identity else Ca @ Z
+    ya = Ca @ x
+    m, k = CaZ.shape
+    keep = np.zeros(m, dtype=np.bool_)
+    nk = 0
+    for i in range(m):
+        for j in range(k):
+            if abs(CaZ[i, j]) > 1e-12:
+                keep[i] = True
+                nk += 1
+                break
+    C = np.empty((nk, k))
+    lo = np.empty(nk)
+    hi = np.empty(nk)
+    r = 0
+    for i in range(m):
+        if keep[i]:
+            C[r, :] = CaZ[i, :]
+            d = min(margin, 0.25 * (ha[i] - la[i]))
+            lo[r] = min(la[i] - ya[i] + d, 0.0)
+            hi[r] = max(ha[i] - ya[i] - d, 0.0)
+            r += 1
+    return C, lo, hi
+
+
+@nb.njit(cache=True)
+def least_squares_objective(AZ, r, regularization):
+    """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
+    k = AZ.shape[1]
+    H = AZ.T @ AZ
+    eps = regularization * max(1.0, np.trace(H) / max(k, 1))
+    for i in range(k):
+        H[i, i] += eps
+    return H, -(AZ.T @ r)
