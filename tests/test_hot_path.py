@@ -267,3 +267,29 @@ def test_compiled_joint_acceleration_bounds_match_the_docstring_formula():
             assert lo[k] == pytest.approx(low, rel=1e-12, abs=1e-9)
             assert hi[k] == pytest.approx(u, rel=1e-12, abs=1e-9)
     assert crossed > 0
+
+
+def test_a_qp_answer_outside_its_rows_is_not_accepted():
+    """A back-end that reports "optimal" for a point outside its rows (daqp did, on an
+    ε-regularised rank-deficient level) is overruled: the other back-end answers."""
+    from wbc.solvers.backends import QPResult
+    from wbc.solvers.hqp import HierarchicalQP
+
+    class Liar:
+        name, psd_ok = "liar", False
+
+        def solve(self, H, g, C, lo, hi, key=None, feasible=False):
+            return QPResult(np.full(H.shape[0], 10.0), True, "optimal")
+
+    hqp = HierarchicalQP(backend=Liar())
+    rng = np.random.default_rng(2)
+    H = np.eye(4)
+    g = rng.standard_normal(4)
+    C = np.eye(4)
+    lo, hi = -np.ones(4), np.ones(4)
+    z, _, status = hqp._solve_qp(H, g, C, lo, hi, 4, 0, 1e-6, "t")
+    assert z is not None and np.all(np.abs(z) <= 1 + 1e-6)
+    np.testing.assert_allclose(z, np.clip(-g, -1, 1), atol=1e-6)     # the fallback's true optimum
+    hqp._fb = Liar()                                                  # nobody honest left
+    z, _, status = hqp._solve_qp(H, g, C, lo, hi, 4, 0, 1e-6, "t")
+    assert z is None and "violated by" in status

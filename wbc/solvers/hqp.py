@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..rows import Level
-from .backends import Backend, make_backend
+from .backends import Backend, QPResult, make_backend
 from .cascade import Cascade, Damping, singular_values
 from .cascade import _NO_BASIS
 from .level_kernel import higher_rows, least_squares_objective, max_violation
@@ -84,6 +84,8 @@ class HierarchicalQP:
         self.slack_regularization = slack_regularization
         self.margin = margin
         self.tol = feasibility_tol
+        #: largest violation of its rows a QP answer may have (units of the rows)
+        self.qp_tol = 1e-6
         self._hints: dict = {}
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
@@ -260,9 +262,20 @@ class HierarchicalQP:
         hq = np.concatenate(his) if his else np.zeros(0)
         return self._solve_qp(H, g, Cq, lq, hq, r, m, eps, key)
 
+    def _attempt(self, backend: Backend, H, g, Cq, lq, hq, key) -> QPResult:
+        """One back-end's answer, accepted only if it meets its rows to ``qp_tol``: on an
+        ill-conditioned H (a rank-deficient level, regularised by ε) daqp has been seen
+        to report "optimal" for a point 10 units outside its rows."""
+        res = backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
+        if res.ok and len(lq):
+            v = max_violation(Cq, lq, hq, res.z)
+            if not v <= self.qp_tol:
+                return QPResult(None, False, f"{res.status}, but its rows are violated by {v:.2g}", res.iterations)
+        return res
+
     def _solve_qp(self, H, g, Cq, lq, hq, r, m, eps, key):
         """Solve the QP of :meth:`_qp` (z = 0 feasible), with the fallbacks; (z, slack, status)."""
-        res = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
+        res = self._attempt(self.backend, H, g, Cq, lq, hq, key)
         if not res.ok:
             # z = 0 is feasible by construction, so a failure is numerical (a degenerate
             # vertex, an ill-conditioned H): retry with the other first-class back-end,
@@ -270,10 +283,10 @@ class HierarchicalQP:
             fb = self._fallback()
             if not fb.psd_ok and eps == 0.0:
                 H[np.arange(r), np.arange(r)] += self.slack_regularization
-            res2 = fb.solve(H, g, Cq, lq, hq, key=key, feasible=True)
+            res2 = self._attempt(fb, H, g, Cq, lq, hq, key)
             if not res2.ok:
                 H[np.arange(r), np.arange(r)] += 1e-3 * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
-                res3 = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
+                res3 = self._attempt(self.backend, H, g, Cq, lq, hq, key)
                 if not res3.ok:
                     return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}; regularised: {res3.status}"
                 res2 = res3

@@ -331,7 +331,8 @@ def higher_rows(Ca, la, ha, x, Z, identity, margin):
 def least_squares_objective(AZ, r, regularization):
     """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
     k = AZ.shape[1]
-    H = AZ.T @ AZ
+    G = AZ.T @ AZ
+    H = 0.5 * (G + G.T)                 # exactly symmetric, as the QP back-ends assume
     eps = regularization * max(1.0, np.trace(H) / max(k, 1))
     for i in range(k):
         H[i, i] += eps
