@@ -130,7 +130,10 @@ class Stack:
         self.add(task, min(level, len(self.levels)))
 
     def contacts(self) -> list[Contact]:
-        return [t for t in self if isinstance(t, Contact)]
+        got = self.__dict__.get("_contacts")
+        if got is None or got[0] != self.version:
+            got = self._contacts = (self.version, [t for t in self if isinstance(t, Contact)])
+        return list(got[1])
 
     def to_list(self) -> list[list[dict]]:
         """The stack as plain data: levels of ``{type: ..., <constructor arguments>}``."""
@@ -148,16 +151,28 @@ class Stack:
 
     # ------------------------------------------------------------ per cycle
     def layout(self, robot) -> Layout:
-        """Force variables: one block per contact task, in stack order."""
+        """Force variables: one block per contact task, in stack order. The Layout is
+        reused (its J_f refilled) while the stack's structure is unchanged: like the
+        levels, it is valid until the next call."""
+        key = (self.version, id(robot))
+        got = self.__dict__.get("_layout")
+        if got is not None and got[0] == key:
+            layout, parts = got[1], got[2]
+            for c, rows in parts:
+                layout.force_jacobian[rows] = c.force_jacobian(robot)
+            return layout
         contacts = self.contacts()
-        slices, jacs, k = {}, [], robot.nv
+        slices, jacs, parts, k = {}, [], [], robot.nv
         for c in contacts:
             c.surface(robot)
             d = c.force_dim
             slices[c.name] = slice(k, k + d)
+            parts.append((c, slice(k - robot.nv, k - robot.nv + d)))
             jacs.append(c.force_jacobian(robot))
             k += d
-        return Layout(nv=robot.nv, contact_slices=slices, force_jacobian=np.vstack(jacs) if jacs else None)
+        layout = Layout(nv=robot.nv, contact_slices=slices, force_jacobian=np.vstack(jacs) if jacs else None)
+        self._layout = (key, layout, parts)
+        return layout
 
     def assemble(self, robot, layout: Layout, extra_level0: Iterable[Task] = ()) -> list[Level]:
         """Rows of every level for the robot's current state (``robot.update`` done).
@@ -291,11 +306,14 @@ def _single_task_level(k: int, task: Task, r: Rows, nx: int, buffers: dict) -> L
         return None
     key = ("single", id(task), r.A.shape[0], nx)
     got = buffers.get(k)
-    if not (isinstance(got, tuple) and got[0] == key and got[1] is task):
+    if not (isinstance(got, list) and got[0] == key and got[1] is task):
         empty = (np.zeros((0, nx)), np.zeros(0), np.zeros(0))
-        got = buffers[k] = (key, task, {task.name: slice(0, r.A.shape[0])}, empty)
-    _, _, eq_slices, empty = got
+        got = buffers[k] = [key, task, {task.name: slice(0, r.A.shape[0])}, empty, None]
+    _, _, eq_slices, empty, lvl = got
+    if lvl is not None and lvl.A is r.A and lvl.b is r.b:
+        return lvl                  # the same task buffers: the same Level
     lvl = Level(index=k, tasks=[task], A=r.A, b=r.b, C=empty[0], lo=empty[1], hi=empty[2], box=None,
                 eq_slices=eq_slices, in_slices={})
     lvl._ineq = empty
+    got[4] = lvl
     return lvl

@@ -337,3 +337,18 @@ def least_squares_objective(AZ, r, regularization):
     for i in range(k):
         H[i, i] += eps
     return H, -(AZ.T @ r)
+
+
+@nb.njit(cache=True)
+def dynamics_rows(Jf, G, f0, M, h, qdd, u, weight, AG, rhs):
+    """The projection solver's force-distribution rows for the unactuated dynamics, in λ
+    (f = f₀ + G λ): AG[:n] = w J_uᵀ G and rhs[:n] = w (M_u q̈ + h_u − J_uᵀ f₀), with
+    J_u = J_f[:, u] (n = len(u), the root's coordinates)."""
+    n = u.shape[0]
+    JuT = np.ascontiguousarray(Jf[:, u].T)
+    AG[:n, :] = weight * (JuT @ G)
+    Mu = np.ascontiguousarray(M[u, :])
+    hu = np.empty(n)
+    for i in range(n):
+        hu[i] = h[u[i]]
+    rhs[:n] = weight * (Mu @ qdd + hu - JuT @ f0)

@@ -42,7 +42,7 @@ from ..errors import SolverError
 from ..rows import Layout, Level
 from .cascade import NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo
-from .level_kernel import box_excess_max
+from .level_kernel import box_excess_max, dynamics_rows
 
 
 class RecursiveProjection:
@@ -66,7 +66,7 @@ class RecursiveProjection:
         self.force_regularization = 1e-6
         self._hints: dict = {}
         self._rows_cache: dict = {}
-        self._force_cache: tuple | None = None
+        self._force_plan: _ForcePlan | None = None
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, robot) -> CascadeResult:
@@ -188,49 +188,82 @@ class RecursiveProjection:
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return CascadeResult(np.zeros(0), [])
-        contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-        gens = [c.generators() for c in contacts]
-        key = tuple((c.name, layout.contact_slices[c.name].start, id(V), id(c0)) for c, (c0, V) in zip(contacts, gens))
-        if self._force_cache is not None and self._force_cache[0] == key:
-            f0, G = self._force_cache[1], self._force_cache[2]
-        else:
-            f0 = np.zeros(nf)
-            blocks = []
-            for c, (c0, V) in zip(contacts, gens):
-                sl = layout.contact_slices[c.name]
-                f0[sl.start - nv: sl.stop - nv] = c0
-                blocks.append((sl.start - nv, V))
-            n_lam = sum(V.shape[1] for _, V in blocks)
-            G = np.zeros((nf, n_lam))
-            k = 0
-            for start, V in blocks:
-                G[start: start + V.shape[0], k: k + V.shape[1]] = V
-                k += V.shape[1]
-            self._force_cache = (key, f0, G, (contacts, gens))
-        n_lam = G.shape[1]
-        u = robot.unactuated_idx
-        rows, rhs = [], []
-        if len(u):
-            A0 = layout.force_jacobian[:, u].T
-            rows.append(self.dynamics_weight * A0)
-            rhs.append(self.dynamics_weight * (robot.M[u] @ qdd + robot.h[u]))
+        key = (id(layout), layout.nx, tuple(id(lvl.eq_slices) for lvl in levels))
+        plan = self._force_plan
+        if plan is None or plan.key != key or not plan.still_valid(levels, nv):
+            contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
+            plan = self._force_plan = _ForcePlan(key, levels, layout, contacts, robot, self)
+        AG, rhs, n_dyn = plan.AG, plan.rhs, plan.n_dyn
+        np.negative(plan.const_rhs, out=rhs[n_dyn:])
+        if n_dyn:
+            # the unactuated dynamics rows, the only rows that change with the state
+            dynamics_rows(layout.force_jacobian, plan.G, plan.f0, robot.M, robot.h, qdd, plan.u,
+                          self.dynamics_weight, AG, rhs)
+        for rows, lvl_index, esl in plan.wrench:
+            rhs[rows] += self.wrench_weight * levels[lvl_index].b[esl]
+        for c, row in plan.ramps:
+            rhs[row] += self.ramp_weight * c.fmax
+        lam, _ = nnls(AG, rhs, maxiter=50 * plan.G.shape[1])
+        f0, G = plan.f0, plan.G
+        return CascadeResult(f0 + G @ lam, [LevelInfo(0)])
+
+
+class _ForcePlan:
+    """What the force distribution of one stack structure keeps across cycles: the
+    generator matrix G and offset f₀ of every contact's cone (f = f₀ + G λ, λ ≥ 0), and
+    the least-squares rows in λ that do not change with the state (ContactWrench
+    targets' A, a ramping contact's normal force, the regularisation), already
+    multiplied by G. Only the unactuated dynamics rows are refilled each cycle."""
+
+    def __init__(self, key, levels, layout: Layout, contacts, robot, solver: RecursiveProjection) -> None:
+        nf, nv = layout.nf, layout.nv
+        self.key = key
+        f0 = np.zeros(nf)
+        blocks = []
+        for c in contacts:
+            c0, V = c.generators()
+            sl = layout.contact_slices[c.name]
+            f0[sl.start - nv: sl.stop - nv] = c0
+            blocks.append((sl.start - nv, V))
+        G = np.zeros((nf, sum(V.shape[1] for _, V in blocks)))
+        k = 0
+        for start, V in blocks:
+            G[start: start + V.shape[0], k: k + V.shape[1]] = V
+            k += V.shape[1]
+        self.f0, self.G, self.has_f0 = f0, G, bool(np.any(f0))
+        self.u = np.asarray(robot.unactuated_idx, dtype=np.int64)
+        self.n_dyn = n_dyn = len(self.u)
+        self.contacts = contacts
+        self.params = self._params()
+        rows, self.wrench, self.wrench_A, self.ramps, k = [], [], [], [], n_dyn
         for lvl in levels:
             for t in lvl.tasks:
                 esl = lvl.eq_slices.get(t.name)
                 if esl is not None and t.on_forces:
-                    rows.append(self.wrench_weight * lvl.A[esl, nv:])
-                    rhs.append(self.wrench_weight * lvl.b[esl])
+                    Aw = lvl.A[esl, nv:].copy()
+                    self.wrench_A.append((lvl.index, esl, Aw, t.layout_only_A))
+                    rows.append(solver.wrench_weight * Aw)
+                    self.wrench.append((slice(k, k + len(Aw)), lvl.index, esl))
+                    k += len(Aw)
         for c in contacts:      # a contact being made or released: its normal force follows the ramp
             if np.isfinite(c.fmax) and not c.bilateral:
                 r = np.zeros((1, nf))
-                r[0, layout.contact_slices[c.name].start - nv + 2] = self.ramp_weight
+                r[0, layout.contact_slices[c.name].start - nv + 2] = solver.ramp_weight
                 rows.append(r)
-                rhs.append(np.array([self.ramp_weight * c.fmax]))
-        if getattr(self, "_reg", None) is None or self._reg[0].shape[0] != nf:
-            self._reg = (self.force_regularization * np.eye(nf), np.zeros(nf))
-        rows.append(self._reg[0])
-        rhs.append(self._reg[1])
-        A = np.vstack(rows)
-        b = np.concatenate(rhs) - A @ f0
-        lam, _ = nnls(A @ G, b, maxiter=50 * n_lam)
-        return CascadeResult(f0 + G @ lam, [LevelInfo(0)])
+                self.ramps.append((c, k))
+                k += 1
+        rows.append(solver.force_regularization * np.eye(nf))
+        const = np.vstack(rows)
+        self.AG = np.empty((n_dyn + len(const), G.shape[1]))
+        self.AG[n_dyn:] = const @ G
+        self.rhs = np.zeros(len(self.AG))
+        self.const_rhs = const @ f0
+
+    def _params(self) -> tuple:
+        return tuple((c.mu, c.fmin, c.bilateral, c.fmax != np.inf) for c in self.contacts)
+
+    def still_valid(self, levels, nv: int) -> bool:
+        """The contacts' cone parameters and ramps, and the force rows' A (their targets,
+        in b, may change every cycle), are what the plan was built with."""
+        return self.params == self._params() and all(
+            t_const or np.array_equal(levels[k].A[esl, nv:], Aw) for k, esl, Aw, t_const in self.wrench_A)

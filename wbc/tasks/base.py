@@ -47,6 +47,8 @@ class Task(ABC):
     kind: str = "task"
     #: the task only touches the contact forces (no q̈ columns)
     on_forces: bool = False
+    #: its rows' A depends on the stack's layout only, never on the state or targets
+    layout_only_A: bool = False
 
     def __init__(self, name: str, weight: float = 1.0) -> None:
         if not isinstance(name, str) or not name:

@@ -20,6 +20,7 @@ class ContactWrench(Task):
 
     kind = "contact_wrench"
     on_forces = True
+    layout_only_A = True
 
     def __init__(self, contact: str, target=None, weight: float = 1.0, name: str | None = None) -> None:
         super().__init__(name or f"{contact}_wrench", weight)
