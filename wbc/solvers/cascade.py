@@ -87,7 +87,7 @@ class Cascade:
     is factorised by the cheapest route its shape and conditioning allow, each fast
     route accepted only when it can prove what the SVD would decide
     (:mod:`~wbc.solvers.level_kernel`): wide and of full rank, a Householder QR of
-    (AZ)ᵀ; tall and well conditioned, the eigen-decomposition of the Gram matrix;
+    (AZ)ᵀ; tall and well conditioned, the Cholesky factor of the Gram matrix;
     rank deficient with a clear rank, a complete orthogonal decomposition; otherwise
     (near a singularity, damped) the SVD. ``hints`` (a dict kept by the solver across
     cycles) remembers the route a level needed last time, so it goes straight there;
@@ -171,7 +171,7 @@ _gesdd, = get_lapack_funcs(("gesdd",), (np.zeros((1, 1)),))
 _FIRST = {False: level_kernel.QR, True: level_kernel.GRAM}
 #: cycles a level goes straight to the route it last needed before its first route is retried
 _HINT_RETRY = 50
-#: smallest eigenvalue ratio of the Gram matrix for the eigen path (κ(AZ) ≤ 1e4)
+#: smallest proven σ_min²/σ_max² for the Gram (Cholesky) path (κ(AZ) ≤ 1e4)
 _GRAM_MIN_RATIO = 1e-8
 
 

@@ -5,8 +5,8 @@ removes the Python interpreter from it. A level used to cost ~25 µs of numpy an
 f2py call overhead on top of its LAPACK work (products A Z and A x̂, a
 factorisation, the step, the new basis, the candidate point); compiled, the
 LAPACK work is what remains. The factorisations are LAPACK's, called directly:
-``geqrf``/``orgqr``/``trtri`` through scipy's ``cython_lapack`` table, ``gesdd`` and
-``syevd`` through numba's own ``np.linalg`` bindings.
+``geqrf``/``orgqr``/``geqp3``/``potrf``/``trtri`` through scipy's ``cython_lapack``
+table, ``gesdd`` through numba's own ``np.linalg`` binding.
 
 Given A (m × n), b (m), x̂ (n) and the basis Z (n × k, or the identity), with
 AZ = A Z and r = b − A x̂, :func:`level_step` returns the damped least-squares step
@@ -16,8 +16,9 @@ AZ = A Z and r = b − A x̂, :func:`level_step` returns the damped least-square
 λ² = (1 − (σ_min/ε)²) λ_max² when σ_min < ε (``threshold`` ε, ``max_damping``
 λ_max), else 0; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
 
-- ``GRAM`` (m ≥ k): eigen-decomposition of (AZ)ᵀAZ, accepted only if κ(AZ)² ≤
-  1/``gram_min_ratio`` (full rank, nothing left free);
+- ``GRAM`` (m ≥ k): normal equations (Cholesky, or eigen-decomposition when the
+  Cholesky bounds are inconclusive), accepted only if κ(AZ)² ≤ 1/``gram_min_ratio``
+  (full rank, nothing left free);
 - ``QR`` (m < k): Householder QR of (AZ)ᵀ, accepted only if the bound
   1/‖R⁻¹‖_F ≤ σ_min proves full row rank above the damping threshold
   (σ_max ≤ ‖AZ‖_F bounds the rank tolerance);
@@ -50,6 +51,7 @@ _dgeqrf = _lapack("dgeqrf", 8)    # m, n, a, lda, tau, work, lwork, info
 _dorgqr = _lapack("dorgqr", 9)    # m, n, k, a, lda, tau, work, lwork, info
 _dtrtri = _lapack("dtrtri", 6)    # uplo, diag, n, a, lda, info
 _dgeqp3 = _lapack("dgeqp3", 9)    # m, n, a, lda, jpvt, tau, work, lwork, info
+_dpotrf = _lapack("dpotrf", 5)    # uplo, n, a, lda, info
 
 _UPLO_DIAG = np.frombuffer(b"UN", dtype=np.uint8)
 
@@ -64,15 +66,41 @@ def damping_lambda2(smin: float, threshold: float, max_damping: float) -> float:
 
 
 @nb.njit(cache=True)
-def _gram(AZ, r, threshold, max_damping, gram_min_ratio):
+def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
+    """Tall level, normal equations on G = (AZ)ᵀAZ, accepted only if κ(AZ)² ≤
+    1/``gram_min_ratio`` (they then lose at most ~1e-8 of relative accuracy) and AZ has
+    full rank. First by Cholesky G = UᵀU (U has the singular values of AZ), when the
+    bounds 1/‖U⁻¹‖_F ≤ σ_min and σ_max ≤ ‖AZ‖_F prove the conditioning and that no
+    damping is needed: z = U⁻¹U⁻ᵀ(AZ)ᵀr. Otherwise by the eigen-decomposition
+    G = V Σ² Vᵀ, exact σ, damped if σ_min < ε. Returns (ok, z, U or empty, σ_min,
+    σ_max, λ²); σ are NaN on the Cholesky branch (they come from U on demand)."""
     k = AZ.shape[1]
-    w, V = np.linalg.eigh(AZ.T @ AZ)
+    G = AZ.T @ AZ
+    U = np.empty((k, k)).T                       # Fortran order
+    for j in range(k):
+        for i in range(j + 1):
+            U[i, j] = 0.5 * (G[i, j] + G[j, i])
+        for i in range(j + 1, k):
+            U[i, j] = 0.0
+    ki = np.array([k, k, 0], dtype=np.int32)     # n, lda, info
+    _dpotrf(_UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
+    if ki[2] == 0:
+        Uinv = U.copy().T.copy().T               # Fortran-order copy
+        _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
+                ki[2:].ctypes)
+        if ki[2] == 0:
+            ub2 = np.sum(AZ * AZ)                # ≥ σ_max²
+            lb2 = 1.0 / np.sum(Uinv * Uinv)      # ≤ σ_min²
+            if lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol * max(1.0, np.sqrt(ub2)), threshold):
+                z = Uinv @ (Uinv.T @ (AZ.T @ r))
+                return True, z, np.ascontiguousarray(U), np.nan, np.nan, 0.0
+    w, V = np.linalg.eigh(0.5 * (G + G.T))
     if not w[k - 1] > 0.0 or w[0] < gram_min_ratio * w[k - 1]:
-        return False, np.empty(0), 0.0, 0.0, 0.0
+        return False, np.empty(0), np.empty((0, 0)), 0.0, 0.0, 0.0
     smin, smax = np.sqrt(w[0]), np.sqrt(w[k - 1])
     lam2 = damping_lambda2(smin, threshold, max_damping)
     z = V @ ((V.T @ (AZ.T @ r)) / (w + lam2))
-    return True, z, smin, smax, lam2
+    return True, z, np.empty((0, 0)), smin, smax, lam2
 
 
 @nb.njit(cache=True)
@@ -225,10 +253,10 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     """(ok, route, z, Z_next, AZ, r, R, x_new, rank, σ_min, σ_max, λ²) of one level (module
     doc). Routes are tried from ``path`` along GRAM or QR → COD → SVD (``AUTO``: GRAM for
     a tall level, QR for a wide one); ``route`` is the one that gave the step; with
-    ``strict`` a refusal of ``path`` itself returns ok = False. ``R`` is the QR route's
-    triangular factor, the COD route's T (σ_min, σ_max are then NaN and come from R on
-    demand: those of AZ, to within the dropped block's ‖E‖_F ≤ rank_tol), empty
-    otherwise. Non-finite rows give a NaN step, never an exception: the controller reports
+    ``strict`` a refusal of ``path`` itself returns ok = False. ``R`` is a triangular
+    factor with the singular values of AZ: the QR route's R, the GRAM route's Cholesky
+    factor, the COD route's T (to within the dropped block's ‖E‖_F ≤ rank_tol); σ_min
+    and σ_max are then NaN and come from R on demand. Empty for the SVD route. Non-finite rows give a NaN step, never an exception: the controller reports
     the cycle as failed."""
     n = x.shape[0]
     AZ = A if identity else A @ Z
@@ -242,9 +270,9 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     if route == AUTO:
         route = GRAM if m >= k else QR
     if route == GRAM:
-        ok, z, smin, smax, lam2 = _gram(AZ, r, threshold, max_damping, gram_min_ratio)
+        ok, z, U, smin, smax, lam2 = _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio)
         if ok:
-            return True, GRAM, z, none, AZ, r, R, x + (z if identity else Z @ z), k, smin, smax, lam2
+            return True, GRAM, z, none, AZ, r, U, x + (z if identity else Z @ z), k, smin, smax, lam2
         if strict:
             return False, GRAM, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
         route = COD
