@@ -117,7 +117,7 @@ def test_level_buffers_equal_rows_stacked_afresh():
         reused = stack.assemble(robot, layout, extra)
         groups = [list(extra) + stack.levels[0]] + stack.levels[1:]
         for lvl, tasks in zip(reused, groups):
-            fresh = assemble_level(lvl.index, tasks, robot, layout, buffers=None)
+            fresh = assemble_level(lvl.index, tasks, robot, layout)
             for name in ("A", "b", "C", "lo", "hi"):
                 np.testing.assert_array_equal(getattr(lvl, name), getattr(fresh, name), err_msg=name)
             for a, f in zip(lvl.inequalities(layout.nx), fresh.inequalities(layout.nx)):

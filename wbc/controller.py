@@ -170,23 +170,17 @@ class Controller:
             tau_full -= layout.force_jacobian.T @ f
         tau_full[robot.unactuated_idx] = 0.0
         finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau_full))
-        # Per level, the row values this cycle produced (the level buffers are refilled
-        # next cycle); the per-task breakdown is done only if the caller asks for it.
-        projection = self.solver_name == "projection"
-        rows = []
-        relaxed = False
-        for lvl, info in zip(levels, res.levels):
-            C, lo, hi = lvl.inequalities(layout.nx)
-            if finite:
-                e = lvl.A @ x - lvl.b
-                y = C @ x
-            else:
-                e = np.full(lvl.n_eq, np.inf)
-                y = np.full(len(lo), np.inf)
-            rows.append((lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.C.shape[0],
-                         lvl.box is not None, e, y, lo.copy(), hi.copy(), info, lvl.b.copy()))
-            relaxed |= info.relaxed
-        evaluate = partial(_diagnostics, rows, projection, self.sacrifice_tol, self.sacrifice_rel)
+        # Every level's row values this cycle produced, in one product per array (the
+        # stack's buffer is refilled next cycle); the per-level and per-task breakdown is
+        # done only if the caller asks for it.
+        buf = self.stack.row_buffer
+        E, Y, LO, HI, B = buf.values(x)
+        if not finite:
+            E[:] = np.inf
+            Y[:] = np.inf
+        relaxed = any(info.relaxed for info in res.levels)
+        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (E, Y, LO, HI, B),
+                           self.solver_name == "projection", self.sacrifice_tol, self.sacrifice_rel)
         status = "ok" if ok else "failed"
         if ok and relaxed:
             status = "relaxed"
@@ -212,15 +206,20 @@ class Controller:
         return tau
 
 
-def _diagnostics(rows, projection: bool, sacrifice_tol: float, sacrifice_rel: float = 0.0,
-                 tol_act: float = 1e-7):
+def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
+                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
-    of one cycle (see :meth:`Controller._finish`). The projection solver enforces
+    of one cycle (``values`` = (A x − b, C x, l, u, b) over every level, level k's part
+    given by ``spans[k]``; see :meth:`Controller._finish`). The projection solver enforces
     equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
     force distribution and its torque limits are not enforced: those rows are reported
     apart (``unenforced_violation``), not as residuals."""
     residuals, task_res, diags = [], {}, []
-    for index, tasks, eq_slices, in_slices, n_gen, has_box, e, y, lo, hi, info, b in rows:
+    E, Y, LO, HI, B = values
+    for lvl, (e0, e1, i0, n_gen, i1), info in zip(levels, spans, infos):
+        index, tasks, eq_slices, in_slices, has_box = lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.box is not None
+        e, b = E[e0:e1], B[e0:e1]
+        y, lo, hi = Y[i0:i1], LO[i0:i1], HI[i0:i1]
         viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
         act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
         unenforced = 0.0

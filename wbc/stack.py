@@ -177,143 +177,136 @@ class Stack:
     def assemble(self, robot, layout: Layout, extra_level0: Iterable[Task] = ()) -> list[Level]:
         """Rows of every level for the robot's current state (``robot.update`` done).
 
-        The levels' arrays are buffers this stack owns and refills every cycle (they
-        are reallocated only when the stack's structure changes): a Level is valid
-        until the next call."""
-        buffers = self.__dict__.setdefault("_buffers", {})
-        levels = []
-        tasks_per_level = [list(extra_level0) + (self.levels[0] if self.levels else [])] + self.levels[1:]
-        for k, tasks in enumerate(tasks_per_level):
-            levels.append(assemble_level(k, tasks, robot, layout, buffers))
-        return levels
+        The levels' arrays are views of one buffer this stack owns and refills every
+        cycle (:class:`RowBuffer`; rebuilt only when the stack's structure changes): a
+        Level is valid until the next call."""
+        extra = list(extra_level0)
+        groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]
+        rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
+        key = (self.version, layout.nx, tuple(map(id, extra)))
+        buf = self.__dict__.get("_row_buffer")
+        if buf is None or buf.key != key or not buf.fill(groups, rows):
+            buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key)
+            buf.fill(groups, rows)
+        return buf.levels
+
+    @property
+    def row_buffer(self) -> "RowBuffer | None":
+        """The buffer behind the levels of the last :meth:`assemble`."""
+        return self.__dict__.get("_row_buffer")
 
 
-class _LevelBuffer:
-    """Preallocated arrays of one level: A, b, and every inequality row (the tasks'
-    general rows, then the box bounds as unit rows, set once)."""
+class RowBuffer:
+    """Every level's rows in five stack-wide arrays: A, b (equalities, each task's rows
+    scaled by √weight) and C, l, u (inequalities; per level the tasks' general rows, then
+    the box bounds as unit rows, set once). Each level is a block of rows, and its Level
+    holds views of that block, so the solvers see levels while one product per array
+    evaluates every level's rows (:meth:`values`). Built for one structure (tasks, their
+    row counts, weights and box indices); :meth:`fill` refuses another."""
 
-    def __init__(self, sig: tuple, tasks: list[Task], rows: list[Rows], nx: int) -> None:
-        self.sig = sig
-        self.eq_slices, self.in_slices, self.eq_parts, self.in_parts, self.box_parts = {}, {}, [], [], []
-        ne = ni = 0
-        for t, r in zip(tasks, rows):
-            if r.A is not None:
-                sl = slice(ne, ne + r.A.shape[0])
-                self.eq_slices[t.name] = sl
-                w = float(np.sqrt(t.weight))
-                self.eq_parts.append((sl, w))
-                ne = sl.stop
-            if r.C is not None and r.C.shape[0]:
-                sl = slice(ni, ni + r.C.shape[0])
-                self.in_slices[t.name] = sl
-                self.in_parts.append(sl)
-                ni = sl.stop
-        self.n_gen = ni
-        idx = [r.box[0] for r in rows if r.box is not None]
-        self.box_srcs = idx           # the tasks' index arrays (identity check next cycle)
-        self.box_idx = np.concatenate(idx).astype(int) if idx else None
-        nb = 0 if self.box_idx is None else len(self.box_idx)
-        # box slices, in order, in the all-inequalities arrays
-        self.box_parts, k = [], ni
-        for r in rows:
-            if r.box is not None:
-                self.box_parts.append(slice(k, k + len(r.box[0])))
-                k += len(r.box[0])
-        self.A = np.zeros((ne, nx))
-        self.b = np.zeros(ne)
-        self.C_all = np.zeros((ni + nb, nx))
-        self.lo_all = np.zeros(ni + nb)
-        self.hi_all = np.zeros(ni + nb)
-        if nb:
-            self.C_all[ni + np.arange(nb), self.box_idx] = 1.0
-        # each task's part of the arrays as views, made once
-        self.eq_views = [(self.A[sl], self.b[sl], w) for sl, w in self.eq_parts]
-        self.in_views = [(self.C_all[sl], self.lo_all[sl], self.hi_all[sl]) for sl in self.in_parts]
-        self.box_views = [(self.lo_all[sl], self.hi_all[sl]) for sl in self.box_parts]
-        #: the Level handed out, reused while the structure is unchanged (its arrays
-        #: are these buffers)
-        self.level: Level | None = None
+    def __init__(self, nx: int, groups: list[list[Task]], rows: list[list[Rows]], first_index: int = 0,
+                 key=None) -> None:
+        self.nx, self.key = nx, key
+        ne = sum(r.n_eq for rs in rows for r in rs)
+        ni = sum(r.n_in for rs in rows for r in rs)
+        self.A, self.b = np.zeros((ne, nx)), np.zeros(ne)
+        self.C, self.lo, self.hi = np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni)
+        self.plans, self.levels, self.spans = [], [], []
+        e = i = 0
+        for k, (tasks, rs) in enumerate(zip(groups, rows)):
+            e0, i0 = e, i
+            ng = sum(r.C.shape[0] for r in rs if r.C is not None)
+            g, bx = i0, i0 + ng
+            eq_slices, in_slices, plan, box_idx = {}, {}, [], []
+            for t, r in zip(tasks, rs):
+                eqv = inv = boxv = None
+                if r.A is not None:
+                    m = r.A.shape[0]
+                    eq_slices[t.name] = slice(e - e0, e - e0 + m)
+                    eqv = (self.A[e:e + m], self.b[e:e + m], float(np.sqrt(t.weight)))
+                    e += m
+                if r.C is not None and r.C.shape[0]:
+                    m = r.C.shape[0]
+                    in_slices[t.name] = slice(g - i0, g - i0 + m)
+                    inv = (self.C[g:g + m], self.lo[g:g + m], self.hi[g:g + m])
+                    g += m
+                if r.box is not None:
+                    idx = np.asarray(r.box[0], dtype=int)
+                    m = len(idx)
+                    self.C[bx + np.arange(m), idx] = 1.0
+                    boxv = (self.lo[bx:bx + m], self.hi[bx:bx + m], r.box[0], idx.copy())
+                    box_idx.append(idx)
+                    bx += m
+                plan.append((t.weight, eqv, inv, boxv))
+            i = bx
+            box = None
+            if box_idx:
+                box = (np.concatenate(box_idx), self.lo[i0 + ng:i], self.hi[i0 + ng:i])
+            lvl = Level(index=first_index + k, tasks=list(tasks), A=self.A[e0:e], b=self.b[e0:e],
+                        C=self.C[i0:i0 + ng], lo=self.lo[i0:i0 + ng], hi=self.hi[i0:i0 + ng], box=box,
+                        eq_slices=eq_slices, in_slices=in_slices)
+            lvl._ineq = (self.C[i0:i], self.lo[i0:i], self.hi[i0:i])
+            self.plans.append(plan)
+            self.levels.append(lvl)
+            self.spans.append((e0, e, i0, ng, i))
 
+    def fill(self, groups: list[list[Task]], rows: list[list[Rows]]) -> bool:
+        """Copy this cycle's rows in; False (nothing to trust) if they no longer have
+        the structure the buffer was built for."""
+        if len(rows) != len(self.plans):
+            return False
+        copyto = np.copyto
+        for plan, rs in zip(self.plans, rows):
+            if len(rs) != len(plan):
+                return False
+            for (w0, eqv, inv, boxv), r in zip(plan, rs):
+                if r.A is not None:
+                    if eqv is None or r.A.shape != eqv[0].shape:
+                        return False
+                    A, b, w = eqv
+                    if w == 1.0:
+                        copyto(A, r.A)
+                        copyto(b, r.b)
+                    else:
+                        np.multiply(r.A, w, out=A)
+                        np.multiply(r.b, w, out=b)
+                elif eqv is not None:
+                    return False
+                if r.C is not None and r.C.shape[0]:
+                    if inv is None or r.C.shape != inv[0].shape:
+                        return False
+                    C, lo, hi = inv
+                    copyto(C, r.C)
+                    copyto(lo, r.lo)
+                    copyto(hi, r.hi)
+                elif inv is not None:
+                    return False
+                if r.box is not None:
+                    if boxv is None:
+                        return False
+                    lo, hi, src, idx = boxv
+                    if r.box[0] is not src and not np.array_equal(r.box[0], idx):
+                        return False
+                    copyto(lo, r.box[1])
+                    copyto(hi, r.box[2])
+                elif boxv is not None:
+                    return False
+        for plan, tasks in zip(self.plans, groups):
+            for (w0, _, _, _), t in zip(plan, tasks):
+                if t.weight != w0:
+                    return False
+        return True
 
-def assemble_level(k: int, tasks: list[Task], robot, layout: Layout, buffers: dict | None = None) -> Level:
-    """Stack the rows of one level's tasks into (reused) buffers; box bounds on q̈ are
-    kept apart as ``box`` and also appended as unit rows to the level's inequalities."""
-    nx = layout.nx
-    rows = [t.rows(robot, layout) for t in tasks]
-    if len(rows) == 1 and buffers is not None:
-        lvl = _single_task_level(k, tasks[0], rows[0], nx, buffers)
-        if lvl is not None:
-            return lvl
-    sig = (nx,) + tuple((id(t), r.n_eq, 0 if r.C is None else r.C.shape[0], None if r.box is None else len(r.box[0]),
-                         t.weight) for t, r in zip(tasks, rows))
-    buf = None if buffers is None else buffers.get(k)
-    if buf is not None and not isinstance(buf, _LevelBuffer):
-        buf = None
-    if buf is not None and buf.box_idx is not None:
-        ng = buf.n_gen
-        srcs = [r.box[0] for r in rows if r.box is not None]
-        same_box = (len(srcs) == len(buf.box_srcs) and all(a is b for a, b in zip(srcs, buf.box_srcs))) or all(
-            np.array_equal(a, buf.box_idx[sl.start - ng: sl.stop - ng]) for a, sl in zip(srcs, buf.box_parts))
-        if same_box:
-            buf.box_srcs = srcs
-    else:
-        same_box = True
-    if buf is None or buf.sig != sig or not same_box:
-        buf = _LevelBuffer(sig, tasks, rows, nx)
-        if buffers is not None:
-            buffers[k] = buf
-    eq = iter(buf.eq_views)
-    ineq = iter(buf.in_views)
-    boxes = iter(buf.box_views)
-    copyto = np.copyto
-    for r in rows:
-        if r.A is not None:
-            A, b, w = next(eq)
-            if w == 1.0:
-                copyto(A, r.A)
-                copyto(b, r.b)
-            else:
-                np.multiply(r.A, w, out=A)
-                np.multiply(r.b, w, out=b)
-        if r.C is not None and r.C.shape[0]:
-            C, lo, hi = next(ineq)
-            copyto(C, r.C)
-            copyto(lo, r.lo)
-            copyto(hi, r.hi)
-        if r.box is not None:
-            lo, hi = next(boxes)
-            copyto(lo, r.box[1])
-            copyto(hi, r.box[2])
-    if buf.level is not None:
-        return buf.level
-    ng = buf.n_gen
-    box = None
-    if buf.box_idx is not None:
-        box = (buf.box_idx, buf.lo_all[ng:], buf.hi_all[ng:])
-    lvl = Level(index=k, tasks=list(tasks), A=buf.A, b=buf.b, C=buf.C_all[:ng], lo=buf.lo_all[:ng],
-                hi=buf.hi_all[:ng], box=box, eq_slices=buf.eq_slices, in_slices=buf.in_slices)
-    lvl._ineq = (buf.C_all, buf.lo_all, buf.hi_all)
-    if buffers is not None:
-        buf.level = lvl
-    return lvl
+    def values(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(A x − b, C x, l, u, b) over every level, as new arrays (the buffer is refilled
+        next cycle); level k's part is ``spans[k]``."""
+        return self.A @ x - self.b, self.C @ x, self.lo.copy(), self.hi.copy(), self.b.copy()
 
 
-def _single_task_level(k: int, task: Task, r: Rows, nx: int, buffers: dict) -> Level | None:
-    """A level of one unweighted equality task (a CoM, a posture): its Level views the
-    task's own row buffers (which, like the level buffers, live until the next cycle),
-    nothing is copied. None when the task has inequality rows or a weight."""
-    if r.A is None or r.C is not None or r.box is not None or task.weight != 1.0 or r.A.shape[1] != nx:
-        return None
-    key = ("single", id(task), r.A.shape[0], nx)
-    got = buffers.get(k)
-    if not (isinstance(got, list) and got[0] == key and got[1] is task):
-        empty = (np.zeros((0, nx)), np.zeros(0), np.zeros(0))
-        got = buffers[k] = [key, task, {task.name: slice(0, r.A.shape[0])}, empty, None]
-    _, _, eq_slices, empty, lvl = got
-    if lvl is not None and lvl.A is r.A and lvl.b is r.b:
-        return lvl                  # the same task buffers: the same Level
-    lvl = Level(index=k, tasks=[task], A=r.A, b=r.b, C=empty[0], lo=empty[1], hi=empty[2], box=None,
-                eq_slices=eq_slices, in_slices={})
-    lvl._ineq = empty
-    got[4] = lvl
-    return lvl
+def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:
+    """One level's rows stacked into fresh arrays (what :meth:`Stack.assemble` gives as
+    views of its reused buffer)."""
+    rows = [[t.rows(robot, layout) for t in tasks]]
+    buf = RowBuffer(layout.nx, [tasks], rows, first_index=k)
+    buf.fill([tasks], rows)
+    return buf.levels[0]
