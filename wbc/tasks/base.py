@@ -127,15 +127,6 @@ def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
     return finite_vector(f"task '{task_name}'", what, value, dim)
 
 
-def rows_of(idx: np.ndarray) -> slice | np.ndarray:
-    """``idx`` as a slice when it is a contiguous ascending range (indexing by a slice
-    takes a view instead of copying), else unchanged."""
-    idx = np.asarray(idx)
-    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
-        return slice(int(idx[0]), int(idx[0]) + len(idx))
-    return idx
-
-
 def eq_buffer(task: Task, m: int, nx: int) -> tuple[np.ndarray, np.ndarray]:
     """Zeroed (m × nx, m) buffers owned by the task, reallocated only when nx changes."""
     buf = getattr(task, "_eq_buf", None)
@@ -152,3 +143,17 @@ def pd_reference(out, sel, acc_d, kp, err, kd, vel_d, vel, drift):
     for i in range(sel.shape[0]):
         j = sel[i]
         out[i] = acc_d[j] + kd[j] * (vel_d[j] - vel[j]) + kp[j] * err[j] - drift[j]
+
+
+@nb.njit(cache=True)
+def dynamics_block(out_A, out_b, M, h, Jf, idx, nv, sign_b):
+    """Rows [M[idx], −J_f[:, idx]ᵀ] of the equation of motion over x = (q̈, f) into
+    ``out_A`` (len(idx) × nx) and ``sign_b``·h[idx] into ``out_b``: the dynamics and
+    torque-limit rows (5.26) in one compiled pass (J_f may have no rows)."""
+    nf = Jf.shape[0]
+    for i in range(idx.shape[0]):
+        j = idx[i]
+        out_A[i, :nv] = M[j, :]
+        for c in range(nf):
+            out_A[i, nv + c] = -Jf[c, j]
+        out_b[i] = sign_b * h[j]

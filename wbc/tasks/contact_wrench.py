@@ -57,7 +57,10 @@ class ContactWrench(Task):
         sl = self._slice(layout)
         dim = sl.stop - sl.start
         A, b = eq_buffer(self, dim, layout.nx)
-        A[:, sl] = np.eye(dim)
+        if getattr(self, "_A_for", None) != (id(A), sl.start, sl.stop):
+            A[:] = 0.0
+            A[:, sl] = np.eye(dim)
+            self._A_for = (id(A), sl.start, sl.stop)
         b[:] = self._ref(dim)
         return Rows(A=A, b=b)
 

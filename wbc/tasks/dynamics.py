@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..rows import Layout, Rows
-from .base import Task, eq_buffer, rows_of
+from .base import Task, dynamics_block, eq_buffer
+
+_NO_FORCES = np.zeros((0, 0))
 
 
 class FloatingBaseDynamics(Task):
@@ -23,14 +25,10 @@ class FloatingBaseDynamics(Task):
     def rows(self, robot, layout: Layout) -> Rows:
         u = getattr(self, "_u", None)
         if u is None:
-            u = self._u = rows_of(robot.unactuated_idx)
-        A, b = eq_buffer(self, len(robot.unactuated_idx), layout.nx)
-        A[:, : layout.nv] = robot.M[u]
-        if layout.nf:
-            A[:, layout.nv:] = -layout.force_jacobian[:, u].T
-        else:
-            A[:, layout.nv:] = 0.0
-        np.negative(robot.h[u], out=b)
+            u = self._u = np.asarray(robot.unactuated_idx, dtype=np.int64)
+        A, b = eq_buffer(self, len(u), layout.nx)
+        Jf = layout.force_jacobian if layout.nf else _NO_FORCES
+        dynamics_block(A, b, robot.M, robot.h, Jf, u, layout.nv, -1.0)
         return Rows(A=A, b=b)
 
 

@@ -6,7 +6,9 @@ import numpy as np
 
 from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
-from .base import Task, rows_of
+from .base import Task, dynamics_block
+
+_NO_FORCES = np.zeros((0, 0))
 
 
 class TorqueLimits(Task):
@@ -26,14 +28,12 @@ class TorqueLimits(Task):
         buf = getattr(self, "_buf", None)
         if buf is None or buf[0].shape[1] != layout.nx or buf[3] != self.scale:
             a = robot.actuated_idx
-            a = a[np.isfinite(robot.tau_max[a])]
-            sel = rows_of(a)
-            buf = self._buf = (np.zeros((len(a), layout.nx)), sel, self.scale * robot.tau_max[a], self.scale)
-        C, a, tmax, _ = buf
-        C[:, : layout.nv] = robot.M[a]
-        if layout.nf:
-            C[:, layout.nv:] = -layout.force_jacobian[:, a].T
-        ha = robot.h[a]
+            a = np.asarray(a[np.isfinite(robot.tau_max[a])], dtype=np.int64)
+            buf = self._buf = (np.zeros((len(a), layout.nx)), a, self.scale * robot.tau_max[a], self.scale,
+                               np.zeros(len(a)))
+        C, a, tmax, _, ha = buf
+        dynamics_block(C, ha, robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, a,
+                       layout.nv, 1.0)
         return Rows(C=C, lo=-tmax - ha, hi=tmax - ha)
 
     def params(self) -> dict:
