@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import wbc
@@ -89,3 +90,31 @@ def test_duplicate_task_names_and_unknown_solver(talos):
         wbc.Stack([[CoM()], [CoM()]])
     with pytest.raises(wbc.SolverError, match=r"unknown solver 'lqr'"):
         wbc.Controller(talos, wbc.Stack([[CoM()]]), solver="lqr")
+
+
+def test_a_failed_first_cycle_commands_gravity_compensation_not_nan(talos, monkeypatch):
+    """Nothing silently wrong: a solve that returns NaN is reported as failed, and the
+    torque is the last good one, or on the first cycle gravity compensation g(q)."""
+    from wbc.solvers.hqp import HierarchicalQP
+
+    ctrl = wbc.Controller(talos, [[Contact("left_foot"), Contact("right_foot")], [CoM()]])
+    real = HierarchicalQP.solve_levels
+
+    def poisoned(self, levels, nx, *a, **k):
+        res = real(self, levels, nx, *a, **k)
+        res.x = np.full(nx, np.nan)
+        return res
+
+    monkeypatch.setattr(HierarchicalQP, "solve_levels", poisoned)
+    q = talos.q_default.copy()
+    sol = ctrl.solve(q, np.zeros(talos.nv))
+    assert sol.status == "failed" and np.all(np.isfinite(sol.tau))
+    g = pin.computeGeneralizedGravity(talos.model, talos.model.createData(), q)
+    np.testing.assert_allclose(sol.tau, g[talos.actuated_idx], atol=1e-9)
+    assert np.abs(sol.tau).max() > 1.0           # a real gravity torque (N·m), not zeros
+    monkeypatch.setattr(HierarchicalQP, "solve_levels", real)
+    good = ctrl.solve(q, np.zeros(talos.nv))
+    monkeypatch.setattr(HierarchicalQP, "solve_levels", poisoned)
+    again = ctrl.solve(q, np.zeros(talos.nv))
+    assert good.status == "ok" and again.status == "failed"
+    np.testing.assert_array_equal(again.tau, good.tau)      # the last good torque

@@ -15,6 +15,7 @@ from __future__ import annotations
 from functools import partial
 
 import numpy as np
+import pinocchio as pin
 
 from .errors import SolverError
 from .model import RobotModel
@@ -201,8 +202,9 @@ class Controller:
     def _fallback_torque(self) -> np.ndarray:
         if self._last_tau is not None:
             return self._last_tau.copy()
-        tau = self.robot.data.g.copy() if hasattr(self.robot.data, "g") else self.robot.h.copy()
-        tau[self.robot.unactuated_idx] = 0.0
+        robot = self.robot
+        tau = pin.computeGeneralizedGravity(robot.model, robot.data, robot.q).copy()
+        tau[robot.unactuated_idx] = 0.0
         return tau
 
 
