@@ -50,28 +50,39 @@ class Damping:
 NO_DAMPING = Damping(threshold=0.0, max_damping=0.0)
 
 
-@dataclass
 class Step:
-    """A tentative least-squares step of one level (committed or discarded)."""
+    """A tentative least-squares step of one level (committed or discarded).
 
-    z: np.ndarray
-    Z_next: np.ndarray
-    rank: int
-    sigma_min: float
-    sigma_max: float
-    damping: float
-    AZ: np.ndarray
-    r: np.ndarray
-    #: set by the QR path instead of the singular values: the triangular factor whose
-    #: singular values are those of AZ (see :func:`singular_values`), worked out only
-    #: if someone reads the diagnostics
-    R: np.ndarray | None = None
-    #: x̂ + Z z, the point the step leads to (computed with it)
-    x_next: np.ndarray | None = None
-    #: False when a forced route refused the level (see :meth:`Cascade.route_step`)
-    ok: bool = True
-    #: the factorisation that gave the step (a route of :mod:`~wbc.solvers.level_kernel`)
-    route: int = 0
+    ``z`` the step in the free directions, ``Z_next`` the basis left for lower levels,
+    ``rank``, ``sigma_min``, ``sigma_max`` and ``damping`` (λ²) of AZ, ``x_next`` = x̂ + Z z;
+    ``R`` a triangular factor with the singular values of AZ when the route did not
+    compute them (see :func:`singular_values`); ``ok`` False when a forced route refused
+    the level (:meth:`Cascade.route_step`); ``route`` the factorisation that gave it (a
+    route of :mod:`~wbc.solvers.level_kernel`). ``AZ`` and the residual ``r`` = b − A x̂
+    are worked out on first access (only a QP needs them)."""
+
+    __slots__ = ("z", "Z_next", "rank", "sigma_min", "sigma_max", "damping", "R", "x_next", "ok", "route",
+                 "_A", "_b", "_x", "_Z", "_AZ", "_r")
+
+    def __init__(self, z, Z_next, rank, sigma_min, sigma_max, damping, A, b, x, Z, R=None, x_next=None,
+                 ok=True, route=0) -> None:
+        self.z, self.Z_next, self.rank = z, Z_next, rank
+        self.sigma_min, self.sigma_max, self.damping = sigma_min, sigma_max, damping
+        self.R, self.x_next, self.ok, self.route = R, x_next, ok, route
+        self._A, self._b, self._x, self._Z = A, b, x, Z
+        self._AZ = self._r = None
+
+    @property
+    def AZ(self) -> np.ndarray:
+        if self._AZ is None:
+            self._AZ = self._A if self._Z is None else self._A @ self._Z
+        return self._AZ
+
+    @property
+    def r(self) -> np.ndarray:
+        if self._r is None:
+            self._r = self._b - self._A @ self._x
+        return self._r
 
 
 def singular_values(R: np.ndarray) -> tuple[float, float]:
@@ -110,8 +121,8 @@ class Cascade:
         """Least-squares step of ``A x = b`` inside the current null space (not applied)."""
         m, r_dim = A.shape[0], self.Z.shape[1]
         if m == 0 or r_dim == 0:
-            AZ = A if self._identity else A @ self.Z
-            return Step(np.zeros(r_dim), self.Z, 0, np.inf, 0.0, 0.0, AZ, b - A @ self.x, x_next=self.x)
+            return Step(np.zeros(r_dim), self.Z, 0, np.inf, 0.0, 0.0, A, b, self.x,
+                        None if self._identity else self.Z, x_next=self.x)
         key = (self._calls, m, r_dim)
         self._calls += 1
         hints = self._hints
@@ -127,11 +138,19 @@ class Cascade:
         return step
 
     def _kernel(self, A: np.ndarray, b: np.ndarray, damping: Damping, path: int, strict: bool = False) -> Step:
-        ok, route, z, Z_next, AZ, r, R, x_next, rank, smin, smax, lam2 = level_kernel.level_step(
-            np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), self.x,
-            _NO_BASIS if self._identity else self.Z, self._identity, path, strict, damping.rank_tol,
+        A = np.ascontiguousarray(A, dtype=float)
+        b = np.ascontiguousarray(b, dtype=float)
+        identity = self._identity
+        ok, route, rank, smin, smax, lam2, packed, Z_next = level_kernel.level_step(
+            A, b, self.x, _NO_BASIS if identity else self.Z, identity, path, strict, damping.rank_tol,
             damping.threshold, damping.max_damping, _GRAM_MIN_RATIO)
-        return Step(z, Z_next, rank, smin, smax, lam2, AZ, r, R if R.size else None, x_next, ok, route)
+        k, n = (self.n if identity else self.Z.shape[1]), self.n
+        R = None
+        if len(packed) > k + n:
+            mr = int(round((len(packed) - k - n) ** 0.5))
+            R = packed[k + n:].reshape(mr, mr)
+        return Step(packed[:k], Z_next, rank, smin, smax, lam2, A, b, self.x, None if identity else self.Z, R,
+                    packed[k:k + n], ok, route)
 
     def route_step(self, A: np.ndarray, b: np.ndarray, damping: Damping, route: int) -> Step | None:
         """The step by one route of :mod:`~wbc.solvers.level_kernel` only (``SVD``, ``QR``,

@@ -249,15 +249,32 @@ def _svd(AZ, r, rank_tol, threshold, max_damping):
 
 
 @nb.njit(cache=True)
+def _pack(z, x_new, R):
+    out = np.empty(z.shape[0] + x_new.shape[0] + R.size)
+    out[:z.shape[0]] = z
+    out[z.shape[0]:z.shape[0] + x_new.shape[0]] = x_new
+    k = z.shape[0] + x_new.shape[0]
+    for i in range(R.shape[0]):
+        for j in range(R.shape[1]):
+            out[k] = R[i, j]
+            k += 1
+    return out
+
+
+@nb.njit(cache=True)
 def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damping, gram_min_ratio):
-    """(ok, route, z, Z_next, AZ, r, R, x_new, rank, σ_min, σ_max, λ²) of one level (module
-    doc). Routes are tried from ``path`` along GRAM or QR → COD → SVD (``AUTO``: GRAM for
-    a tall level, QR for a wide one); ``route`` is the one that gave the step; with
+    """(ok, route, rank, σ_min, σ_max, λ², packed, Z_next) of one level (module doc), with
+    ``packed`` = (z, x̂ + Z z, R row by row) in one array: each array numba hands back to
+    Python costs a dtype unpickling, so there are two.
+
+    Routes are tried from ``path`` along GRAM or QR → COD → SVD (``AUTO``: GRAM for a
+    tall level, QR for a wide one); ``route`` is the one that gave the step; with
     ``strict`` a refusal of ``path`` itself returns ok = False. ``R`` is a triangular
     factor with the singular values of AZ: the QR route's R, the GRAM route's Cholesky
     factor, the COD route's T (to within the dropped block's ‖E‖_F ≤ rank_tol); σ_min
-    and σ_max are then NaN and come from R on demand. Empty for the SVD route. Non-finite rows give a NaN step, never an exception: the controller reports
-    the cycle as failed."""
+    and σ_max are then NaN and come from R on demand. Empty for the SVD route and the
+    GRAM route's eigen branch (σ given). Non-finite rows give a NaN step, never an
+    exception: the controller reports the cycle as failed."""
     n = x.shape[0]
     AZ = A if identity else A @ Z
     r = b - A @ x
@@ -265,36 +282,36 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     R = np.empty((0, 0))
     none = np.empty((n, 0))
     if not (np.all(np.isfinite(AZ)) and np.all(np.isfinite(r))):
-        return True, path, np.full(k, np.nan), none, AZ, r, R, np.full(n, np.nan), 0, np.nan, np.nan, 0.0
+        return True, path, 0, np.nan, np.nan, 0.0, _pack(np.full(k, np.nan), np.full(n, np.nan), R), none
     route = path
     if route == AUTO:
         route = GRAM if m >= k else QR
     if route == GRAM:
         ok, z, U, smin, smax, lam2 = _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio)
         if ok:
-            return True, GRAM, z, none, AZ, r, U, x + (z if identity else Z @ z), k, smin, smax, lam2
+            return True, GRAM, k, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), U), none
         if strict:
-            return False, GRAM, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
+            return False, GRAM, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
         route = COD
     elif route == QR:
         ok, z, null, Rq = _qr(AZ, r, rank_tol, threshold)
         if ok:
             null_c = np.ascontiguousarray(null)
             Z_next = null_c if identity else Z @ null_c
-            return True, QR, z, Z_next, AZ, r, Rq, x + (z if identity else Z @ z), m, np.nan, np.nan, 0.0
+            return True, QR, m, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), Rq), Z_next
         if strict:
-            return False, QR, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
+            return False, QR, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
         route = COD
     if route == COD:
         ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
         if ok:
             Z_next = null if identity else Z @ null
-            return True, COD, z, Z_next, AZ, r, T, x + (z if identity else Z @ z), rank, np.nan, np.nan, 0.0
+            return True, COD, rank, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), T), Z_next
         if strict:
-            return False, COD, z, none, AZ, r, R, x, 0, 0.0, 0.0, 0.0
+            return False, COD, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
     z, null, rank, smin, smax, lam2 = _svd(AZ, r, rank_tol, threshold, max_damping)
     Z_next = null if identity else Z @ null
-    return True, SVD, z, Z_next, AZ, r, R, x + (z if identity else Z @ z), rank, smin, smax, lam2
+    return True, SVD, rank, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), R), Z_next
 
 
 @nb.njit(cache=True)
