@@ -12,6 +12,7 @@ compensation on the first cycle).
 
 from __future__ import annotations
 
+import math
 from functools import partial
 
 import numpy as np
@@ -144,10 +145,8 @@ class Controller:
             x = np.concatenate([res.x, fres.x])
             ok, message, qp_count = res.ok and fres.ok, res.message or fres.message, fres.qp_count
             if layout.nf and len(robot.unactuated_idx):
-                A0 = layout.force_jacobian[:, robot.unactuated_idx].T
-                b0 = robot.M[robot.unactuated_idx] @ res.x + robot.h[robot.unactuated_idx]
-                gap = np.abs(A0 @ fres.x - b0).max()
-                if gap > 1e-6 * max(1.0, np.abs(b0).max()):
+                gap = fres.dynamics_gap
+                if gap > 1e-6 * max(1.0, fres.dynamics_scale):
                     res.levels[0].relaxed = True
                     message = message or (f"q̈ needs contact forces outside the friction/CoP cones "
                                           f"(root dynamics off by {gap:.3g} N or N·m)")
@@ -170,7 +169,8 @@ class Controller:
         if layout.nf:
             tau_full -= layout.force_jacobian.T @ f
         tau_full[robot.unactuated_idx] = 0.0
-        finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau_full))
+        # a sum is finite iff every term is (an overflowing sum is checked term by term)
+        finite = math.isfinite(x.sum() + tau_full.sum()) or bool(np.isfinite(x).all() and np.isfinite(tau_full).all())
         # Every level's row values this cycle produced, in one product per array (the
         # stack's buffer is refilled next cycle); the per-level and per-task breakdown is
         # done only if the caller asks for it.

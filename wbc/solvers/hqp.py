@@ -66,6 +66,10 @@ class CascadeResult:
     qp_count: int = 0
     message: str = ""
     degraded: bool = False
+    #: projection's force distribution: how far the root dynamics are from holding, and
+    #: their scale (N, N·m)
+    dynamics_gap: float = 0.0
+    dynamics_scale: float = 0.0
 
 
 class HierarchicalQP:

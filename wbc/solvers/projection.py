@@ -77,7 +77,10 @@ class RecursiveProjection:
             L = np.tril(c) if lower else np.triu(c).T
             T = solve_triangular(L.T, np.eye(nv), lower=False)  # L⁻ᵀ: q̈ = T y
         boxes = [l.box for l in levels if l.box is not None]
-        if boxes:
+        if len(boxes) == 1:
+            b_idx, b_lo, b_hi = boxes[0]
+            b_idx = b_idx.astype(np.int64, copy=False)
+        elif boxes:
             b_idx, b_lo, b_hi = (np.concatenate(p) for p in zip(*boxes))
             b_idx = b_idx.astype(np.int64, copy=False)
         else:
@@ -205,7 +208,14 @@ class RecursiveProjection:
             rhs[row] += self.ramp_weight * c.fmax
         lam, _ = nnls(AG, rhs, maxiter=50 * plan.G.shape[1])
         f0, G = plan.f0, plan.G
-        return CascadeResult(f0 + G @ lam, [LevelInfo(0)])
+        res = CascadeResult(f0 + G @ lam, [LevelInfo(0)])
+        if n_dyn:
+            # how far the root dynamics are from holding, S_u(J_fᵀ f − M q̈ − h) (N, N·m), and
+            # their scale |S_u(M q̈ + h − J_fᵀ f₀)|
+            w = self.dynamics_weight
+            res.dynamics_gap = float(np.abs(AG[:n_dyn] @ lam - rhs[:n_dyn]).max()) / w
+            res.dynamics_scale = float(np.abs(rhs[:n_dyn]).max()) / w
+        return res
 
 
 class _ForcePlan:
