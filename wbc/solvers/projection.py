@@ -116,6 +116,10 @@ class RecursiveProjection:
         """
         b_idx, b_lo, b_hi = box
         tol = self.box_tol
+        step = cas.ls_step(Ay, b, self.damping)
+        if not len(b_idx) or (T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol):
+            cas.commit(step)            # the common case: no joint limit in the way
+            return step
 
         def q_of(y):
             return (y if T is None else T @ y)[b_idx]
@@ -124,9 +128,12 @@ class RecursiveProjection:
             return np.maximum(b_lo - qb, 0.0) + np.maximum(qb - b_hi, 0.0)
 
         blocked: set[int] = set()
+        first = True
         while True:
-            step = cas.ls_step(Ay, b, self.damping)
-            if not len(b_idx) or (T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol):
+            if not first:
+                step = cas.ls_step(Ay, b, self.damping)
+            first = False
+            if T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol:
                 cas.commit(step)
                 return step
             q_now = q_of(cas.x)
