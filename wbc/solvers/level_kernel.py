@@ -397,3 +397,16 @@ def dynamics_rows(Jf, G, f0, M, h, qdd, u, weight, AG, rhs):
     for i in range(n):
         hu[i] = h[u[i]]
     rhs[:n] = weight * (Mu @ qdd + hu - JuT @ f0)
+
+
+@nb.njit(cache=True)
+def forces_from(f0, G, lam, AG, rhs, n, weight):
+    """(f₀ + G λ, max |residual of the n dynamics rows| / w, max |their rhs| / w)."""
+    gap = 0.0
+    scale = 0.0
+    if n:
+        res = AG[:n] @ lam - rhs[:n]
+        for i in range(n):
+            gap = max(gap, abs(res[i]))
+            scale = max(scale, abs(rhs[i]))
+    return f0 + G @ lam, gap / weight, scale / weight

@@ -42,7 +42,7 @@ from ..errors import SolverError
 from ..rows import Layout, Level
 from .cascade import NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo
-from .level_kernel import box_excess_max, dynamics_rows
+from .level_kernel import box_excess_max, dynamics_rows, forces_from
 
 
 class RecursiveProjection:
@@ -91,13 +91,16 @@ class RecursiveProjection:
             # start from the feasible point nearest q̈ = 0 (a joint braking towards its
             # limit needs a non-zero acceleration even before any task)
             x0 = np.zeros(nv)
-            x0[b_idx] = np.clip(0.0, b_lo, b_hi)
+            x0[b_idx] = np.minimum(np.maximum(b_lo, 0.0), b_hi)
             cas.x = x0 if T is None else L.T @ x0
         box = (b_idx, b_lo, b_hi)
         infos = []
         for lvl in levels:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             rows = self._motion_rows(lvl)
+            if rows is None:                # no rows on q̈ (force-only tasks): nothing to do here
+                infos.append(info)
+                continue
             A = lvl.A[rows, :nv]
             Ay = A if T is None else A @ T
             step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
@@ -169,10 +172,10 @@ class RecursiveProjection:
         cas.commit(step, s * step.z)
         return step
 
-    def _motion_rows(self, lvl: Level) -> slice | np.ndarray:
+    def _motion_rows(self, lvl: Level) -> slice | np.ndarray | None:
         """The level's equality rows on q̈ (not on contact forces): a slice when they are
-        all of them, cached per level structure (the stack keeps ``eq_slices`` while its
-        structure is unchanged)."""
+        all of them, None when there are none, cached per level structure (the stack
+        keeps ``eq_slices`` while its structure is unchanged)."""
         key = id(lvl.eq_slices)
         got = self._rows_cache.get(lvl.index)
         if got is not None and got[0] == key and got[1] is lvl.eq_slices:
@@ -182,7 +185,10 @@ class RecursiveProjection:
             sl = lvl.eq_slices.get(t.name)
             if sl is not None and not t.on_forces:
                 idx.extend(range(sl.start, sl.stop))
-        rows = slice(0, lvl.n_eq) if idx == list(range(lvl.n_eq)) else np.array(idx, dtype=int)
+        if not idx:
+            rows = None
+        else:
+            rows = slice(0, lvl.n_eq) if idx == list(range(lvl.n_eq)) else np.array(idx, dtype=int)
         self._rows_cache[lvl.index] = (key, lvl.eq_slices, rows)
         return rows
 
@@ -198,7 +204,9 @@ class RecursiveProjection:
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return CascadeResult(np.zeros(0), [])
-        key = (id(layout), layout.nx, tuple(id(lvl.eq_slices) for lvl in levels))
+        # the stack hands out the same layout and level list while its structure is
+        # unchanged; the plan holds both, so their ids cannot be reused meanwhile
+        key = (id(layout), id(levels), len(levels), layout.nx)
         plan = self._force_plan
         if plan is None or plan.key != key or not plan.still_valid(levels, nv):
             contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
@@ -214,14 +222,11 @@ class RecursiveProjection:
         for c, row in plan.ramps:
             rhs[row] += self.ramp_weight * c.fmax
         lam, _ = nnls(AG, rhs, maxiter=50 * plan.G.shape[1])
-        f0, G = plan.f0, plan.G
-        res = CascadeResult(f0 + G @ lam, [LevelInfo(0)])
-        if n_dyn:
-            # how far the root dynamics are from holding, S_u(J_fᵀ f − M q̈ − h) (N, N·m), and
-            # their scale |S_u(M q̈ + h − J_fᵀ f₀)|
-            w = self.dynamics_weight
-            res.dynamics_gap = float(np.abs(AG[:n_dyn] @ lam - rhs[:n_dyn]).max()) / w
-            res.dynamics_scale = float(np.abs(rhs[:n_dyn]).max()) / w
+        # f, and how far the root dynamics are from holding, S_u(J_fᵀ f − M q̈ − h)
+        # (N, N·m), with their scale |S_u(M q̈ + h − J_fᵀ f₀)|
+        f, gap, scale = forces_from(plan.f0, plan.G, lam, AG, rhs, n_dyn, self.dynamics_weight)
+        res = CascadeResult(f, [LevelInfo(0)])
+        res.dynamics_gap, res.dynamics_scale = gap, scale
         return res
 
 
@@ -235,6 +240,7 @@ class _ForcePlan:
     def __init__(self, key, levels, layout: Layout, contacts, robot, solver: RecursiveProjection) -> None:
         nf, nv = layout.nf, layout.nv
         self.key = key
+        self.refs = (layout, levels)
         f0 = np.zeros(nf)
         blocks = []
         for c in contacts:
