@@ -211,16 +211,17 @@ class RecursiveProjection:
         if plan is None or plan.key != key or not plan.still_valid(levels, nv):
             contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
             plan = self._force_plan = _ForcePlan(key, levels, layout, contacts, robot, self)
-        AG, rhs, n_dyn = plan.AG, plan.rhs, plan.n_dyn
-        np.negative(plan.const_rhs, out=rhs[n_dyn:])
+        AG, rhs, n_dyn, d = plan.AG, plan.rhs, plan.n_dyn, plan.d
+        np.negative(plan.const_rhs, out=d)
         if n_dyn:
             # the unactuated dynamics rows, the only rows that change with the state
             dynamics_rows(layout.force_jacobian, plan.G, plan.f0, robot.M, robot.h, qdd, plan.u,
                           self.dynamics_weight, AG, rhs)
         for rows, lvl_index, esl in plan.wrench:
-            rhs[rows] += self.wrench_weight * levels[lvl_index].b[esl]
+            d[rows] += self.wrench_weight * levels[lvl_index].b[esl]
         for c, row in plan.ramps:
-            rhs[row] += self.ramp_weight * c.fmax
+            d[row] += self.ramp_weight * c.fmax
+        np.dot(plan.Qt, d, out=rhs[n_dyn:])
         lam, _ = nnls(AG, rhs, maxiter=50 * plan.G.shape[1])
         # f, and how far the root dynamics are from holding, S_u(J_fᵀ f − M q̈ − h)
         # (N, N·m), with their scale |S_u(M q̈ + h − J_fᵀ f₀)|
@@ -258,7 +259,7 @@ class _ForcePlan:
         self.n_dyn = n_dyn = len(self.u)
         self.contacts = contacts
         self.params = self._params()
-        rows, self.wrench, self.wrench_A, self.ramps, k = [], [], [], [], n_dyn
+        rows, self.wrench, self.wrench_A, self.ramps, k = [], [], [], [], 0
         for lvl in levels:
             for t in lvl.tasks:
                 esl = lvl.eq_slices.get(t.name)
@@ -277,9 +278,14 @@ class _ForcePlan:
                 k += 1
         rows.append(solver.force_regularization * np.eye(nf))
         const = np.vstack(rows)
-        self.AG = np.empty((n_dyn + len(const), G.shape[1]))
-        self.AG[n_dyn:] = const @ G
+        # ‖C f − d‖² = ‖R f − Qᵀd‖² + (a term free of f) with C = QR (thin): the constant
+        # rows compress to at most nf, and the NNLS works on 6 + nf rows instead of 6 + 2nf
+        Q, R = np.linalg.qr(const)
+        self.Qt = np.ascontiguousarray(Q.T)
+        self.AG = np.empty((n_dyn + len(R), G.shape[1]))
+        self.AG[n_dyn:] = R @ G
         self.rhs = np.zeros(len(self.AG))
+        self.d = np.zeros(len(const))
         self.const_rhs = const @ f0
 
     def _params(self) -> tuple:
