@@ -71,7 +71,7 @@ class Controller:
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
         self.warm_start = bool(warm_start)
-        self._warm: tuple | None = None      # (layout, x) of the last solved cycle
+        self._warm: tuple | None = None      # (layout structure key, x) of the last solved cycle
         self.dt = float(dt)
         # The cascade can make its least-norm choices in x̃ = (q̈, f / force_scale).
         # Measured: 100 makes level 0 pick interior forces (no QP there) but worsens
@@ -155,12 +155,11 @@ class Controller:
             if layout.nf and self.force_scale != 1.0:
                 scale = np.ones(layout.nx)
                 scale[nv:] = self.force_scale
-            # the stack hands out the same Layout while its structure is unchanged (held
-            # here, so identity means the same structure)
-            x_ref = self._warm[1] if self.warm_start and self._warm is not None and self._warm[0] is layout else None
+            key = layout.structure_key()
+            x_ref = self._warm[1] if self.warm_start and self._warm is not None and self._warm[0] == key else None
             res = self.solver.solve_levels(levels, layout.nx, scale=scale, x_ref=x_ref)
             x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
-            self._warm = (layout, x.copy()) if ok and math.isfinite(x.sum()) else None
+            self._warm = (key, x.copy()) if ok and math.isfinite(x.sum()) else None
         return self._finish(x, res, levels, layout, ok, message, qp_count)
 
     def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:

@@ -56,6 +56,14 @@ class Layout:
     def nx(self) -> int:
         return self.nv + self.nf
 
+    def structure_key(self) -> tuple:
+        """(nx, each contact's name and force offset): equal for layouts whose x means the
+        same thing (computed once per Layout)."""
+        key = self.__dict__.get("_key")
+        if key is None:
+            key = self._key = (self.nx, tuple((n, s.start) for n, s in self.contact_slices.items()))
+        return key
+
 
 @dataclass
 class Level:
