@@ -186,7 +186,7 @@ class Stack:
         key = (self.version, layout.nx, tuple(map(id, extra)))
         buf = self.__dict__.get("_row_buffer")
         if buf is None or buf.key != key or not buf.fill(groups, rows):
-            buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key)
+            buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key, adopt=True)
             buf.fill(groups, rows)
         return buf.levels
 
@@ -202,11 +202,17 @@ class RowBuffer:
     the box bounds as unit rows, set once). Each level is a block of rows, and its Level
     holds views of that block, so the solvers see levels while one product per array
     evaluates every level's rows (:meth:`values`). Built for one structure (tasks, their
-    row counts, weights and box indices); :meth:`fill` refuses another."""
+    row counts, weights and box indices); :meth:`fill` refuses another.
+
+    With ``adopt`` (the stack's own buffer), a task of weight 1 that keeps its rows in
+    :func:`~wbc.tasks.base.eq_buffer` is handed its block of A and b as that buffer:
+    it then writes its rows in place and nothing is copied. A task shared by two stacks
+    moves to whichever assembled last (both stay right; a Level of the other stack is
+    then only valid until this one's next call)."""
 
     def __init__(self, nx: int, groups: list[list[Task]], rows: list[list[Rows]], first_index: int = 0,
-                 key=None) -> None:
-        self.nx, self.key = nx, key
+                 key=None, adopt: bool = False) -> None:
+        self.nx, self.key, self.adopt = nx, key, adopt
         ne = sum(r.n_eq for rs in rows for r in rs)
         ni = sum(r.n_in for rs in rows for r in rs)
         self.A, self.b = np.zeros((ne, nx)), np.zeros(ne)
@@ -256,17 +262,23 @@ class RowBuffer:
         if len(rows) != len(self.plans):
             return False
         copyto = np.copyto
-        for plan, rs in zip(self.plans, rows):
+        for plan, rs, tasks in zip(self.plans, rows, groups):
             if len(rs) != len(plan):
                 return False
-            for (w0, eqv, inv, boxv), r in zip(plan, rs):
+            for (w0, eqv, inv, boxv), r, t in zip(plan, rs, tasks):
                 if r.A is not None:
                     if eqv is None or r.A.shape != eqv[0].shape:
                         return False
                     A, b, w = eqv
-                    if w == 1.0:
+                    if r.A is A and r.b is b:
+                        pass                        # written in place (see below)
+                    elif w == 1.0:
                         copyto(A, r.A)
                         copyto(b, r.b)
+                        if self.adopt and t.weight == 1.0 and _owns_rows(t, r):
+                            # from now on the task writes its rows straight into the
+                            # buffer: eq_buffer hands it these views
+                            t._eq_buf = (A, b)
                     else:
                         np.multiply(r.A, w, out=A)
                         np.multiply(r.b, w, out=b)
@@ -301,6 +313,12 @@ class RowBuffer:
         """(A x − b, C x, l, u, b) over every level, as new arrays (the buffer is refilled
         next cycle); level k's part is ``spans[k]``."""
         return self.A @ x - self.b, self.C @ x, self.lo.copy(), self.hi.copy(), self.b.copy()
+
+
+def _owns_rows(t: Task, r: Rows) -> bool:
+    """Whether the task's equality rows are its :func:`~wbc.tasks.base.eq_buffer` arrays."""
+    own = getattr(t, "_eq_buf", None)
+    return own is not None and own[0] is r.A and own[1] is r.b
 
 
 def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:
