@@ -112,6 +112,11 @@ class Cascade:
         self._hints = hints
         self._calls = 0
 
+    def kernel_basis(self) -> tuple[np.ndarray, bool]:
+        """(Z, is the identity) as the compiled kernels take them (an empty Z while it is
+        the identity)."""
+        return (_NO_BASIS, True) if self._identity else (self.Z, False)
+
     @property
     def dof(self) -> int:
         """Directions still free for lower levels."""

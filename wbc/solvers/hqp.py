@@ -28,7 +28,6 @@ import numpy as np
 from ..rows import Level
 from .backends import Backend, QPResult, make_backend
 from .cascade import Cascade, Damping, singular_values
-from .cascade import _NO_BASIS
 from .level_kernel import higher_rows, least_squares_objective, max_violation
 
 
@@ -200,8 +199,8 @@ class HierarchicalQP:
             Ca, la, ha = acc_C[0], acc_lo[0], acc_hi[0]
         else:
             Ca, la, ha = np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
-        return higher_rows(np.ascontiguousarray(Ca), la, ha, cas.x, _NO_BASIS if cas._identity else cas.Z,
-                           cas._identity, self.margin)
+        Z, identity = cas.kernel_basis()
+        return higher_rows(np.ascontiguousarray(Ca), la, ha, cas.x, Z, identity, self.margin)
 
     def _fallback(self) -> Backend:
         if getattr(self, "_fb", None) is None:
