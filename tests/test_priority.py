@@ -35,16 +35,19 @@ def _perturb_below(stack: wbc.Stack, k: int, rng: np.random.Generator, robot) ->
         stack.remove(stack.levels[-1][-1].name)
 
 
-@pytest.mark.parametrize("solver", ["hqp", "projection"])
+@pytest.mark.parametrize("solver", ["hqp", "projection", "hqp-proxqp"])
 @pytest.mark.parametrize("robot_name", ["talos", "tiago"])
 def test_lower_level_never_changes_higher_residual(robot_name, solver, request, rng):
     robot = request.getfixturevalue(robot_name)
     make_stack = STACKS[robot_name]
+    solver, _, backend = solver.partition("-")
+    backend = backend or "daqp"
     worst = 0.0
     for _ in range(N_STATES):
         q, v = random_state(robot, rng)
         seed = int(rng.integers(2**31))
-        base = wbc.Controller(robot, _build(robot, make_stack, q, v, seed), solver=solver).solve(q, v)
+        base = wbc.Controller(robot, _build(robot, make_stack, q, v, seed), solver=solver,
+                              backend=backend).solve(q, v)
         assert base.ok, base.message
         n_levels = len(base.residuals)
         for k in range(1, n_levels):
@@ -52,14 +55,14 @@ def test_lower_level_never_changes_higher_residual(robot_name, solver, request, 
             _perturb_below(stack, k, rng, robot)
             if k == n_levels - 1 and rng.uniform() < 0.5:
                 stack.remove(stack.levels[-1][0].name)      # remove the whole lowest level
-            sol = wbc.Controller(robot, stack, solver=solver).solve(q, v)
+            sol = wbc.Controller(robot, stack, solver=solver, backend=backend).solve(q, v)
             assert sol.ok, sol.message
             for j in range(k):
                 r0, r1 = base.residuals[j], sol.residuals[j]
                 rel = abs(r1 - r0) / max(1.0, r0)
                 worst = max(worst, rel)
                 assert rel <= 1e-6, f"level {j} residual {r0:.3e} -> {r1:.3e} after changing level {k}"
-    print(f"{robot_name}/{solver}: worst relative change of a higher residual {worst:.2e}")
+    print(f"{robot_name}/{solver}/{backend}: worst relative change of a higher residual {worst:.2e}")
 
 
 @pytest.mark.parametrize("robot_name", ["talos", "tiago"])
