@@ -294,3 +294,25 @@ def test_a_qp_answer_outside_its_rows_is_not_accepted():
     hqp._fb = Liar()                                                  # nobody honest left
     z, _, status = hqp._solve_qp(H, g, C, lo, hi, 4, 0, 1e-6, "t")
     assert z is None and "violated by" in status
+
+
+def test_weighted_solver_does_not_damp_a_level_for_its_small_weight():
+    """The soft hierarchy folds level k with weight 1e-3^(k−1): a well-conditioned level of
+    weight 1e-9 has σ ≈ 3e-5, under the singularity threshold. It must be solved, not
+    damped away: the weighted solution is the plain weighted least squares. (Damped, the
+    torso orientation of talos_reach drifted 0.47 rad and the robot tipped over.)"""
+    from wbc.rows import Level
+    from wbc.solvers.hqp import WeightedQP
+
+    rng = np.random.default_rng(11)
+    n = 8
+    blocks = [rng.standard_normal((3, n)), rng.standard_normal((2, n)), rng.standard_normal((2, n)), np.eye(n)]
+    targets = [rng.standard_normal(len(A)) for A in blocks]
+    none = (np.zeros((0, n)), np.zeros(0), np.zeros(0))
+    levels = [Level(0, [], np.zeros((0, n)), np.zeros(0), *none, None, {}, {})]
+    levels += [Level(k + 1, [], A, b, *none, None, {}, {}) for k, (A, b) in enumerate(zip(blocks, targets))]
+    x = WeightedQP(level_weight=1e-3).solve_levels(levels, n).x
+    w = [np.sqrt(1e-3**k) for k in range(4)]
+    ref = np.linalg.lstsq(np.vstack([wk * A for wk, A in zip(w, blocks)]),
+                          np.concatenate([wk * b for wk, b in zip(w, targets)]), rcond=None)[0]
+    np.testing.assert_allclose(x, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())

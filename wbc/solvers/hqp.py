@@ -117,10 +117,11 @@ class HierarchicalQP:
         infos, ok, qp_count, msg = [], True, 0, ""
         degraded: list[str] = []
         tol = self.tol
+        dampings = getattr(self, "_dampings", None) or {}
         for lvl in levels:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
-            step = cas.ls_step(lvl.A, lvl.b, self.damping)
+            step = cas.ls_step(lvl.A, lvl.b, dampings.get(lvl.index, self.damping))
             info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             if acc_C and step.rank and _violated(acc_C, acc_lo, acc_hi, cas.candidate(step), tol):
                 info.used_qp = True
@@ -345,7 +346,19 @@ class WeightedQP(HierarchicalQP):
             box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
             eq_slices={}, in_slices={},
         )
-        res = super().solve_levels([levels[0], merged], nx, key, x_ref=x_ref)
+        # The singularity damping acts on σ of the merged rows, which the weights scale:
+        # a folded level of weight w has σ ~ √w however well conditioned it is, and an
+        # unscaled threshold damped the lower levels away (Talos' torso orientation at
+        # weight 1e-6 drifted 0.47 rad in talos_reach and the robot tipped over). The
+        # threshold and the damping are scaled by the smallest √w, so only a real
+        # singularity of the folded rows is damped.
+        d, wmin = self.damping, w[-1]
+        self._dampings = {1: Damping(threshold=d.threshold * wmin, max_damping=d.max_damping * wmin,
+                                     rank_tol=d.rank_tol)}
+        try:
+            res = super().solve_levels([levels[0], merged], nx, key, x_ref=x_ref)
+        finally:
+            self._dampings = None
         # report the merged level's info for every folded level
         res.levels = res.levels[:1] + [res.levels[1]] * len(rest)
         return res
