@@ -334,18 +334,7 @@ class WeightedQP(HierarchicalQP):
             return super().solve_levels(levels, nx, key, x_ref=x_ref)
         rest = levels[1:]
         w = [np.sqrt(self.level_weight ** k) for k in range(len(rest))]
-        boxes = [l.box for l in rest if l.box is not None]
-        merged = Level(
-            index=1,
-            tasks=[t for l in rest for t in l.tasks],
-            A=np.vstack([wk * l.A for wk, l in zip(w, rest)]),
-            b=np.concatenate([wk * l.b for wk, l in zip(w, rest)]),
-            C=np.vstack([l.C for l in rest]),
-            lo=np.concatenate([l.lo for l in rest]),
-            hi=np.concatenate([l.hi for l in rest]),
-            box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
-            eq_slices={}, in_slices={},
-        )
+        merged = self._merge(rest, w)
         # The singularity damping acts on σ of the merged rows, which the weights scale:
         # a folded level of weight w has σ ~ √w however well conditioned it is, and an
         # unscaled threshold damped the lower levels away (Talos' torso orientation at
@@ -362,3 +351,42 @@ class WeightedQP(HierarchicalQP):
         # report the merged level's info for every folded level
         res.levels = res.levels[:1] + [res.levels[1]] * len(rest)
         return res
+
+    def _merge(self, rest: list[Level], w: list[float]) -> Level:
+        """Levels 1.. folded into one, row blocks scaled by √weight. The folded level's
+        arrays are kept and refilled while the levels are the same objects (the stack
+        reuses its Levels while its structure is unchanged; the plan holds them)."""
+        plan = getattr(self, "_merge_plan", None)
+        if plan is not None and len(plan[0]) == len(rest) and all(a is b for a, b in zip(plan[0], rest)):
+            merged, parts = plan[1], plan[2]
+            for (A, b, C, lo, hi), l, wk in zip(parts, rest, w):
+                np.multiply(l.A, wk, out=A)
+                np.multiply(l.b, wk, out=b)
+                if C is not None:
+                    np.copyto(C, l.C)
+                    np.copyto(lo, l.lo)
+                    np.copyto(hi, l.hi)
+            return merged
+        boxes = [l.box for l in rest if l.box is not None]
+        merged = Level(
+            index=1,
+            tasks=[t for l in rest for t in l.tasks],
+            A=np.vstack([wk * l.A for wk, l in zip(w, rest)]),
+            b=np.concatenate([wk * l.b for wk, l in zip(w, rest)]),
+            C=np.vstack([l.C for l in rest]),
+            lo=np.concatenate([l.lo for l in rest]),
+            hi=np.concatenate([l.hi for l in rest]),
+            box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
+            eq_slices={}, in_slices={},
+        )
+        if boxes:                       # box bounds are refilled by the levels only: no plan
+            self._merge_plan = None
+            return merged
+        parts, e, i = [], 0, 0
+        for l in rest:
+            me, mi = l.A.shape[0], l.C.shape[0]
+            parts.append((merged.A[e:e + me], merged.b[e:e + me],
+                          merged.C[i:i + mi] if mi else None, merged.lo[i:i + mi], merged.hi[i:i + mi]))
+            e, i = e + me, i + mi
+        self._merge_plan = (list(rest), merged, parts)
+        return merged
