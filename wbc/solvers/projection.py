@@ -254,7 +254,7 @@ class _ForcePlan:
         for start, V in blocks:
             G[start: start + V.shape[0], k: k + V.shape[1]] = V
             k += V.shape[1]
-        self.f0, self.G, self.has_f0 = f0, G, bool(np.any(f0))
+        self.f0, self.G = f0, G
         self.u = np.asarray(robot.unactuated_idx, dtype=np.int64)
         self.n_dyn = n_dyn = len(self.u)
         self.contacts = contacts
