@@ -42,9 +42,8 @@ class Damping:
     rank_tol: float = 1e-9
 
     def lambda2(self, smin: float) -> float:
-        if self.threshold <= 0 or smin >= self.threshold:
-            return 0.0
-        return (1.0 - (smin / self.threshold) ** 2) * self.max_damping**2
+        """λ² for a smallest singular value ``smin`` (the rule of the module docstring)."""
+        return level_kernel.damping_lambda2(smin, self.threshold, self.max_damping)
 
 
 NO_DAMPING = Damping(threshold=0.0, max_damping=0.0)
@@ -197,11 +196,3 @@ _FIRST = {False: level_kernel.QR, True: level_kernel.GRAM}
 _HINT_RETRY = 50
 #: smallest proven σ_min²/σ_max² for the Gram (Cholesky) path (κ(AZ) ≤ 1e4)
 _GRAM_MIN_RATIO = 1e-8
-
-
-def violation(C: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Per-row amount by which l ≤ C x ≤ u is violated (0 where it holds)."""
-    if C.shape[0] == 0:
-        return np.zeros(0)
-    y = C @ x
-    return np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)

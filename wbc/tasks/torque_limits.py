@@ -29,12 +29,15 @@ class TorqueLimits(Task):
         if buf is None or buf[0].shape[1] != layout.nx or buf[3] != self.scale:
             a = robot.actuated_idx
             a = np.asarray(a[np.isfinite(robot.tau_max[a])], dtype=np.int64)
-            buf = self._buf = (np.zeros((len(a), layout.nx)), a, self.scale * robot.tau_max[a], self.scale,
-                               np.zeros(len(a)))
-        C, a, tmax, _, ha = buf
+            n = len(a)
+            buf = self._buf = (np.zeros((n, layout.nx)), a, self.scale * robot.tau_max[a], self.scale,
+                               np.zeros(n), np.zeros(n), np.zeros(n))
+        C, a, tmax, _, ha, lo, hi = buf
         dynamics_block(C, ha, robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, a,
                        layout.nv, 1.0)
-        return Rows(C=C, lo=-tmax - ha, hi=tmax - ha)
+        np.subtract(-tmax, ha, out=lo)
+        np.subtract(tmax, ha, out=hi)
+        return Rows(C=C, lo=lo, hi=hi)
 
     def params(self) -> dict:
         p = super().params()
