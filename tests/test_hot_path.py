@@ -25,6 +25,16 @@ from wbc.stack import assemble_level
 from .stacks import random_state, randomise_targets, talos_stack
 
 
+def _cascade_with_free(n: int, k: int, rng, d: Damping) -> Cascade:
+    """A cascade over R^(n+k) whose first level (k random rows) leaves n free directions:
+    a random orthonormal Z, as a higher level would leave."""
+    cas = Cascade(n + k)
+    B = rng.standard_normal((n + k, k))
+    cas.commit(cas.ls_step(B.T, rng.standard_normal(k), d))
+    assert cas.dof == n
+    return cas
+
+
 def _svd_step(cas: Cascade, A, b, d):
     """The same step by the SVD route."""
     return cas.route_step(A, b, d, level_kernel.SVD)
@@ -35,9 +45,7 @@ def test_qr_path_equals_svd_path(m, n):
     rng = np.random.default_rng(m * 100 + n)
     d = Damping()
     for trial in range(20):
-        cas = Cascade(n + 4)
-        B = rng.standard_normal((n + 4, 4))
-        cas.commit(cas.ls_step(B.T, rng.standard_normal(4), d))
+        cas = _cascade_with_free(n, 4, rng, d)
         A = rng.standard_normal((m, n + 4))
         b = rng.standard_normal(m)
         q = cas.route_step(A, b, d, level_kernel.QR)
@@ -66,11 +74,7 @@ def test_gram_path_equals_svd_path(m, n):
     rng = np.random.default_rng(m * 100 + n)
     d = Damping()
     for trial in range(20):
-        cas = Cascade(n + 5)
-        # a random orthonormal Z of n directions, as a higher level would leave
-        B = rng.standard_normal((n + 5, 5))
-        cas.commit(cas.ls_step(B.T, rng.standard_normal(5), d))
-        assert cas.dof == n
+        cas = _cascade_with_free(n, 5, rng, d)
         A = rng.standard_normal((m, n + 5))
         b = rng.standard_normal(m)
         g = cas.ls_step(A, b, d)
@@ -202,9 +206,7 @@ def test_cod_route_equals_svd_path_on_rank_deficient_levels(m, n, rank):
     rng = np.random.default_rng(m * 1000 + n * 10 + rank)
     d = Damping()
     for trial in range(20):
-        cas = Cascade(n + 3)
-        B = rng.standard_normal((n + 3, 3))
-        cas.commit(cas.ls_step(B.T, rng.standard_normal(3), d))
+        cas = _cascade_with_free(n, 3, rng, d)
         A = rng.standard_normal((m, rank)) @ rng.standard_normal((rank, n)) @ cas.Z.T
         b = rng.standard_normal(m)
         c = cas.route_step(A, b, d, level_kernel.COD)
