@@ -357,7 +357,7 @@ def test_recorded_replay_shows_the_push_arrow_only_while_it_acts(chromium, tmp_p
     changed = {name: differing_share(shots["during"][box], shots[name][box]) for name in ("before", "after")}
     push_state = {name: st[0] for name, st in states.items()}
     forces = [f for st in states.values() for f in st[1:] if f[0]]     # the contact-force arrows shown
-    lengths = [f[2] for f in forces]
+    lengths = [f[2] for f in forces if f[1] == f[3] == 1.0]
     print(f"push replay: push-arrow pixels {arrow}; in its box (rows {box[0].start}-{box[0].stop}, columns "
           f"{box[1].start}-{box[1].stop}) {changed['before']:.0%} / {changed['after']:.0%} of the pixels differ "
           f"from before / after the push; push arrow [visible, scale] {push_state}; {len(forces)} contact-force "
@@ -365,9 +365,13 @@ def test_recorded_replay_shows_the_push_arrow_only_while_it_acts(chromium, tmp_p
     assert push_state["during"][0] is True and np.allclose(push_state["during"][1:], [1.0, 0.3, 1.0], atol=1e-4)
     for name in ("before", "after"):
         assert push_state[name][0] is False and max(push_state[name][1:]) < 1e-3
-    # the loaded foot corners' arrows (1 mm per 2 N: up to some 40 cm), not unit cylinders
-    assert len(forces) >= 3 * len(times)
-    assert all(f[1] == f[3] == 1.0 and 0.0 < f[2] < 0.8 for f in forces), forces
+    # the loaded foot corners' arrows (1 mm per 2 N: up to some 40 cm), not unit cylinders; an
+    # arrow whose corner unloads at the next frame is still visible, shrinking in place (its
+    # whole scale interpolated towards the hidden one), which a seek may land on
+    shown = [f for f in forces if f[1] == f[3] == 1.0]
+    assert len(shown) >= 3 * len(times)
+    assert all(0.0 < f[2] < 0.8 for f in shown), shown
+    assert all(f[1] == f[3] < 1.0 and f[2] < 0.8 for f in forces if not f[1] == f[3] == 1.0), forces
     assert max(lengths) > 0.05
     assert arrow["during"] > 100
     assert arrow["before"] == arrow["after"] == 0

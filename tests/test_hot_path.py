@@ -318,3 +318,36 @@ def test_weighted_solver_does_not_damp_a_level_for_its_small_weight():
     ref = np.linalg.lstsq(np.vstack([wk * A for wk, A in zip(w, blocks)]),
                           np.concatenate([wk * b for wk, b in zip(w, targets)]), rcond=None)[0]
     np.testing.assert_allclose(x, ref, rtol=1e-7, atol=1e-9 * np.abs(ref).max())
+
+
+def test_nnls_warm_start_is_certified_only_at_the_optimum():
+    """The projection solver's force distribution keeps the last support of λ only if the
+    least-squares point on it passes the KKT test: on random non-negative least-squares
+    problems (a few generators active, as at a foot), from scipy's own solution's support it
+    is certified and equal to scipy's; from a support with one active generator dropped, or
+    one inactive generator added where that is not optimal, it is refused (or, if
+    certified, just as good)."""
+    from scipy.optimize import nnls
+
+    rng = np.random.default_rng(7)
+    certified = refused = 0
+    for _ in range(40):
+        A = rng.standard_normal((18, 32)) * np.r_[np.full(6, 1e3), np.full(12, 1.0)][:, None]
+        b = A @ np.maximum(rng.standard_normal(32), 0.0) + rng.standard_normal(18)
+        lam, rnorm = nnls(A, b, maxiter=2000)
+        ok, mine = level_kernel.nnls_on_support(A, b, lam, 10.0, 0.0)
+        assert ok
+        assert np.linalg.norm(A @ mine - b) <= rnorm + 1e-9 * np.linalg.norm(b)
+        assert np.allclose(A @ mine, A @ lam, rtol=0, atol=1e-9 * np.linalg.norm(b))
+        active, inactive = np.flatnonzero(lam > 0), np.flatnonzero(lam == 0)
+        for j in (active[:1], inactive[:1]):
+            wrong = lam.copy()
+            wrong[j] = 0.0 if lam[j] > 0 else 1.0
+            ok, guess = level_kernel.nnls_on_support(A, b, wrong, 10.0, 0.0)
+            if ok:
+                certified += 1
+                assert np.all(guess >= 0)
+                assert np.linalg.norm(A @ guess - b) <= rnorm + 1e-9 * np.linalg.norm(b)
+            else:
+                refused += 1
+    assert refused > 40         # a wrong support is, as a rule, caught

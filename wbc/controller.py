@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from functools import partial
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -165,12 +166,8 @@ class Controller:
     def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:
         robot, nv = self.robot, layout.nv
         qdd, f = x[:nv], x[nv:]
-        tau_full = robot.M @ qdd + robot.h
-        if layout.nf:
-            tau_full -= layout.force_jacobian.T @ f
-        tau_full[robot.unactuated_idx] = 0.0
-        # a sum is finite iff every term is (an overflowing sum is checked term by term)
-        finite = math.isfinite(x.sum() + tau_full.sum()) or bool(np.isfinite(x).all() and np.isfinite(tau_full).all())
+        tau_full, finite = _joint_torques(robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES,
+                                          x, robot.unactuated_idx)
         # Every level's row values this cycle produced, in one product per array (the
         # stack's buffer is refilled next cycle); the per-level and per-task breakdown is
         # done only if the caller asks for it.
@@ -206,6 +203,23 @@ class Controller:
         tau = pin.computeGeneralizedGravity(robot.model, robot.data, robot.q).copy()
         tau[robot.unactuated_idx] = 0.0
         return tau
+
+
+_NO_FORCES = np.zeros((0, 0))
+
+
+@nb.njit(cache=True)
+def _joint_torques(M, h, Jf, x, unactuated):
+    """(τ = M q̈ + h − J_fᵀ f with zeros on the unactuated rows (5.26), whether x and τ are
+    all finite), x = (q̈, f)."""
+    nv = M.shape[0]
+    tau = M @ x[:nv] + h
+    if Jf.shape[0]:
+        tau -= Jf.T @ x[nv:]
+    for i in unactuated:
+        tau[i] = 0.0
+    finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau))
+    return tau, finite
 
 
 def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,

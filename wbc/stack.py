@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Iterable, Iterator
 
+import numba as nb
 import numpy as np
 
 from .errors import StackError
@@ -266,29 +267,35 @@ class RowBuffer:
             if len(rs) != len(plan):
                 return False
             for (w0, eqv, inv, boxv), r, t in zip(plan, rs, tasks):
-                if r.A is not None:
-                    if eqv is None or r.A.shape != eqv[0].shape:
+                if t.weight != w0:
+                    return False
+                rA = r.A
+                if rA is not None:
+                    if eqv is None:
                         return False
                     A, b, w = eqv
-                    if r.A is A and r.b is b:
+                    if rA is A and r.b is b:
                         pass                        # written in place (see below)
+                    elif rA.shape != A.shape:
+                        return False
                     elif w == 1.0:
-                        copyto(A, r.A)
+                        copyto(A, rA)
                         copyto(b, r.b)
-                        if self.adopt and t.weight == 1.0 and _owns_rows(t, r):
+                        if self.adopt and _owns_rows(t, r):
                             # from now on the task writes its rows straight into the
                             # buffer: eq_buffer hands it these views
                             t._eq_buf = (A, b)
                     else:
-                        np.multiply(r.A, w, out=A)
+                        np.multiply(rA, w, out=A)
                         np.multiply(r.b, w, out=b)
                 elif eqv is not None:
                     return False
-                if r.C is not None and r.C.shape[0]:
-                    if inv is None or r.C.shape != inv[0].shape:
+                rC = r.C
+                if rC is not None and len(rC):
+                    if inv is None or rC.shape != inv[0].shape:
                         return False
                     C, lo, hi = inv
-                    copyto(C, r.C)
+                    copyto(C, rC)
                     copyto(lo, r.lo)
                     copyto(hi, r.hi)
                 elif inv is not None:
@@ -303,16 +310,28 @@ class RowBuffer:
                     copyto(hi, r.box[2])
                 elif boxv is not None:
                     return False
-        for plan, tasks in zip(self.plans, groups):
-            for (w0, _, _, _), t in zip(plan, tasks):
-                if t.weight != w0:
-                    return False
         return True
 
     def values(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
-        """(A x − b, C x, l, u, b) over every level, as new arrays (the buffer is refilled
-        next cycle); level k's part is ``spans[k]``."""
-        return self.A @ x - self.b, self.C @ x, self.lo.copy(), self.hi.copy(), self.b.copy()
+        """(A x − b, C x, l, u, b) over every level, as views of one new array (the buffer
+        is refilled next cycle); level k's part is ``spans[k]``."""
+        ne, ni = len(self.b), len(self.lo)
+        out = _row_values(self.A, self.b, self.C, self.lo, self.hi, x)
+        return (out[:ne], out[ne:ne + ni], out[ne + ni:ne + 2 * ni], out[ne + 2 * ni:ne + 3 * ni],
+                out[ne + 3 * ni:])
+
+
+@nb.njit(cache=True)
+def _row_values(A, b, C, lo, hi, x):
+    """[A x − b, C x, l, u, b] in one array (one allocation, one compiled pass)."""
+    ne, ni = b.shape[0], lo.shape[0]
+    out = np.empty(2 * ne + 3 * ni)
+    out[:ne] = A @ x - b if ne else out[:0]
+    out[ne:ne + ni] = C @ x if ni else out[:0]
+    out[ne + ni:ne + 2 * ni] = lo
+    out[ne + 2 * ni:ne + 3 * ni] = hi
+    out[ne + 3 * ni:] = b
+    return out
 
 
 def _owns_rows(t: Task, r: Rows) -> bool:

@@ -57,6 +57,22 @@ _UPLO_DIAG = np.frombuffer(b"UN", dtype=np.uint8)
 
 
 @nb.njit(cache=True)
+def _apply_reflectors(a, tau, k, v, transpose):
+    """v ← Qᵀv (``transpose``) or Qv in place, Q = H₁⋯H_k the Householder reflectors a
+    LAPACK QR (xGEQRF, xGEQP3) left below the diagonal of ``a`` with factors ``tau``."""
+    m = v.shape[0]
+    for step in range(k):
+        c = step if transpose else k - 1 - step
+        t = v[c]
+        for i in range(c + 1, m):
+            t += a[i, c] * v[i]
+        t *= tau[c]
+        v[c] -= t
+        for i in range(c + 1, m):
+            v[i] -= t * a[i, c]
+
+
+@nb.njit(cache=True)
 def damping_lambda2(smin: float, threshold: float, max_damping: float) -> float:
     """λ² of the Chiaverini/Maciejewski rule (see :class:`~wbc.solvers.cascade.Damping`)."""
     if threshold <= 0.0 or smin >= threshold:
@@ -207,18 +223,14 @@ def _cod(AZ, r, rank_tol, threshold):
     lb = 1.0 / np.sqrt(np.sum(Tinv * Tinv)) - e
     if not lb > max(rank_tol * max(1.0, np.sqrt(np.sum(AZ * AZ))), threshold):
         return fail
-    # Q₁ᵀ r through the first ρ reflectors of the pivoted QR
-    iq = np.array([m, rho, rho, m, lwork, 0], dtype=np.int32)
-    _dorgqr(iq[0:].ctypes, iq[1:].ctypes, iq[2:].ctypes, a.ctypes, iq[3:].ctypes, tau.ctypes, work.ctypes,
-            iq[4:].ctypes, iq[5:].ctypes)
+    # Q₁ᵀ r through the first ρ reflectors of the pivoted QR (Q₁ is never formed)
+    c = r.copy()
+    _apply_reflectors(a, tau, rho, c, True)
     _dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
             work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
-    if iq[5] != 0 or iw2[4] != 0:
+    if iw2[4] != 0:
         return fail
-    c = np.zeros(rho)
-    for j in range(rho):
-        c[j] = np.sum(a[:, j] * r)
-    y = Tinv.T @ c
+    y = Tinv.T @ c[:rho]
     z = np.zeros(k)
     for j in range(rho):
         z += y[j] * W[:, j]
@@ -397,6 +409,87 @@ def dynamics_rows(Jf, G, f0, M, h, qdd, u, weight, AG, rhs):
     for i in range(n):
         hu[i] = h[u[i]]
     rhs[:n] = weight * (Mu @ qdd + hu - JuT @ f0)
+
+
+@nb.njit(cache=True)
+def nnls_on_support(A, b, previous, rel_tol, abs_tol):
+    """Warm start of min ‖Aλ − b‖, λ ≥ 0 (the projection solver's force distribution) from
+    the previous cycle's solution: (certified, λ). λ is the least-squares solution on the
+    previous support S = {j : previous_j > 0} (QR of A_S), zero elsewhere; it is returned
+    as certified only if it meets the problem's KKT conditions, λ_S > 0 and
+    w = Aᵀ(b − Aλ) ≤ 0 off S (w = 0 on S holds by construction), which for this convex
+    problem make it a global minimiser. The residual b − Aλ is formed as Q[0; (Qᵀb)_k:]
+    (no cancellation), and w on S is then zero up to a rounding ν: off S, w ≤
+    max(``rel_tol``·ν, ``abs_tol``) counts as ≤ 0. (Measured on the Talos trajectory: with
+    rel_tol from 10 to 1000 the certified λ give Aλ equal to scipy's to 1e-9, in 98 % of
+    cycles; a tolerance relative to ‖A‖‖b‖ is not usable, the rows' weights span ten
+    decades.) Otherwise (the support changed, or A_S is rank deficient) the caller solves
+    from scratch."""
+    m, n = A.shape
+    k = 0
+    for j in range(n):
+        if previous[j] > 0.0:
+            k += 1
+    lam = np.zeros(n)
+    if k > m:
+        return False, lam
+    S = np.empty(k, dtype=np.int64)
+    k = 0
+    for j in range(n):
+        if previous[j] > 0.0:
+            S[k] = j
+            k += 1
+    res = b.copy()
+    if k:
+        a = np.empty((k, m)).T                   # Fortran order, m × k: A_S
+        for c in range(k):
+            a[:, c] = A[:, S[c]]
+        tau = np.empty(k)
+        lwork = 64 * k
+        work = np.empty(lwork)
+        iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
+        _dgeqrf(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
+                iw[3:].ctypes, iw[4:].ctypes)
+        if iw[4] != 0:
+            return False, lam
+        y = b.copy()
+        _apply_reflectors(a, tau, k, y, True)   # y = Qᵀ b
+        rmax = 0.0
+        for c in range(k):
+            rmax = max(rmax, abs(a[c, c]))
+        for c in range(k):
+            if not abs(a[c, c]) > 1e-10 * rmax:
+                return False, lam
+        x = np.empty(k)                          # R λ_S = (Qᵀ b)[:k]
+        for i in range(k - 1, -1, -1):
+            t = y[i]
+            for j in range(i + 1, k):
+                t -= a[i, j] * x[j]
+            x[i] = t / a[i, i]
+            if not x[i] > 0.0:
+                return False, lam
+        for c in range(k):
+            lam[S[c]] = x[c]
+        # b − A_S λ_S = Q [0; (Qᵀb)[k:]], free of the cancellation of b − Aλ
+        for i in range(k):
+            res[i] = 0.0
+        for i in range(k, m):
+            res[i] = y[i]
+        _apply_reflectors(a, tau, k, res, False)
+    # w = Aᵀ(b − Aλ): zero on S up to rounding, whose size there sets the tolerance off S
+    noise = 0.0
+    worst = -np.inf
+    for j in range(n):
+        w = 0.0
+        for i in range(m):
+            w += A[i, j] * res[i]
+        if previous[j] > 0.0:
+            noise = max(noise, abs(w))
+        else:
+            worst = max(worst, w)
+    if worst > max(rel_tol * noise, abs_tol):
+        return False, lam
+    return True, lam
 
 
 @nb.njit(cache=True)

@@ -42,7 +42,7 @@ from ..errors import SolverError
 from ..rows import Layout, Level
 from .cascade import NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo
-from .level_kernel import box_excess_max, dynamics_rows, forces_from
+from .level_kernel import box_excess_max, dynamics_rows, forces_from, nnls_on_support
 
 
 class RecursiveProjection:
@@ -64,6 +64,9 @@ class RecursiveProjection:
         self.wrench_weight = 1e-2
         self.ramp_weight = 1e4
         self.force_regularization = 1e-6
+        #: the NNLS warm start's KKT test: how far above its own rounding a generator's
+        #: gradient may be before the last support is taken as no longer optimal
+        self.nnls_kkt_factor = 10.0
         self._hints: dict = {}
         self._rows_cache: dict = {}
         self._force_plan: _ForcePlan | None = None
@@ -222,7 +225,12 @@ class RecursiveProjection:
         for c, row in plan.ramps:
             d[row] += self.ramp_weight * c.fmax
         np.dot(plan.Qt, d, out=rhs[n_dyn:])
-        lam, _ = nnls(AG, rhs, maxiter=50 * plan.G.shape[1])
+        # the support of λ rarely changes from one cycle to the next: the least-squares
+        # solution on the last one is kept when it passes the KKT test, else scipy's NNLS
+        certified, lam = nnls_on_support(AG, rhs, plan.lam, self.nnls_kkt_factor, 0.0)
+        if not certified:
+            lam, _ = nnls(AG, rhs, maxiter=50 * plan.G.shape[1])
+        plan.lam = lam
         # f, and how far the root dynamics are from holding, S_u(J_fᵀ f − M q̈ − h)
         # (N, N·m), with their scale |S_u(M q̈ + h − J_fᵀ f₀)|
         f, gap, scale = forces_from(plan.f0, plan.G, lam, AG, rhs, n_dyn, self.dynamics_weight)
@@ -285,6 +293,8 @@ class _ForcePlan:
         self.AG = np.empty((n_dyn + len(R), G.shape[1]))
         self.AG[n_dyn:] = R @ G
         self.rhs = np.zeros(len(self.AG))
+        #: λ of the last cycle (its support warm-starts the next NNLS)
+        self.lam = np.zeros(G.shape[1])
         self.d = np.zeros(len(const))
         self.const_rhs = const @ f0
 

@@ -137,12 +137,16 @@ def eq_buffer(task: Task, m: int, nx: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @nb.njit(cache=True)
-def pd_reference(out, sel, acc_d, kp, err, kd, vel_d, vel, drift):
-    """out = (ẍ_d + K_d (ẋ_d − ẋ) + K_p e − J̇q̇)[sel]: the right-hand side of a motion task's
-    rows (5.16 minus the drift), one compiled pass over the selected axes."""
+def motion_rows(out_A, out_b, J, sel, acc_d, kp, err, kd, vel_d, vel, drift):
+    """A motion task's rows in one compiled pass over the selected axes ``sel``: the rows
+    J[sel] into the q̈ columns of ``out_A`` (its other columns are left as they are) and
+    b = (ẍ_d + K_d (ẋ_d − ẋ) + K_p e − J̇q̇)[sel] (5.16 minus the drift)."""
+    nv = J.shape[1]
     for i in range(sel.shape[0]):
         j = sel[i]
-        out[i] = acc_d[j] + kd[j] * (vel_d[j] - vel[j]) + kp[j] * err[j] - drift[j]
+        for c in range(nv):
+            out_A[i, c] = J[j, c]
+        out_b[i] = acc_d[j] + kd[j] * (vel_d[j] - vel[j]) + kp[j] * err[j] - drift[j]
 
 
 @nb.njit(cache=True)

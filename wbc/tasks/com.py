@@ -6,7 +6,7 @@ import numpy as np
 
 from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
-from .base import MotionTask, as_vector, eq_buffer, pd_reference
+from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _AXES = "xyz"
 
@@ -55,14 +55,14 @@ class CoM(MotionTask):
     def rows(self, robot, layout: Layout) -> Rows:
         s = self._sel
         A, b = eq_buffer(self, len(s), layout.nx)
-        A[:, : layout.nv] = robot.com_jacobian if len(s) == 3 else robot.com_jacobian[s]
         if self._target is None:
             self._target = robot.com.copy()
         if len(s) == 3 or (np.ndim(self.kp) == 0 and np.ndim(self.kd) == 0):
             kp, kd = self.gain_vectors(3)       # per axis of x, y, z
-            pd_reference(b, s, self.target_acceleration, kp, self._target - robot.com, kd, self.target_velocity,
-                         robot.com_velocity, robot.com_drift)
+            motion_rows(A, b, robot.com_jacobian, s, self.target_acceleration, kp, self._target - robot.com, kd,
+                        self.target_velocity, robot.com_velocity, robot.com_drift)
         else:                                   # gains given per selected axis
+            A[:, : layout.nv] = robot.com_jacobian[s]
             de = (self.target_velocity - robot.com_velocity)[s]
             b[:] = self.target_acceleration[s] + self.kd * de + self.kp * self.error(robot) - robot.com_drift[s]
         return Rows(A=A, b=b)

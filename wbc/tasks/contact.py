@@ -8,7 +8,7 @@ import pinocchio as pin
 from ..errors import TaskDefinitionError
 from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
 from ..rows import Layout, Rows
-from .base import MotionTask, eq_buffer, pd_reference
+from .base import MotionTask, eq_buffer, motion_rows
 
 
 def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
@@ -140,11 +140,11 @@ class Contact(MotionTask):
         s = self.surface(robot)
         m = s.force_dim
         A, b = eq_buffer(self, m, layout.nx)
-        A[:, : layout.nv] = self.force_jacobian(robot)
         e, vel, drift = self._errors(robot)
         kp, kd = self.gain_vectors(m)
         zero, axes = self._zero_axes(m)
-        pd_reference(b, axes, zero, kp, e, kd, zero, vel, drift)        # K_p e − K_d v_c − J̇_c q̇
+        # J_c q̈ = K_p e − K_d v_c − J̇_c q̇
+        motion_rows(A, b, self.force_jacobian(robot), axes, zero, kp, e, kd, zero, vel, drift)
         if self.bilateral:
             return Rows(A=A, b=b)
         C = self._friction_rows(layout)

@@ -9,7 +9,7 @@ from ..errors import TargetError, TaskDefinitionError
 from ..model import WORLD_ALIGNED
 from ..rows import Layout, Rows
 from ..checks import se3_from
-from .base import MotionTask, as_vector, eq_buffer, pd_reference
+from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _MASKS = {
     "pose": (1, 1, 1, 1, 1, 1),
@@ -110,11 +110,10 @@ class Frame(MotionTask):
         fid = self._frame(robot)
         s = self._sel
         A, b = eq_buffer(self, len(s), layout.nx)
-        J = robot.frame_jacobian(fid, WORLD_ALIGNED)
-        A[:, : layout.nv] = J if len(s) == 6 else J[s]
         kp, kd = self.gain_vectors(6)
-        pd_reference(b, s, self.target_acceleration, kp, self.full_error(robot), kd, self.target_velocity,
-                     robot.frame_velocity(fid, WORLD_ALIGNED), robot.frame_drift(fid, WORLD_ALIGNED))
+        motion_rows(A, b, robot.frame_jacobian(fid, WORLD_ALIGNED), s, self.target_acceleration, kp,
+                    self.full_error(robot), kd, self.target_velocity, robot.frame_velocity(fid, WORLD_ALIGNED),
+                    robot.frame_drift(fid, WORLD_ALIGNED))
         return Rows(A=A, b=b)
 
     def params(self) -> dict:
