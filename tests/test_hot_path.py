@@ -351,3 +351,55 @@ def test_nnls_warm_start_is_certified_only_at_the_optimum():
             else:
                 refused += 1
     assert refused > 40         # a wrong support is, as a rule, caught
+
+
+@pytest.mark.parametrize("solver", ["hqp", "projection"])
+def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
+    """The compiled prefix (every level that needs no QP, or whose step keeps the joint
+    limits, in one call) gives what the per-level Python loop gives: the same x, statuses,
+    QP counts and per-level diagnostics, on random states and targets (where limits and
+    QPs cut the prefix short at various levels) and along the benchmark's trajectory."""
+    from wbc.bench import DT, moving_targets
+    from wbc.bench import talos_stack as bench_stack
+
+    rng = np.random.default_rng(11)
+    robot_a, robot_b = wbc.load_robot("talos"), wbc.load_robot("talos")
+    seen = set()
+    for stack_a, stack_b, moving in ((talos_stack(), talos_stack(), False), (bench_stack(), bench_stack(), True)):
+        fast = wbc.Controller(robot_a, stack_a, solver=solver)
+        plain = wbc.Controller(robot_b, stack_b, solver=solver)
+        plain.solver.compiled = False
+        q, v = robot_a.q_default.copy(), np.zeros(robot_a.nv)
+        robot_a.update(q, v)
+        robot_b.update(q, v)
+        if moving:
+            targets_a, targets_b = moving_targets(robot_a, stack_a), moving_targets(robot_b, stack_b)
+        stops, qps = set(), 0
+        for k in range(400 if moving else 60):
+            if moving:
+                targets_a(k * DT)
+                targets_b(k * DT)
+            else:
+                q, v = random_state(robot_a, rng)
+                seed = int(rng.integers(1 << 30))
+                for robot, stack in ((robot_a, stack_a), (robot_b, stack_b)):
+                    robot.update(q, v)
+                    randomise_targets(stack, robot, np.random.default_rng(seed))
+            a, b = fast.solve(q, v), plain.solve(q, v)
+            np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-9 * (1 + np.abs(b.x).max()))
+            assert (a.status, a.qp_count) == (b.status, b.qp_count)
+            for da, db in zip(a.diagnostics, b.diagnostics):
+                assert (da.rank, da.dof_before, da.used_qp, da.saturated_joints) == \
+                    (db.rank, db.dof_before, db.used_qp, db.saturated_joints)
+                assert da.sigma_min == pytest.approx(db.sigma_min, rel=1e-9, abs=1e-12)
+            stops.add(next((i for i, d in enumerate(a.diagnostics) if d.used_qp or d.saturated_joints),
+                           len(a.diagnostics)))
+            qps += a.qp_count
+            if moving:
+                v = v + a.qdd * DT
+                q = pin.integrate(robot_a.model, q, v * DT)
+        print(f"\n{solver} ({'trajectory' if moving else 'random states'}): first level with a QP or a "
+              f"saturation {sorted(stops)}, {qps} QPs")
+        seen |= stops
+    # the prefix was cut short at several levels, and ran through
+    assert len(seen) >= 3 and len(a.diagnostics) in seen

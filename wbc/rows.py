@@ -46,15 +46,13 @@ class Layout:
 
     nv: int
     contact_slices: dict[str, slice] = field(default_factory=dict)
+    #: refilled in place every cycle, never replaced (``nf`` and ``nx`` are set from it once)
     force_jacobian: np.ndarray | None = None
 
-    @property
-    def nf(self) -> int:
-        return 0 if self.force_jacobian is None else self.force_jacobian.shape[0]
-
-    @property
-    def nx(self) -> int:
-        return self.nv + self.nf
+    def __post_init__(self) -> None:
+        #: number of force variables, and of decision variables x = (q̈, f)
+        self.nf = 0 if self.force_jacobian is None else self.force_jacobian.shape[0]
+        self.nx = self.nv + self.nf
 
     def structure_key(self) -> tuple:
         """(nx, each contact's name and force offset): equal for layouts whose x means the

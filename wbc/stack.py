@@ -253,9 +253,13 @@ class RowBuffer:
                         C=self.C[i0:i0 + ng], lo=self.lo[i0:i0 + ng], hi=self.hi[i0:i0 + ng], box=box,
                         eq_slices=eq_slices, in_slices=in_slices)
             lvl._ineq = (self.C[i0:i], self.lo[i0:i], self.hi[i0:i])
+            lvl.buffer = self
             self.plans.append(plan)
             self.levels.append(lvl)
             self.spans.append((e0, e, i0, ng, i))
+        #: where each level's equality and inequality rows end in (A, b) and (C, lo, hi)
+        self.eq_end = np.array([sp[1] for sp in self.spans], dtype=np.int64)
+        self.ineq_end = np.array([sp[4] for sp in self.spans], dtype=np.int64)
 
     def fill(self, groups: list[list[Task]], rows: list[list[Rows]]) -> bool:
         """Copy this cycle's rows in; False (nothing to trust) if they no longer have

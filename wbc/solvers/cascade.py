@@ -99,11 +99,12 @@ class Cascade:
     (:mod:`~wbc.solvers.level_kernel`): wide and of full rank, a Householder QR of
     (AZ)ᵀ; tall and well conditioned, the Cholesky factor of the Gram matrix;
     rank deficient with a clear rank, a complete orthogonal decomposition; otherwise
-    (near a singularity, damped) the SVD. ``hints`` (a dict kept by the solver across
-    cycles) remembers the route a level needed last time, so it goes straight there;
-    each hint is retried every ``_HINT_RETRY`` cycles."""
+    (near a singularity, damped) the SVD. ``hints`` (a
+    :func:`~wbc.solvers.level_kernel.hint_table` kept by the solver across cycles)
+    remembers the route a level needed last time, so it goes straight there; each hint
+    is retried every ``HINT_RETRY`` cycles."""
 
-    def __init__(self, n: int, hints: dict | None = None) -> None:
+    def __init__(self, n: int, hints: np.ndarray | None = None) -> None:
         self.n = n
         self.x = np.zeros(n)
         self.Z = _eye(n)
@@ -127,18 +128,14 @@ class Cascade:
         if m == 0 or r_dim == 0:
             return Step(np.zeros(r_dim), self.Z, 0, np.inf, 0.0, 0.0, A, b, self.x,
                         None if self._identity else self.Z, x_next=self.x)
-        key = (self._calls, m, r_dim)
+        call = self._calls
         self._calls += 1
         hints = self._hints
-        path = level_kernel.AUTO
-        if hints is not None:
-            route, left = hints.get(key, (0, 0))
-            if left:
-                hints[key] = (route, left - 1)
-                path = route
+        if hints is None:
+            return self._kernel(A, b, damping, level_kernel.AUTO)
+        path = level_kernel.hint_route(hints, call, m, r_dim)
         step = self._kernel(A, b, damping, path)
-        if hints is not None and step.route != path and step.route != _FIRST[m >= r_dim]:
-            hints[key] = (step.route, _HINT_RETRY)
+        level_kernel.hint_record(hints, call, m, r_dim, path, step.route)
         return step
 
     def _kernel(self, A: np.ndarray, b: np.ndarray, damping: Damping, path: int, strict: bool = False) -> Step:
@@ -147,7 +144,7 @@ class Cascade:
         identity = self._identity
         ok, route, rank, smin, smax, lam2, packed, Z_next = level_kernel.level_step(
             A, b, self.x, _NO_BASIS if identity else self.Z, identity, path, strict, damping.rank_tol,
-            damping.threshold, damping.max_damping, _GRAM_MIN_RATIO)
+            damping.threshold, damping.max_damping, GRAM_MIN_RATIO)
         k, n = (self.n if identity else self.Z.shape[1]), self.n
         R = None
         if len(packed) > k + n:
@@ -190,9 +187,5 @@ def _eye(n: int) -> np.ndarray:
 
 
 _gesdd, = get_lapack_funcs(("gesdd",), (np.zeros((1, 1)),))
-#: the route a level is first tried with, by ``tall`` (m ≥ free directions)
-_FIRST = {False: level_kernel.QR, True: level_kernel.GRAM}
-#: cycles a level goes straight to the route it last needed before its first route is retried
-_HINT_RETRY = 50
 #: smallest proven σ_min²/σ_max² for the Gram (Cholesky) path (κ(AZ) ≤ 1e4)
-_GRAM_MIN_RATIO = 1e-8
+GRAM_MIN_RATIO = 1e-8

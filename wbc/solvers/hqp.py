@@ -27,8 +27,8 @@ import numpy as np
 
 from ..rows import Level
 from .backends import Backend, QPResult, make_backend
-from .cascade import Cascade, Damping, singular_values
-from .level_kernel import higher_rows, least_squares_objective, max_violation
+from .cascade import GRAM_MIN_RATIO, Cascade, Damping, singular_values
+from .level_kernel import cascade_prefix, hint_table, higher_rows, least_squares_objective, max_violation
 
 
 @dataclass
@@ -89,7 +89,10 @@ class HierarchicalQP:
         self.tol = feasibility_tol
         #: largest violation of its rows a QP answer may have (units of the rows)
         self.qp_tol = 1e-6
-        self._hints: dict = {}
+        #: leading levels that need no QP in one compiled call (False: the Python loop
+        #: for every level, the reference the tests compare it with)
+        self.compiled = True
+        self._hints = hint_table()
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
                      scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:
@@ -118,7 +121,14 @@ class HierarchicalQP:
         degraded: list[str] = []
         tol = self.tol
         dampings = getattr(self, "_dampings", None) or {}
-        for lvl in levels:
+        start = self._compiled_prefix(levels, cas, dampings, infos) if self.compiled else 0
+        for lvl in levels[:start]:
+            C, lo, hi = lvl.inequalities(nx)
+            if len(lo):
+                acc_C.append(C)
+                acc_lo.append(lo)
+                acc_hi.append(hi)
+        for lvl in levels[start:]:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
             step = cas.ls_step(lvl.A, lvl.b, dampings.get(lvl.index, self.damping))
@@ -166,6 +176,32 @@ class HierarchicalQP:
         res = CascadeResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
         res.degraded = bool(degraded)
         return res
+
+    def _compiled_prefix(self, levels: list[Level], cas: Cascade, dampings: dict, infos: list) -> int:
+        """The leading levels that come straight from the stack's row buffer, in one call of
+        :func:`~wbc.solvers.level_kernel.cascade_prefix` for as long as none needs a QP
+        (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
+        fills ``infos`` and ``cas`` and returns the index of the first level left."""
+        buf = getattr(levels[0], "buffer", None) if levels else None
+        if buf is None:
+            return 0
+        n = 0
+        for lvl, own in zip(levels, buf.levels):
+            if lvl is not own:
+                break
+            n += 1
+        if n < 2:                       # one level: the call costs what it saves
+            return 0
+        damp = [dampings.get(lvl.index, self.damping) for lvl in levels[:n]]
+        key = (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
+        got = buf.__dict__.get("_prefix")
+        if got is None or got[0] != key:
+            tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
+            got = buf._prefix = (key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
+        _, e_end, i_end, tols = got
+        out = cascade_prefix(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, cas.x, self._hints, tols[0],
+                             tols[1], tols[2], GRAM_MIN_RATIO, self.tol)
+        return adopt_prefix(levels, cas, infos, *out)
 
     def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key):
         """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
@@ -296,6 +332,34 @@ class HierarchicalQP:
                 res2 = res3
             res = res2
         return res.z[:r], res.z[r:], res.status
+
+
+def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z, identity: bool,
+                 ints: np.ndarray, floats: np.ndarray) -> int:
+    """Take over what a compiled prefix of the cascade did (:func:`~wbc.solvers.level_kernel.
+    cascade_prefix`): a LevelInfo per level it solved appended to ``infos``, its point and
+    basis into ``cas``; returns the first level left."""
+    n = (len(ints) - 1) // 6
+    r_off = 5 * n
+    calls = 0
+    for k in range(stop):
+        call, m, dof, route, rank = ints[5 * k: 5 * k + 5].tolist()
+        info = LevelInfo(levels[k].index, dof_before=dof)
+        if call >= 0:
+            calls += 1
+            info.rank = rank
+            info.sigma_min, info.damping = float(floats[3 * k]), float(floats[3 * k + 2])
+            a, b = int(ints[r_off + k]), int(ints[r_off + k + 1])
+            if b > a:
+                mr = int(round((b - a) ** 0.5))
+                info.R = floats[a:b].reshape(mr, mr)
+        infos.append(info)
+    cas.x = x
+    if not identity:
+        cas.Z = Z
+        cas._identity = False
+    cas._calls = calls
+    return stop
 
 
 def _violated(Cs, los, his, x, tol: float) -> bool:

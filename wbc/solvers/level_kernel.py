@@ -326,6 +326,178 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     return True, SVD, rank, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), R), Z_next
 
 
+#: cycles a level goes straight to the route it last needed before its first route is retried
+HINT_RETRY = 50
+
+
+def hint_table(capacity: int = 32) -> np.ndarray:
+    """An empty route-hint table (rows: call index, rows, free directions, route, cycles
+    left), kept by a solver across cycles (see :func:`hint_route`)."""
+    return np.zeros((capacity, 5), dtype=np.int64)
+
+
+@nb.njit(cache=True)
+def hint_route(table, call, m, dof):
+    """The route to try first for the level that is the cascade's ``call``-th step, with m
+    rows over ``dof`` free directions: the one it needed last time (for ``HINT_RETRY``
+    cycles, counted down here), else ``AUTO``."""
+    for h in range(table.shape[0]):
+        if table[h, 4] > 0 and table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
+            table[h, 4] -= 1
+            return table[h, 3]
+    return AUTO
+
+
+@nb.njit(cache=True)
+def hint_record(table, call, m, dof, path, route):
+    """Remember ``route`` for that level when it is neither the route tried (``path``) nor
+    the one ``AUTO`` tries first (GRAM for m ≥ dof, QR otherwise): the first route refused."""
+    first = GRAM if m >= dof else QR
+    if route == path or route == first:
+        return
+    slot = 0
+    for h in range(table.shape[0]):
+        if table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
+            slot = h
+            break
+        if table[h, 4] < table[slot, 4]:
+            slot = h
+    table[slot, 0] = call
+    table[slot, 1] = m
+    table[slot, 2] = dof
+    table[slot, 3] = route
+    table[slot, 4] = HINT_RETRY
+
+
+@nb.njit(cache=True)
+def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold, max_damping,
+                   gram_min_ratio, tol):
+    """The strict cascade's levels, one after the other, for as long as none needs a QP:
+    the hierarchical QP's common case in one call (its per-level Python is the same
+    mathematics, step for step, see :meth:`~wbc.solvers.hqp.HierarchicalQP.solve_levels`).
+
+    Level k's equalities are rows [e_end[k−1], e_end[k]) of (A, b) and its inequalities
+    (general and box rows) rows [i_end[k−1], i_end[k]) of (C, lo, hi), so the rows of
+    every level above k are one block. Level k's least-squares step (:func:`level_step`)
+    is taken if the candidate point meets every higher level's inequalities to ``tol``,
+    and kept if the point then meets its own too; the first level where either fails is
+    where the caller takes over (with the state before it, redoing that level's step).
+    ``hints``: the solver's :func:`hint_table`, read and updated as the Python cascade does.
+
+    Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
+    ints, floats): per level k < stop, ints[5k:5k+5] = (call index or −1 for no step,
+    rows, free directions before it, route, rank) and floats[3k:3k+3] = (σ_min, σ_max,
+    λ²), then the levels' R factors row by row (ints[5L:] their offsets; σ NaN where R
+    gives them)."""
+    L = e_end.shape[0]
+    n = x0.shape[0]
+    x = x0.copy()
+    Z = np.empty((0, 0))
+    identity = True
+    ints = np.zeros(6 * L + 1, dtype=np.int64)
+    r_size = 0
+    e0 = 0
+    for k in range(L):
+        m = e_end[k] - e0
+        r_size += m * m
+        e0 = e_end[k]
+    floats = np.empty(3 * L + r_size)
+    r_at = 3 * L
+    ints[5 * L] = r_at
+    calls = 0
+    e0 = 0
+    for k in range(L):
+        i0 = i_end[k - 1] if k else 0
+        m = e_end[k] - e0
+        dof = n if identity else Z.shape[1]
+        ints[5 * k:5 * k + 5] = (-1, m, dof, 0, 0)
+        floats[3 * k:3 * k + 3] = (np.inf, 0.0, 0.0)
+        x_next = x
+        if m and dof:
+            path = hint_route(hints, calls, m, dof)
+            ok, route, rank, smin, smax, lam2, packed, Z_next = level_step(
+                A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, path, False, rank_tol[k], threshold[k],
+                max_damping[k], gram_min_ratio)
+            x_next = packed[dof:dof + n]
+            hint_record(hints, calls, m, dof, path, route)
+            if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
+                return k, x, Z, identity, ints, floats
+            ints[5 * k] = calls
+            ints[5 * k + 3] = route
+            ints[5 * k + 4] = rank
+            floats[3 * k:3 * k + 3] = (smin, smax, lam2)
+            nr = packed.shape[0] - dof - n
+            floats[r_at:r_at + nr] = packed[dof + n:]
+            r_at += nr
+            calls += 1
+        if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
+            return k, x, Z, identity, ints, floats
+        if m and dof:
+            x = x_next
+            Z = Z_next
+            identity = False
+        ints[5 * L + k + 1] = r_at
+        e0 = e_end[k]
+    return L, x, Z, identity, ints, floats
+
+
+@nb.njit(cache=True)
+def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, threshold, max_damping,
+                      gram_min_ratio, box_tol):
+    """The projection solver's levels in q̈, one after the other, for as long as each
+    level's step keeps every joint limit (the common case of its saturation in the null
+    space, see :meth:`~wbc.solvers.projection.RecursiveProjection.solve_accelerations`).
+
+    Level k's motion rows are rows [rows[k, 0], rows[k, 1]) of (A[:, :nv], b), or none
+    when rows[k, 0] = −1 (a level of force-only tasks: no step); rows[k, 0] = −2 (rows not
+    in one block) stops there. A level's step is kept when no box bound (b_idx, b_lo,
+    b_hi) is violated more than before by ``box_tol``; the first level where one is,
+    is where the caller takes over. Returns as :func:`cascade_prefix`."""
+    L = rows.shape[0]
+    x = x0.copy()
+    Z = np.empty((0, 0))
+    identity = True
+    ints = np.zeros(6 * L + 1, dtype=np.int64)
+    r_size = 0
+    for k in range(L):
+        m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
+        r_size += m * m
+    floats = np.empty(3 * L + r_size)
+    r_at = 3 * L
+    ints[5 * L] = r_at
+    calls = 0
+    for k in range(L):
+        if rows[k, 0] == -2:
+            return k, x, Z, identity, ints, floats
+        m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
+        dof = nv if identity else Z.shape[1]
+        ints[5 * k:5 * k + 5] = (-1, m, dof, 0, 0)
+        floats[3 * k:3 * k + 3] = (np.inf, 0.0, 0.0)
+        if m and dof:
+            Ak = np.ascontiguousarray(A[rows[k, 0]:rows[k, 1], :nv])
+            path = hint_route(hints, calls, m, dof)
+            ok, route, rank, smin, smax, lam2, packed, Z_next = level_step(
+                Ak, b[rows[k, 0]:rows[k, 1]], x, Z, identity, path, False, rank_tol[k], threshold[k],
+                max_damping[k], gram_min_ratio)
+            hint_record(hints, calls, m, dof, path, route)
+            x_next = packed[dof:dof + nv]
+            if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
+                return k, x, Z, identity, ints, floats
+            ints[5 * k] = calls
+            ints[5 * k + 3] = route
+            ints[5 * k + 4] = rank
+            floats[3 * k:3 * k + 3] = (smin, smax, lam2)
+            nr = packed.shape[0] - dof - nv
+            floats[r_at:r_at + nr] = packed[dof + nv:]
+            r_at += nr
+            calls += 1
+            x = x_next
+            Z = Z_next
+            identity = False
+        ints[5 * L + k + 1] = r_at
+    return L, x, Z, identity, ints, floats
+
+
 @nb.njit(cache=True)
 def max_violation(C, lo, hi, x) -> float:
     """max over rows of how far l ≤ C x ≤ u is violated (0 where it holds, −inf for no rows)."""

@@ -40,9 +40,10 @@ from scipy.optimize import nnls
 
 from ..errors import SolverError
 from ..rows import Layout, Level
-from .cascade import NO_DAMPING, Cascade, Damping
-from .hqp import CascadeResult, LevelInfo
-from .level_kernel import box_excess_max, dynamics_rows, forces_from, nnls_on_support
+from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping
+from .hqp import CascadeResult, LevelInfo, adopt_prefix
+from .level_kernel import (box_excess_max, dynamics_rows, forces_from, hint_table, nnls_on_support,
+                           projection_prefix)
 
 
 class RecursiveProjection:
@@ -67,9 +68,13 @@ class RecursiveProjection:
         #: the NNLS warm start's KKT test: how far above its own rounding a generator's
         #: gradient may be before the last support is taken as no longer optimal
         self.nnls_kkt_factor = 10.0
-        self._hints: dict = {}
+        self._hints = hint_table()
         self._rows_cache: dict = {}
         self._force_plan: _ForcePlan | None = None
+        self._prefix = None
+        #: leading levels whose steps keep the joint limits in one compiled call (False:
+        #: the Python loop for every level, the reference the tests compare it with)
+        self.compiled = True
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, robot) -> CascadeResult:
@@ -98,7 +103,10 @@ class RecursiveProjection:
             cas.x = x0 if T is None else L.T @ x0
         box = (b_idx, b_lo, b_hi)
         infos = []
-        for lvl in levels:
+        start = 0
+        if T is None and self.compiled:
+            start = self._compiled_prefix(levels, cas, box, infos, nv)
+        for lvl in levels[start:]:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             rows = self._motion_rows(lvl)
             if rows is None:                # no rows on q̈ (force-only tasks): nothing to do here
@@ -110,6 +118,42 @@ class RecursiveProjection:
             info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             infos.append(info)
         return CascadeResult(cas.x if T is None else T @ cas.x, infos)
+
+    def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> int:
+        """The leading levels that come straight from the stack's row buffer, in one call of
+        :func:`~wbc.solvers.level_kernel.projection_prefix` for as long as no joint limit
+        is in the way (the loop of :meth:`solve_accelerations` without the interpreter);
+        fills ``infos`` and ``cas`` and returns the index of the first level left."""
+        buf = getattr(levels[0], "buffer", None) if levels else None
+        if buf is None:
+            return 0
+        n = 0
+        for lvl, own in zip(levels, buf.levels):
+            if lvl is not own:
+                break
+            n += 1
+        if n == 0:
+            return 0
+        d = self.damping
+        key = (n, d.rank_tol, d.threshold, d.max_damping)
+        got = self._prefix
+        if got is None or got[0] is not buf or got[1] != key:
+            rows = np.empty((n, 2), dtype=np.int64)
+            for k, lvl in enumerate(levels[:n]):
+                sel, e0 = self._motion_rows(lvl), buf.spans[k][0]
+                if sel is None:
+                    rows[k] = (-1, -1)
+                elif isinstance(sel, slice):
+                    rows[k] = (e0 + sel.start, e0 + sel.stop)
+                else:
+                    rows[k] = (-2, -2)
+            tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * n).T.copy()
+            got = self._prefix = (buf, key, rows, tols)
+        _, _, rows, tols = got
+        b_idx, b_lo, b_hi = box
+        out = projection_prefix(buf.A, buf.b, rows, nv, cas.x, b_idx, b_lo, b_hi, self._hints, tols[0], tols[1],
+                                tols[2], GRAM_MIN_RATIO, self.box_tol)
+        return adopt_prefix(levels, cas, infos, *out)
 
     def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
         """One level with Saturation in the Null Space, then task scaling if needed.
