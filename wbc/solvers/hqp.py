@@ -28,7 +28,13 @@ import numpy as np
 from ..rows import Level
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, singular_values
-from .level_kernel import cascade_prefix, hint_table, higher_rows, least_squares_objective, max_violation
+from .level_kernel import (
+    cascade_prefix,
+    higher_rows,
+    hint_table,
+    least_squares_objective,
+    max_violation,
+)
 
 
 @dataclass
@@ -343,7 +349,7 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z
     r_off = 5 * n
     calls = 0
     for k in range(stop):
-        call, m, dof, route, rank = ints[5 * k: 5 * k + 5].tolist()
+        call, _, dof, _, rank = ints[5 * k: 5 * k + 5].tolist()
         info = LevelInfo(levels[k].index, dof_before=dof)
         if call >= 0:
             calls += 1
@@ -351,7 +357,7 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z
             info.sigma_min, info.damping = float(floats[3 * k]), float(floats[3 * k + 2])
             a, b = int(ints[r_off + k]), int(ints[r_off + k + 1])
             if b > a:
-                mr = int(round((b - a) ** 0.5))
+                mr = round((b - a) ** 0.5)
                 info.R = floats[a:b].reshape(mr, mr)
         infos.append(info)
     cas.x = x

@@ -415,7 +415,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold
         x_next = x
         if m and dof:
             path = hint_route(hints, calls, m, dof)
-            ok, route, rank, smin, smax, lam2, packed, Z_next = level_step(
+            _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
                 A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, path, False, rank_tol[k], threshold[k],
                 max_damping[k], gram_min_ratio)
             x_next = packed[dof:dof + n]
@@ -476,7 +476,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
         if m and dof:
             Ak = np.ascontiguousarray(A[rows[k, 0]:rows[k, 1], :nv])
             path = hint_route(hints, calls, m, dof)
-            ok, route, rank, smin, smax, lam2, packed, Z_next = level_step(
+            _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
                 Ak, b[rows[k, 0]:rows[k, 1]], x, Z, identity, path, False, rank_tol[k], threshold[k],
                 max_damping[k], gram_min_ratio)
             hint_record(hints, calls, m, dof, path, route)

@@ -42,8 +42,14 @@ from ..errors import SolverError
 from ..rows import Layout, Level
 from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo, adopt_prefix
-from .level_kernel import (box_excess_max, dynamics_rows, forces_from, hint_table, nnls_on_support,
-                           projection_prefix)
+from .level_kernel import (
+    box_excess_max,
+    dynamics_rows,
+    forces_from,
+    hint_table,
+    nnls_on_support,
+    projection_prefix,
+)
 
 
 class RecursiveProjection:
