@@ -27,7 +27,7 @@ import numpy as np
 
 from ..rows import Level
 from .backends import Backend, QPResult, make_backend
-from .cascade import GRAM_MIN_RATIO, Cascade, Damping, singular_values
+from .cascade import GRAM_MIN_RATIO, Cascade, Damping, Step, singular_values
 from .level_kernel import (
     cascade_prefix,
     higher_rows,
@@ -127,7 +127,7 @@ class HierarchicalQP:
         degraded: list[str] = []
         tol = self.tol
         dampings = getattr(self, "_dampings", None) or {}
-        start = self._compiled_prefix(levels, cas, dampings, infos) if self.compiled else 0
+        start, pending = self._compiled_prefix(levels, cas, dampings, infos) if self.compiled else (0, None)
         for lvl in levels[:start]:
             C, lo, hi = lvl.inequalities(nx)
             if len(lo):
@@ -137,7 +137,10 @@ class HierarchicalQP:
         for lvl in levels[start:]:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
-            step = cas.ls_step(lvl.A, lvl.b, dampings.get(lvl.index, self.damping))
+            if pending is not None:          # the compiled prefix's step at the level it stopped
+                step, pending = pending, None
+            else:
+                step = cas.ls_step(lvl.A, lvl.b, dampings.get(lvl.index, self.damping))
             info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             if acc_C and step.rank and _violated(acc_C, acc_lo, acc_hi, cas.candidate(step), tol):
                 info.used_qp = True
@@ -187,17 +190,18 @@ class HierarchicalQP:
         """The leading levels that come straight from the stack's row buffer, in one call of
         :func:`~wbc.solvers.level_kernel.cascade_prefix` for as long as none needs a QP
         (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
-        fills ``infos`` and ``cas`` and returns the index of the first level left."""
+        fills ``infos`` and ``cas``; returns (the index of the first level left, the step
+        taken there or None)."""
         buf = getattr(levels[0], "buffer", None) if levels else None
         if buf is None:
-            return 0
+            return 0, None
         n = 0
         for lvl, own in zip(levels, buf.levels):
             if lvl is not own:
                 break
             n += 1
         if n < 2:                       # one level: the call costs what it saves
-            return 0
+            return 0, None
         damp = [dampings.get(lvl.index, self.damping) for lvl in levels[:n]]
         key = (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
         got = buf.__dict__.get("_prefix")
@@ -341,15 +345,19 @@ class HierarchicalQP:
 
 
 def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z, identity: bool,
-                 ints: np.ndarray, floats: np.ndarray) -> int:
+                 ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
     """Take over what a compiled prefix of the cascade did (:func:`~wbc.solvers.level_kernel.
     cascade_prefix`): a LevelInfo per level it solved appended to ``infos``, its point and
-    basis into ``cas``; returns the first level left."""
+    basis into ``cas``. Returns (the first level left, the step the prefix took there or
+    None)."""
     n = (len(ints) - 1) // 6
     r_off = 5 * n
     calls = 0
-    for k in range(stop):
-        call, _, dof, _, rank = ints[5 * k: 5 * k + 5].tolist()
+    R = None
+    for k in range(min(stop + 1, n)):
+        call, _, dof, route, rank = ints[5 * k: 5 * k + 5].tolist()
+        if k == stop and not len(packed):
+            break
         info = LevelInfo(levels[k].index, dof_before=dof)
         if call >= 0:
             calls += 1
@@ -358,14 +366,21 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z
             a, b = int(ints[r_off + k]), int(ints[r_off + k + 1])
             if b > a:
                 mr = round((b - a) ** 0.5)
-                info.R = floats[a:b].reshape(mr, mr)
-        infos.append(info)
+                R = info.R = floats[a:b].reshape(mr, mr)
+        if k < stop:
+            infos.append(info)
+    step = None
+    if len(packed):
+        lvl, d = levels[stop], ints[5 * stop + 2]
+        step = Step(packed[:d], Z_next, int(ints[5 * stop + 4]), float(floats[3 * stop]),
+                    float(floats[3 * stop + 1]), float(floats[3 * stop + 2]), lvl.A, lvl.b, x,
+                    None if identity else Z, R, packed[d:d + len(x)], True, route)
     cas.x = x
     if not identity:
         cas.Z = Z
         cas._identity = False
     cas._calls = calls
-    return stop
+    return stop, step
 
 
 def _violated(Cs, los, his, x, tol: float) -> bool:

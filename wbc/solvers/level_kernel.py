@@ -381,14 +381,15 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold
     every level above k are one block. Level k's least-squares step (:func:`level_step`)
     is taken if the candidate point meets every higher level's inequalities to ``tol``,
     and kept if the point then meets its own too; the first level where either fails is
-    where the caller takes over (with the state before it, redoing that level's step).
+    where the caller takes over, with the state before it and the step it took there.
     ``hints``: the solver's :func:`hint_table`, read and updated as the Python cascade does.
 
     Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
-    ints, floats): per level k < stop, ints[5k:5k+5] = (call index or −1 for no step,
-    rows, free directions before it, route, rank) and floats[3k:3k+3] = (σ_min, σ_max,
-    λ²), then the levels' R factors row by row (ints[5L:] their offsets; σ NaN where R
-    gives them)."""
+    ints, floats, the stop level's step as :func:`level_step` packs it and its next basis
+    (both empty if it took none)): per level k ≤ stop, ints[5k:5k+5] = (call index or −1
+    for no step, rows, free directions before it, route, rank) and floats[3k:3k+3] =
+    (σ_min, σ_max, λ²), then the levels' R factors row by row (ints[5L:] their offsets;
+    σ NaN where R gives them)."""
     L = e_end.shape[0]
     n = x0.shape[0]
     x = x0.copy()
@@ -420,8 +421,6 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold
                 max_damping[k], gram_min_ratio)
             x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
-            if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
-                return k, x, Z, identity, ints, floats
             ints[5 * k] = calls
             ints[5 * k + 3] = route
             ints[5 * k + 4] = rank
@@ -429,16 +428,22 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold
             nr = packed.shape[0] - dof - n
             floats[r_at:r_at + nr] = packed[dof + n:]
             r_at += nr
+            ints[5 * L + k + 1] = r_at
             calls += 1
+            if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
+                return k, x, Z, identity, ints, floats, packed, Z_next
+        else:
+            ints[5 * L + k + 1] = r_at
         if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
-            return k, x, Z, identity, ints, floats
+            if m and dof:
+                return k, x, Z, identity, ints, floats, packed, Z_next
+            return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
         if m and dof:
             x = x_next
             Z = Z_next
             identity = False
-        ints[5 * L + k + 1] = r_at
         e0 = e_end[k]
-    return L, x, Z, identity, ints, floats
+    return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
 
 
 @nb.njit(cache=True)
@@ -452,7 +457,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
     when rows[k, 0] = −1 (a level of force-only tasks: no step); rows[k, 0] = −2 (rows not
     in one block) stops there. A level's step is kept when no box bound (b_idx, b_lo,
     b_hi) is violated more than before by ``box_tol``; the first level where one is,
-    is where the caller takes over. Returns as :func:`cascade_prefix`."""
+    is where the caller takes over (redoing its step). Returns as :func:`cascade_prefix`
+    (with no step of the stop level)."""
     L = rows.shape[0]
     x = x0.copy()
     Z = np.empty((0, 0))
@@ -468,7 +474,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
     calls = 0
     for k in range(L):
         if rows[k, 0] == -2:
-            return k, x, Z, identity, ints, floats
+            return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         dof = nv if identity else Z.shape[1]
         ints[5 * k:5 * k + 5] = (-1, m, dof, 0, 0)
@@ -482,7 +488,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
             hint_record(hints, calls, m, dof, path, route)
             x_next = packed[dof:dof + nv]
             if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
-                return k, x, Z, identity, ints, floats
+                return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
             ints[5 * k] = calls
             ints[5 * k + 3] = route
             ints[5 * k + 4] = rank
@@ -495,7 +501,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
             Z = Z_next
             identity = False
         ints[5 * L + k + 1] = r_at
-    return L, x, Z, identity, ints, floats
+    return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
 
 
 @nb.njit(cache=True)
