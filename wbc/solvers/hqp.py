@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..rows import Level
+from . import level_kernel
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, Step, singular_values
 from .level_kernel import (
@@ -99,6 +100,7 @@ class HierarchicalQP:
         #: for every level, the reference the tests compare it with)
         self.compiled = True
         self._hints = hint_table()
+        level_kernel.prepare()
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
                      scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:

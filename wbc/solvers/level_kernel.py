@@ -681,3 +681,30 @@ def forces_from(f0, G, lam, AG, rhs, n, weight):
             gap = max(gap, abs(res[i]))
             scale = max(scale, abs(rhs[i]))
     return f0 + G @ lam, gap / weight, scale / weight
+
+
+_PREPARED = [False]
+
+
+def prepare() -> None:
+    """Load (or compile) every kernel the solvers call from Python, on small problems of
+    the types a cycle passes: a kernel first needed in the middle of a run (the first QP,
+    the first joint limit met) would otherwise cost its cache load, up to ~30 ms, in that
+    cycle. Called by the solvers' constructors; does its work once per process."""
+    if _PREPARED[0]:
+        return
+    n, m = 4, 2
+    A, b, x = np.eye(m, n), np.ones(m), np.zeros(n)
+    Z = np.ascontiguousarray(np.eye(n)[:, :3])
+    for Zk, identity in ((np.empty((0, 0)), True), (Z, False)):
+        level_step(A, b, x, Zk, identity, AUTO, False, 1e-9, 1e-3, 1e-2, 1e-8)
+    table = hint_table(1)
+    hint_record(table, 0, m, n, AUTO, QR)
+    hint_route(table, 0, m, n)
+    box_excess_max(x, x, np.arange(2, dtype=np.int64), -np.ones(2), np.ones(2))
+    max_violation(A, -b, b, x)
+    higher_rows(A, -b, b, x, Z, False, 1.0)
+    higher_rows(A, -b, b, x, np.empty((0, 0)), True, 1.0)
+    least_squares_objective(A, b, 1e-6)
+    damping_lambda2(1e-4, 1e-3, 1e-2)
+    _PREPARED[0] = True

@@ -40,6 +40,7 @@ from scipy.optimize import nnls
 
 from ..errors import SolverError
 from ..rows import Layout, Level
+from . import level_kernel
 from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo, adopt_prefix
 from .level_kernel import (
@@ -75,6 +76,7 @@ class RecursiveProjection:
         #: gradient may be before the last support is taken as no longer optimal
         self.nnls_kkt_factor = 10.0
         self._hints = hint_table()
+        level_kernel.prepare()
         self._rows_cache: dict = {}
         self._force_plan: _ForcePlan | None = None
         self._prefix = None

@@ -118,18 +118,22 @@ class Contact(MotionTask):
         return robot.frame_jacobian(self._fid, WORLD_ALIGNED)[:3]
 
     def _errors(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        s = self.surface(robot)
-        oMc = robot.frame_placement(self._fid)
+        """(e, v_c, J̇_c q̇) of the rows' docstring; the LOCAL quantities straight from
+        pinocchio (a contact frame has one task; J_c goes through the robot's cache, the
+        layout's J_f uses it too)."""
+        s = self._surface if self._surface is not None else self.surface(robot)
+        fid, m, d = self._fid, robot.model, robot.data
+        oMc = d.oMf[fid]
         if self.reference is None:
             self.reference = oMc.copy()
         if s.kind == "surface":
             e = pin.log6(oMc.actInv(self.reference)).vector
-            vel = robot.frame_velocity(self._fid, LOCAL)
-            drift = robot.frame_drift(self._fid, LOCAL, classical=False)
+            vel = pin.getFrameVelocity(m, d, fid, LOCAL).vector
+            drift = pin.getFrameAcceleration(m, d, fid, LOCAL).vector
         else:
             e = self.reference.translation - oMc.translation
-            vel = robot.frame_velocity(self._fid, WORLD_ALIGNED)[:3]
-            drift = robot.frame_drift(self._fid, WORLD_ALIGNED)[:3]
+            vel = pin.getFrameVelocity(m, d, fid, WORLD_ALIGNED).vector[:3]
+            drift = pin.getFrameClassicalAcceleration(m, d, fid, WORLD_ALIGNED).vector[:3]
         return e, vel, drift
 
     def error(self, robot) -> np.ndarray:
@@ -137,7 +141,7 @@ class Contact(MotionTask):
         return self._errors(robot)[0]
 
     def rows(self, robot, layout: Layout) -> Rows:
-        s = self.surface(robot)
+        s = self._surface if self._surface is not None else self.surface(robot)
         m = s.force_dim
         A, b = eq_buffer(self, m, layout.nx)
         e, vel, drift = self._errors(robot)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -9,7 +10,7 @@ from ..errors import TargetError, TaskDefinitionError
 from ..model import WORLD_ALIGNED
 from ..rows import Layout, Rows
 from ..checks import se3_from
-from .base import MotionTask, as_vector, eq_buffer, motion_rows
+from .base import MotionTask, as_vector, eq_buffer
 
 _MASKS = {
     "pose": (1, 1, 1, 1, 1, 1),
@@ -94,26 +95,37 @@ class Frame(MotionTask):
             self._fid = robot.frame_id(self.frame)
         return self._fid
 
-    def full_error(self, robot) -> np.ndarray:
-        oMf = robot.frame_placement(self._frame(robot))
+    def _target_at(self, oMf: pin.SE3) -> pin.SE3:
         if self._target is None:
             self._target = oMf.copy() if self._pending is None else to_se3(self.name, self._pending, oMf)
+        return self._target
+
+    def full_error(self, robot) -> np.ndarray:
+        oMf = robot.frame_placement(self._frame(robot))
+        T = self._target_at(oMf)
         e = np.empty(6)
-        e[:3] = self._target.translation - oMf.translation
-        e[3:] = pin.log3(self._target.rotation @ oMf.rotation.T)
+        e[:3] = T.translation - oMf.translation
+        e[3:] = pin.log3(T.rotation @ oMf.rotation.T)
         return e
 
     def error(self, robot) -> np.ndarray:
         return self.full_error(robot)[self._sel]
 
     def rows(self, robot, layout: Layout) -> Rows:
-        fid = self._frame(robot)
-        s = self._sel
-        A, b = eq_buffer(self, len(s), layout.nx)
+        fid = self._fid
+        if fid is None:
+            fid = self._frame(robot)
+        m, d = robot.model, robot.data
+        oMf = d.oMf[fid]
+        T = self._target if self._target is not None else self._target_at(oMf)
+        A, b = eq_buffer(self, len(self._sel), layout.nx)
         kp, kd = self.gain_vectors(6)
-        motion_rows(A, b, robot.frame_jacobian(fid, WORLD_ALIGNED), s, self.target_acceleration, kp,
-                    self.full_error(robot), kd, self.target_velocity, robot.frame_velocity(fid, WORLD_ALIGNED),
-                    robot.frame_drift(fid, WORLD_ALIGNED))
+        # the frame's Jacobian, twist and J̇q̇ as pinocchio extracts them (one task per frame
+        # as a rule: not worth the robot's per-cycle cache)
+        _frame_rows(A, b, pin.getFrameJacobian(m, d, fid, WORLD_ALIGNED), self._sel, self.target_acceleration, kp,
+                    kd, self.target_velocity, pin.getFrameVelocity(m, d, fid, WORLD_ALIGNED).vector,
+                    pin.getFrameClassicalAcceleration(m, d, fid, WORLD_ALIGNED).vector, T.translation,
+                    oMf.translation, pin.log3(T.rotation @ oMf.rotation.T))
         return Rows(A=A, b=b)
 
     def params(self) -> dict:
@@ -127,3 +139,16 @@ class Frame(MotionTask):
             p["target"] = {"position": self._target.translation.tolist(),
                            "rotation": self._target.rotation.tolist()}
         return p
+
+
+@nb.njit(cache=True)
+def _frame_rows(out_A, out_b, J, sel, acc_d, kp, kd, vel_d, vel, drift, p_d, p, rot_err):
+    """The selected rows of J q̈ = ẍ_d + K_d (ẋ_d − ẋ) + K_p e − J̇q̇ (5.16) with the pose
+    error e = (p_d − p, log₃(R_d Rᵀ)) (``rot_err`` the latter), one compiled pass."""
+    nv = J.shape[1]
+    for i in range(sel.shape[0]):
+        j = sel[i]
+        for c in range(nv):
+            out_A[i, c] = J[j, c]
+        e = p_d[j] - p[j] if j < 3 else rot_err[j - 3]
+        out_b[i] = acc_d[j] + kd[j] * (vel_d[j] - vel[j]) + kp[j] * e - drift[j]

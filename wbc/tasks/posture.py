@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from ..rows import Layout, Rows
@@ -69,14 +70,14 @@ class Posture(MotionTask):
         return robot.difference(robot.q, self._q_ref(robot))[self._indices(robot)]
 
     def rows(self, robot, layout: Layout) -> Rows:
-        idx = self._indices(robot)
+        idx = self._idx if self._idx is not None else self._indices(robot)
         A, b = eq_buffer(self, len(idx), layout.nx)
         if not getattr(self, "_A_ready", None) == layout.nx:
             A[:] = 0.0
             A[np.arange(len(idx)), idx] = 1.0
             self._A_ready = layout.nx
-        e = self.error(robot)
-        b[:] = self.kp * e - self.kd * robot.v[idx]
+        kp, kd = self.gain_vectors(len(idx))
+        _posture_rhs(b, robot.difference(robot.q, self._q_ref(robot)), robot.v, idx, kp, kd)
         return Rows(A=A, b=b)
 
     def params(self) -> dict:
@@ -86,3 +87,11 @@ class Posture(MotionTask):
         if self._target is not None:
             p["target"] = np.asarray(self._target, dtype=float).tolist()
         return p
+
+
+@nb.njit(cache=True)
+def _posture_rhs(out, e, v, idx, kp, kd):
+    """out = K_p (q_d ⊖ q)[idx] − K_d q̇[idx] (``e`` = q_d ⊖ q), one compiled pass."""
+    for i in range(idx.shape[0]):
+        j = idx[i]
+        out[i] = kp[i] * e[j] - kd[i] * v[j]
