@@ -42,6 +42,9 @@ def test_lower_level_never_changes_higher_residual(robot_name, solver, request, 
     make_stack = STACKS[robot_name]
     solver, _, backend = solver.partition("-")
     backend = backend or "daqp"
+    # daqp's active set is exact; proxqp stops at eps_abs = 1e-6 (wbc.solvers.backends), so
+    # each of two solves may sit that far from the optimum
+    tol = 1e-6 if backend == "daqp" else 3e-6
     worst = 0.0
     for _ in range(N_STATES):
         q, v = random_state(robot, rng)
@@ -61,7 +64,7 @@ def test_lower_level_never_changes_higher_residual(robot_name, solver, request, 
                 r0, r1 = base.residuals[j], sol.residuals[j]
                 rel = abs(r1 - r0) / max(1.0, r0)
                 worst = max(worst, rel)
-                assert rel <= 1e-6, f"level {j} residual {r0:.3e} -> {r1:.3e} after changing level {k}"
+                assert rel <= tol, f"level {j} residual {r0:.3e} -> {r1:.3e} after changing level {k}"
     print(f"{robot_name}/{solver}/{backend}: worst relative change of a higher residual {worst:.2e}")
 
 

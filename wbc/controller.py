@@ -26,7 +26,7 @@ from .solution import LevelDiagnostics, Solution
 from .solvers.cascade import Damping
 from .solvers.hqp import CascadeResult, HierarchicalQP, WeightedQP
 from .solvers.projection import RecursiveProjection
-from .stack import Stack
+from .stack import Stack, row_values, split_values
 from .tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
 SOLVERS = ("hqp", "projection", "weighted")
@@ -166,18 +166,15 @@ class Controller:
     def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:
         robot, nv = self.robot, layout.nv
         qdd, f = x[:nv], x[nv:]
-        tau_full, finite = _joint_torques(robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES,
-                                          x, robot.unactuated_idx)
-        # Every level's row values this cycle produced, in one product per array (the
-        # stack's buffer is refilled next cycle); the per-level and per-task breakdown is
-        # done only if the caller asks for it.
+        # τ, and every level's row values this cycle produced (the stack's buffer is refilled
+        # next cycle), in one compiled call; the per-level and per-task breakdown is done
+        # only if the caller asks for it
         buf = self.stack.row_buffer
-        E, Y, LO, HI, B = buf.values(x)
-        if not finite:
-            E[:] = np.inf
-            Y[:] = np.inf
+        tau_full, finite, values = _cycle_outputs(
+            robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, x, robot.unactuated_idx,
+            buf.A, buf.b, buf.C, buf.lo, buf.hi)
         relaxed = any(info.relaxed for info in res.levels)
-        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (E, Y, LO, HI, B),
+        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            self.solver_name == "projection", self.sacrifice_tol, self.sacrifice_rel)
         status = "ok" if ok else "failed"
         if ok and relaxed:
@@ -193,7 +190,7 @@ class Controller:
             self._last_tau = tau_full.copy()
         forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
         self._last_forces = forces
-        return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx].copy(), tau_full=tau_full, forces=forces,
+        return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate)
 
     def _fallback_torque(self) -> np.ndarray:
@@ -222,16 +219,28 @@ def _joint_torques(M, h, Jf, x, unactuated):
     return tau, finite
 
 
+@nb.njit(cache=True)
+def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi):
+    """(τ, whether x and τ are finite, the rows' values of :meth:`~wbc.stack.RowBuffer.values`,
+    whose residuals are +inf when not)."""
+    tau, finite = _joint_torques(M, h, Jf, x, unactuated)
+    values = row_values(A, b, C, lo, hi, x)
+    if not finite:
+        values[:b.shape[0] + lo.shape[0]] = np.inf
+    return tau, finite, values
+
+
 def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
                  sacrifice_rel: float = 0.0, tol_act: float = 1e-7):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
-    of one cycle (``values`` = (A x − b, C x, l, u, b) over every level, level k's part
+    of one cycle (``values`` = (:meth:`~wbc.stack.RowBuffer.values`, equality rows,
+    inequality rows): A x − b, C x, l, u and b over every level, level k's part
     given by ``spans[k]``; see :meth:`Controller._finish`). The projection solver enforces
     equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
     force distribution and its torque limits are not enforced: those rows are reported
     apart (``unenforced_violation``), not as residuals."""
     residuals, task_res, diags = [], {}, []
-    E, Y, LO, HI, B = values
+    E, Y, LO, HI, B = split_values(*values)
     for lvl, (e0, e1, i0, n_gen, i1), info in zip(levels, spans, infos):
         index, tasks, eq_slices, in_slices, has_box = lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.box is not None
         e, b = E[e0:e1], B[e0:e1]

@@ -316,17 +316,22 @@ class RowBuffer:
                     return False
         return True
 
-    def values(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
-        """(A x − b, C x, l, u, b) over every level, as views of one new array (the buffer
-        is refilled next cycle); level k's part is ``spans[k]``."""
-        ne, ni = len(self.b), len(self.lo)
-        out = _row_values(self.A, self.b, self.C, self.lo, self.hi, x)
-        return (out[:ne], out[ne:ne + ni], out[ne + ni:ne + 2 * ni], out[ne + 2 * ni:ne + 3 * ni],
-                out[ne + 3 * ni:])
+    def values(self, x: np.ndarray) -> np.ndarray:
+        """[A x − b, C x, l, u, b] over every level in one new array (the buffer is refilled
+        next cycle); :func:`split_values` gives the five parts, level k's rows are
+        ``spans[k]`` of each."""
+        return row_values(self.A, self.b, self.C, self.lo, self.hi, x)
+
+
+def split_values(values: np.ndarray, ne: int, ni: int) -> tuple[np.ndarray, ...]:
+    """(A x − b, C x, l, u, b) as views of :meth:`RowBuffer.values` (ne equality rows, ni
+    inequality rows)."""
+    return (values[:ne], values[ne:ne + ni], values[ne + ni:ne + 2 * ni], values[ne + 2 * ni:ne + 3 * ni],
+            values[ne + 3 * ni:])
 
 
 @nb.njit(cache=True)
-def _row_values(A, b, C, lo, hi, x):
+def row_values(A, b, C, lo, hi, x):
     """[A x − b, C x, l, u, b] in one array (one allocation, one compiled pass)."""
     ne, ni = b.shape[0], lo.shape[0]
     out = np.empty(2 * ne + 3 * ni)

@@ -5,7 +5,7 @@ removes the Python interpreter from it. A level used to cost ~25 µs of numpy an
 f2py call overhead on top of its LAPACK work (products A Z and A x̂, a
 factorisation, the step, the new basis, the candidate point); compiled, the
 LAPACK work is what remains. The factorisations are LAPACK's, called directly:
-``geqrf``/``orgqr``/``geqp3``/``potrf``/``trtri`` through scipy's ``cython_lapack``
+``geqrf``/``orgqr``/``ormqr``/``geqp3``/``potrf``/``trtri`` through scipy's ``cython_lapack``
 table, ``gesdd`` through numba's own ``np.linalg`` binding.
 
 Given A (m × n), b (m), x̂ (n) and the basis Z (n × k, or the identity), with
@@ -52,8 +52,10 @@ _dorgqr = _lapack("dorgqr", 9)    # m, n, k, a, lda, tau, work, lwork, info
 _dtrtri = _lapack("dtrtri", 6)    # uplo, diag, n, a, lda, info
 _dgeqp3 = _lapack("dgeqp3", 9)    # m, n, a, lda, jpvt, tau, work, lwork, info
 _dpotrf = _lapack("dpotrf", 5)    # uplo, n, a, lda, info
+_dormqr = _lapack("dormqr", 13)   # side, trans, m, n, k, a, lda, tau, c, ldc, work, lwork, info
 
 _UPLO_DIAG = np.frombuffer(b"UN", dtype=np.uint8)
+_SIDE_TRANS = np.frombuffer(b"RT", dtype=np.uint8)
 
 
 @nb.njit(cache=True)
@@ -133,7 +135,7 @@ def _qr(AZ, r, rank_tol, threshold):
     R = np.zeros((m, m))
     Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
     if iw[4] != 0:
-        return False, np.empty(0), np.empty((0, 0)).T, R
+        return False, np.empty(0), np.empty((0, 0)), R
     for j in range(m):
         for i in range(j + 1):
             R[i, j] = Q[i, j]
@@ -142,20 +144,28 @@ def _qr(AZ, r, rank_tol, threshold):
     _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
             mi[2:].ctypes)
     if mi[2] != 0:
-        return False, np.empty(0), np.empty((0, 0)).T, R
+        return False, np.empty(0), np.empty((0, 0)), R
     ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
     lb_min = 1.0 / np.sqrt(np.sum(Rinv * Rinv))  # ≤ σ_min
     if not lb_min > max(rank_tol * max(1.0, ub_max), threshold):
-        return False, np.empty(0), np.empty((0, 0)).T, R
-    _dorgqr(iw[0:].ctypes, iw[5:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes,
-            work.ctypes, iw[3:].ctypes, iw[4:].ctypes)
-    if iw[4] != 0:
-        return False, np.empty(0), np.empty((0, 0)).T, R
-    y = Rinv.T @ r
-    z = np.zeros(k)
-    for j in range(m):                           # z = Q₁ y (Q₁ a Fortran-order slice)
-        z += y[j] * Q[:, j]
-    return True, z, Q[:, m:], R
+        return False, np.empty(0), np.empty((0, 0)), R
+    # null(AZ) = Q[0; I], the last k − m columns of Q, without forming Q: as (Eᵀ Qᵀ)ᵀ with
+    # E = [0; I], by LAPACK's dormqr from the right on Eᵀ, whose Fortran layout is null's C
+    # layout
+    nm = k - m
+    null = np.zeros((k, nm))
+    for j in range(nm):
+        null[m + j, j] = 1.0
+    io = np.array([nm, k, m, k, nm, lwork, 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
+    _dormqr(_SIDE_TRANS[0:].ctypes, _SIDE_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
+            Q.ctypes, io[3:].ctypes, tau.ctypes, null.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
+            io[6:].ctypes)
+    if io[6] != 0:
+        return False, np.empty(0), np.empty((0, 0)), R
+    z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
+    z[:m] = Rinv.T @ r
+    _apply_reflectors(Q, tau, m, z, False)
+    return True, z, null, R
 
 
 @nb.njit(cache=True)
@@ -308,8 +318,7 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     elif route == QR:
         ok, z, null, Rq = _qr(AZ, r, rank_tol, threshold)
         if ok:
-            null_c = np.ascontiguousarray(null)
-            Z_next = null_c if identity else Z @ null_c
+            Z_next = null if identity else Z @ null
             return True, QR, m, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), Rq), Z_next
         if strict:
             return False, QR, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
