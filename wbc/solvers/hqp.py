@@ -38,7 +38,7 @@ from .level_kernel import (
 )
 
 
-@dataclass
+@dataclass(slots=True)
 class LevelInfo:
     """What a solver reports for one level (feeds ``Solution.diagnostics``)."""
 
@@ -129,14 +129,25 @@ class HierarchicalQP:
         degraded: list[str] = []
         tol = self.tol
         dampings = getattr(self, "_dampings", None) or {}
-        start, pending = self._compiled_prefix(levels, cas, dampings, infos) if self.compiled else (0, None)
-        for lvl in levels[:start]:
-            C, lo, hi = lvl.inequalities(nx)
-            if len(lo):
-                acc_C.append(C)
-                acc_lo.append(lo)
-                acc_hi.append(hi)
-        for lvl in levels[start:]:
+        k, n_levels, pending = 0, len(levels), None
+        resume = self.compiled
+        while k < n_levels:
+            if resume:
+                # every level from k that needs no QP, in one compiled call; it hands over the
+                # step it took where it stopped
+                stop, pending = self._compiled_prefix(levels, cas, dampings, infos, k)
+                stop = max(stop, k)
+                for lvl in levels[k:stop]:
+                    C, lo, hi = lvl.inequalities(nx)
+                    if len(lo):
+                        acc_C.append(C)
+                        acc_lo.append(lo)
+                        acc_hi.append(hi)
+                k = stop
+                if k == n_levels:
+                    break
+            lvl = levels[k]
+            k += 1
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             # (1) the level's equalities, in the null space of every higher level
             if pending is not None:          # the compiled prefix's step at the level it stopped
@@ -184,11 +195,14 @@ class HierarchicalQP:
                 acc_lo.append(lo if w is None else lo - w)
                 acc_hi.append(hi if w is None else hi - w)
             infos.append(info)
+            # the compiled prefix checks the rows' own bounds: not once a level is relaxed
+            resume = resume and not info.relaxed and ok
         res = CascadeResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
         res.degraded = bool(degraded)
         return res
 
-    def _compiled_prefix(self, levels: list[Level], cas: Cascade, dampings: dict, infos: list) -> int:
+    def _compiled_prefix(self, levels: list[Level], cas: Cascade, dampings: dict, infos: list,
+                         start: int = 0) -> tuple:
         """The leading levels that come straight from the stack's row buffer, in one call of
         :func:`~wbc.solvers.level_kernel.cascade_prefix` for as long as none needs a QP
         (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
@@ -196,24 +210,30 @@ class HierarchicalQP:
         taken there or None)."""
         buf = getattr(levels[0], "buffer", None) if levels else None
         if buf is None:
-            return 0, None
+            return start, None
         n = 0
         for lvl, own in zip(levels, buf.levels):
             if lvl is not own:
                 break
             n += 1
-        if n < 2:                       # one level: the call costs what it saves
-            return 0, None
-        damp = [dampings.get(lvl.index, self.damping) for lvl in levels[:n]]
-        key = (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
+        if n - start < 2:               # one level: the call costs what it saves
+            return start, None
+        if dampings:
+            damp = [dampings.get(lvl.index, self.damping) for lvl in levels[:n]]
+        else:
+            damp = [self.damping] * n
+        d0 = self.damping
+        key = (n, d0.rank_tol, d0.threshold, d0.max_damping) if not dampings else \
+            (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
         got = buf.__dict__.get("_prefix")
         if got is None or got[0] != key:
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
             got = buf._prefix = (key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
         _, e_end, i_end, tols = got
-        out = cascade_prefix(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, cas.x, self._hints, tols[0],
-                             tols[1], tols[2], GRAM_MIN_RATIO, self.tol)
-        return adopt_prefix(levels, cas, infos, *out)
+        Z, identity = cas.kernel_basis()
+        out = cascade_prefix(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, cas.x, Z, identity, start,
+                             cas._calls, self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.tol)
+        return adopt_prefix(levels, cas, infos, start, *out)
 
     def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key):
         """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
@@ -346,26 +366,25 @@ class HierarchicalQP:
         return res.z[:r], res.z[r:], res.status
 
 
-def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z, identity: bool,
+def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, stop: int, x, Z, identity: bool,
                  ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
-    """Take over what a compiled prefix of the cascade did (:func:`~wbc.solvers.level_kernel.
-    cascade_prefix`): a LevelInfo per level it solved appended to ``infos``, its point and
-    basis into ``cas``. Returns (the first level left, the step the prefix took there or
-    None)."""
+    """Take over what a compiled run of the cascade from level ``start`` did
+    (:func:`~wbc.solvers.level_kernel.cascade_prefix`): a LevelInfo per level it solved
+    appended to ``infos``, its point and basis into ``cas``. Returns (the first level
+    left, the step the kernel took there or None)."""
     n = (len(ints) - 1) // 6
-    r_off = 5 * n
-    calls = 0
+    iv, fv = ints.tolist(), floats[:3 * n].tolist()
+    calls = cas._calls
     R = None
-    for k in range(min(stop + 1, n)):
-        call, _, dof, route, rank = ints[5 * k: 5 * k + 5].tolist()
+    for k in range(start, min(stop + 1, n)):
+        call, _, dof, route, rank = iv[5 * k: 5 * k + 5]
         if k == stop and not len(packed):
             break
         info = LevelInfo(levels[k].index, dof_before=dof)
         if call >= 0:
             calls += 1
-            info.rank = rank
-            info.sigma_min, info.damping = float(floats[3 * k]), float(floats[3 * k + 2])
-            a, b = int(ints[r_off + k]), int(ints[r_off + k + 1])
+            info.rank, info.sigma_min, info.damping = rank, fv[3 * k], fv[3 * k + 2]
+            a, b = iv[5 * n + k], iv[5 * n + k + 1]
             if b > a:
                 mr = round((b - a) ** 0.5)
                 R = info.R = floats[a:b].reshape(mr, mr)
@@ -373,10 +392,9 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, stop: int, x, Z
             infos.append(info)
     step = None
     if len(packed):
-        lvl, d = levels[stop], ints[5 * stop + 2]
-        step = Step(packed[:d], Z_next, int(ints[5 * stop + 4]), float(floats[3 * stop]),
-                    float(floats[3 * stop + 1]), float(floats[3 * stop + 2]), lvl.A, lvl.b, x,
-                    None if identity else Z, R, packed[d:d + len(x)], True, route)
+        lvl, d = levels[stop], iv[5 * stop + 2]
+        step = Step(packed[:d], Z_next, iv[5 * stop + 4], fv[3 * stop], fv[3 * stop + 1], fv[3 * stop + 2],
+                    lvl.A, lvl.b, x, None if identity else Z, R, packed[d:d + len(x)], True, route)
     cas.x = x
     if not identity:
         cas.Z = Z

@@ -379,8 +379,8 @@ def hint_record(table, call, m, dof, path, route):
 
 
 @nb.njit(cache=True)
-def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold, max_damping,
-                   gram_min_ratio, tol):
+def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
+                   max_damping, gram_min_ratio, tol):
     """The strict cascade's levels, one after the other, for as long as none needs a QP:
     the hierarchical QP's common case in one call (its per-level Python is the same
     mathematics, step for step, see :meth:`~wbc.solvers.hqp.HierarchicalQP.solve_levels`).
@@ -391,7 +391,10 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold
     is taken if the candidate point meets every higher level's inequalities to ``tol``,
     and kept if the point then meets its own too; the first level where either fails is
     where the caller takes over, with the state before it and the step it took there.
-    ``hints``: the solver's :func:`hint_table`, read and updated as the Python cascade does.
+    It starts at level ``k0`` from x̂ = ``x0`` and Z = ``Z0`` (``identity0``: Z is the
+    identity, ``Z0`` then empty) after ``calls0`` steps (the caller resumes it after a
+    level it solved itself). ``hints``: the solver's :func:`hint_table`, read and updated
+    as the Python cascade does.
 
     Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
     ints, floats, the stop level's step as :func:`level_step` packs it and its next basis
@@ -402,21 +405,21 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, hints, rank_tol, threshold
     L = e_end.shape[0]
     n = x0.shape[0]
     x = x0.copy()
-    Z = np.empty((0, 0))
-    identity = True
+    Z = Z0
+    identity = identity0
     ints = np.zeros(6 * L + 1, dtype=np.int64)
     r_size = 0
-    e0 = 0
-    for k in range(L):
+    e0 = e_end[k0 - 1] if k0 else 0
+    for k in range(k0, L):
         m = e_end[k] - e0
         r_size += m * m
         e0 = e_end[k]
     floats = np.empty(3 * L + r_size)
     r_at = 3 * L
-    ints[5 * L] = r_at
-    calls = 0
-    e0 = 0
-    for k in range(L):
+    ints[5 * L + k0] = r_at
+    calls = calls0
+    e0 = e_end[k0 - 1] if k0 else 0
+    for k in range(k0, L):
         i0 = i_end[k - 1] if k else 0
         m = e_end[k] - e0
         dof = n if identity else Z.shape[1]

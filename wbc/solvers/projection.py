@@ -161,7 +161,7 @@ class RecursiveProjection:
         b_idx, b_lo, b_hi = box
         out = projection_prefix(buf.A, buf.b, rows, nv, cas.x, b_idx, b_lo, b_hi, self._hints, tols[0], tols[1],
                                 tols[2], GRAM_MIN_RATIO, self.box_tol)
-        return adopt_prefix(levels, cas, infos, *out)[0]
+        return adopt_prefix(levels, cas, infos, 0, *out)[0]
 
     def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
         """One level with Saturation in the Null Space, then task scaling if needed.
