@@ -20,7 +20,10 @@ and the step uses σ/(σ² + λ²) in place of 1/σ. Rank counts σ > ``rank_tol
 One level is one call of a compiled kernel (:func:`wbc.solvers.level_kernel.level_step`):
 the products, the factorisation and the new basis without the interpreter in between
 (measured on Talos, 5 levels: the cascade's Python and f2py overhead was about half
-of its 0.19 ms; see ``benchmarks/optimisation.md``).
+of its 0.19 ms; see ``benchmarks/optimisation.md``). The solvers go further on their
+common path: every level that needs no QP (or meets no joint limit) runs in one call
+(:func:`~wbc.solvers.level_kernel.cascade_prefix`), and this class takes over where one
+does, with the same mathematics step for step.
 """
 
 from __future__ import annotations
