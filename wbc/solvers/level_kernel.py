@@ -379,6 +379,19 @@ def hint_record(table, call, m, dof, path, route):
 
 
 @nb.njit(cache=True)
+def _record_level(ints, floats, k, call, route, rank, smin, smax, lam2, packed, head, r_at):
+    """Level k's entries in the output of :func:`cascade_prefix` (its R factor, the part of
+    ``packed`` after z and x̂, at ``r_at``); returns where the next R goes."""
+    ints[5 * k] = call
+    ints[5 * k + 3] = route
+    ints[5 * k + 4] = rank
+    floats[3 * k:3 * k + 3] = (smin, smax, lam2)
+    nr = packed.shape[0] - head
+    floats[r_at:r_at + nr] = packed[head:]
+    return r_at + nr
+
+
+@nb.njit(cache=True)
 def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
                    max_damping, gram_min_ratio, tol):
     """The strict cascade's levels, one after the other, for as long as none needs a QP:
@@ -433,13 +446,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
                 max_damping[k], gram_min_ratio)
             x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
-            ints[5 * k] = calls
-            ints[5 * k + 3] = route
-            ints[5 * k + 4] = rank
-            floats[3 * k:3 * k + 3] = (smin, smax, lam2)
-            nr = packed.shape[0] - dof - n
-            floats[r_at:r_at + nr] = packed[dof + n:]
-            r_at += nr
+            r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
             ints[5 * L + k + 1] = r_at
             calls += 1
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
@@ -501,13 +508,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
             x_next = packed[dof:dof + nv]
             if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
                 return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
-            ints[5 * k] = calls
-            ints[5 * k + 3] = route
-            ints[5 * k + 4] = rank
-            floats[3 * k:3 * k + 3] = (smin, smax, lam2)
-            nr = packed.shape[0] - dof - nv
-            floats[r_at:r_at + nr] = packed[dof + nv:]
-            r_at += nr
+            r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r_at)
             calls += 1
             x = x_next
             Z = Z_next
