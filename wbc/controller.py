@@ -221,7 +221,7 @@ def _joint_torques(M, h, Jf, x, unactuated):
 
 @nb.njit(cache=True)
 def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi):
-    """(τ, whether x and τ are finite, the rows' values of :meth:`~wbc.stack.RowBuffer.values`,
+    """(τ, whether x and τ are finite, the rows' values of :func:`~wbc.stack.row_values`,
     whose residuals are +inf when not)."""
     tau, finite = _joint_torques(M, h, Jf, x, unactuated)
     values = row_values(A, b, C, lo, hi, x)
@@ -233,7 +233,7 @@ def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi):
 def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
                  sacrifice_rel: float = 0.0, tol_act: float = 1e-7):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
-    of one cycle (``values`` = (:meth:`~wbc.stack.RowBuffer.values`, equality rows,
+    of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
     inequality rows): A x − b, C x, l, u and b over every level, level k's part
     given by ``spans[k]``; see :meth:`Controller._finish`). The projection solver enforces
     equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in

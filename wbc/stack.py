@@ -202,7 +202,7 @@ class RowBuffer:
     scaled by √weight) and C, l, u (inequalities; per level the tasks' general rows, then
     the box bounds as unit rows, set once). Each level is a block of rows, and its Level
     holds views of that block, so the solvers see levels while one product per array
-    evaluates every level's rows (:meth:`values`). Built for one structure (tasks, their
+    evaluates every level's rows (:func:`row_values`). Built for one structure (tasks, their
     row counts, weights and box indices); :meth:`fill` refuses another.
 
     With ``adopt`` (the stack's own buffer), a task of weight 1 that keeps its rows in
@@ -316,23 +316,19 @@ class RowBuffer:
                     return False
         return True
 
-    def values(self, x: np.ndarray) -> np.ndarray:
-        """[A x − b, C x, l, u, b] over every level in one new array (the buffer is refilled
-        next cycle); :func:`split_values` gives the five parts, level k's rows are
-        ``spans[k]`` of each."""
-        return row_values(self.A, self.b, self.C, self.lo, self.hi, x)
-
 
 def split_values(values: np.ndarray, ne: int, ni: int) -> tuple[np.ndarray, ...]:
-    """(A x − b, C x, l, u, b) as views of :meth:`RowBuffer.values` (ne equality rows, ni
-    inequality rows)."""
+    """(A x − b, C x, l, u, b) as views of :func:`row_values`' array (ne equality rows, ni
+    inequality rows; level k's rows are ``RowBuffer.spans[k]`` of each)."""
     return (values[:ne], values[ne:ne + ni], values[ne + ni:ne + 2 * ni], values[ne + 2 * ni:ne + 3 * ni],
             values[ne + 3 * ni:])
 
 
 @nb.njit(cache=True)
 def row_values(A, b, C, lo, hi, x):
-    """[A x − b, C x, l, u, b] in one array (one allocation, one compiled pass)."""
+    """[A x − b, C x, l, u, b] over a :class:`RowBuffer`'s arrays in one new array (one
+    allocation, one compiled pass): the rows' values a cycle keeps for its diagnostics,
+    the buffer being refilled next cycle."""
     ne, ni = b.shape[0], lo.shape[0]
     out = np.empty(2 * ne + 3 * ni)
     out[:ne] = A @ x - b if ne else out[:0]
