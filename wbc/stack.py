@@ -317,6 +317,19 @@ class RowBuffer:
         return True
 
 
+def buffered_prefix(levels: list[Level]) -> tuple["RowBuffer | None", int]:
+    """(the row buffer behind ``levels``, how many leading levels are its own levels in
+    order): what a compiled solver run may read straight from the buffer's arrays."""
+    buf = getattr(levels[0], "buffer", None) if levels else None
+    n = 0
+    if buf is not None:
+        for lvl, own in zip(levels, buf.levels):
+            if lvl is not own:
+                break
+            n += 1
+    return buf, n
+
+
 def split_values(values: np.ndarray, ne: int, ni: int) -> tuple[np.ndarray, ...]:
     """(A x − b, C x, l, u, b) as views of :func:`row_values`' array (ne equality rows, ni
     inequality rows; level k's rows are ``RowBuffer.spans[k]`` of each)."""

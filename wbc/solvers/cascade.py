@@ -74,6 +74,20 @@ class Step:
         self._A, self._b, self._x, self._Z = A, b, x, Z
         self._AZ = self._r = None
 
+    @classmethod
+    def unpacked(cls, packed: np.ndarray, Z_next, rank: int, sigma_min: float, sigma_max: float, damping: float,
+                 A, b, x, Z, dof: int, ok: bool = True, route: int = 0) -> "Step":
+        """The step from :func:`~wbc.solvers.level_kernel.level_step`'s ``packed`` array
+        (z over ``dof`` free directions, x̂ + Z z, then R row by row if any); ``Z`` None
+        while the basis is the identity."""
+        n = len(x)
+        R = None
+        if len(packed) > dof + n:
+            mr = round((len(packed) - dof - n) ** 0.5)
+            R = packed[dof + n:].reshape(mr, mr)
+        return cls(packed[:dof], Z_next, rank, sigma_min, sigma_max, damping, A, b, x, Z, R, packed[dof:dof + n],
+                   ok, route)
+
     @property
     def AZ(self) -> np.ndarray:
         if self._AZ is None:
@@ -148,13 +162,8 @@ class Cascade:
         ok, route, rank, smin, smax, lam2, packed, Z_next = level_kernel.level_step(
             A, b, self.x, _NO_BASIS if identity else self.Z, identity, path, strict, damping.rank_tol,
             damping.threshold, damping.max_damping, GRAM_MIN_RATIO)
-        k, n = (self.n if identity else self.Z.shape[1]), self.n
-        R = None
-        if len(packed) > k + n:
-            mr = int(round((len(packed) - k - n) ** 0.5))
-            R = packed[k + n:].reshape(mr, mr)
-        return Step(packed[:k], Z_next, rank, smin, smax, lam2, A, b, self.x, None if identity else self.Z, R,
-                    packed[k:k + n], ok, route)
+        return Step.unpacked(packed, Z_next, rank, smin, smax, lam2, A, b, self.x, None if identity else self.Z,
+                             self.n if identity else self.Z.shape[1], ok, route)
 
     def route_step(self, A: np.ndarray, b: np.ndarray, damping: Damping, route: int) -> Step | None:
         """The step by one route of :mod:`~wbc.solvers.level_kernel` only (``SVD``, ``QR``,

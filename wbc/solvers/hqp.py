@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..rows import Level
+from ..stack import buffered_prefix
 from . import level_kernel
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, Step, singular_values
@@ -208,14 +209,7 @@ class HierarchicalQP:
         (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
         fills ``infos`` and ``cas``; returns (the index of the first level left, the step
         taken there or None)."""
-        buf = getattr(levels[0], "buffer", None) if levels else None
-        if buf is None:
-            return start, None
-        n = 0
-        for lvl, own in zip(levels, buf.levels):
-            if lvl is not own:
-                break
-            n += 1
+        buf, n = buffered_prefix(levels)
         if n - start < 2:               # one level: the call costs what it saves
             return start, None
         if dampings:
@@ -367,19 +361,18 @@ class HierarchicalQP:
 
 
 def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, stop: int, x, Z, identity: bool,
-                 ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
+                 ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray,
+                 stop_rows: tuple | None = None) -> tuple:
     """Take over what a compiled run of the cascade from level ``start`` did
     (:func:`~wbc.solvers.level_kernel.cascade_prefix`): a LevelInfo per level it solved
     appended to ``infos``, its point and basis into ``cas``. Returns (the first level
-    left, the step the kernel took there or None)."""
+    left, the step the kernel took there or None); ``stop_rows``: that level's (A, b) as
+    the kernel saw them (default its own)."""
     n = (len(ints) - 1) // 6
     iv, fv = ints.tolist(), floats[:3 * n].tolist()
     calls = cas._calls
-    R = None
-    for k in range(start, min(stop + 1, n)):
-        call, _, dof, route, rank = iv[5 * k: 5 * k + 5]
-        if k == stop and not len(packed):
-            break
+    for k in range(start, min(stop, n)):
+        call, _, dof, _, rank = iv[5 * k: 5 * k + 5]
         info = LevelInfo(levels[k].index, dof_before=dof)
         if call >= 0:
             calls += 1
@@ -387,14 +380,14 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, sto
             a, b = iv[5 * n + k], iv[5 * n + k + 1]
             if b > a:
                 mr = round((b - a) ** 0.5)
-                R = info.R = floats[a:b].reshape(mr, mr)
-        if k < stop:
-            infos.append(info)
+                info.R = floats[a:b].reshape(mr, mr)
+        infos.append(info)
     step = None
     if len(packed):
-        lvl, d = levels[stop], iv[5 * stop + 2]
-        step = Step(packed[:d], Z_next, iv[5 * stop + 4], fv[3 * stop], fv[3 * stop + 1], fv[3 * stop + 2],
-                    lvl.A, lvl.b, x, None if identity else Z, R, packed[d:d + len(x)], True, route)
+        calls += 1
+        A, b = stop_rows if stop_rows is not None else (levels[stop].A, levels[stop].b)
+        step = Step.unpacked(packed, Z_next, iv[5 * stop + 4], fv[3 * stop], fv[3 * stop + 1], fv[3 * stop + 2],
+                             A, b, x, None if identity else Z, iv[5 * stop + 2], True, iv[5 * stop + 3])
     cas.x = x
     if not identity:
         cas.Z = Z

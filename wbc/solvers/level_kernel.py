@@ -476,8 +476,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
     when rows[k, 0] = −1 (a level of force-only tasks: no step); rows[k, 0] = −2 (rows not
     in one block) stops there. A level's step is kept when no box bound (b_idx, b_lo,
     b_hi) is violated more than before by ``box_tol``; the first level where one is,
-    is where the caller takes over (redoing its step). Returns as :func:`cascade_prefix`
-    (with no step of the stop level)."""
+    is where the caller takes over, with the step taken there. Returns as
+    :func:`cascade_prefix`."""
     L = rows.shape[0]
     x = x0.copy()
     Z = np.empty((0, 0))
@@ -506,10 +506,11 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                 max_damping[k], gram_min_ratio)
             hint_record(hints, calls, m, dof, path, route)
             x_next = packed[dof:dof + nv]
-            if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
-                return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
             r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r_at)
+            ints[5 * L + k + 1] = r_at
             calls += 1
+            if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
+                return k, x, Z, identity, ints, floats, packed, Z_next
             x = x_next
             Z = Z_next
             identity = False

@@ -40,6 +40,7 @@ from scipy.optimize import nnls
 
 from ..errors import SolverError
 from ..rows import Layout, Level
+from ..stack import buffered_prefix
 from . import level_kernel
 from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping
 from .hqp import CascadeResult, LevelInfo, adopt_prefix
@@ -111,9 +112,9 @@ class RecursiveProjection:
             cas.x = x0 if T is None else L.T @ x0
         box = (b_idx, b_lo, b_hi)
         infos = []
-        start = 0
+        start, pending = 0, None
         if T is None and self.compiled:
-            start = self._compiled_prefix(levels, cas, box, infos, nv)
+            start, pending = self._compiled_prefix(levels, cas, box, infos, nv)
         for lvl in levels[start:]:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             rows = self._motion_rows(lvl)
@@ -122,26 +123,21 @@ class RecursiveProjection:
                 continue
             A = lvl.A[rows, :nv]
             Ay = A if T is None else A @ T
-            step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
+            step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0, step=pending)
+            pending = None
             info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             infos.append(info)
         return CascadeResult(cas.x if T is None else T @ cas.x, infos)
 
-    def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> int:
+    def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> tuple:
         """The leading levels that come straight from the stack's row buffer, in one call of
         :func:`~wbc.solvers.level_kernel.projection_prefix` for as long as no joint limit
         is in the way (the loop of :meth:`solve_accelerations` without the interpreter);
-        fills ``infos`` and ``cas`` and returns the index of the first level left."""
-        buf = getattr(levels[0], "buffer", None) if levels else None
-        if buf is None:
-            return 0
-        n = 0
-        for lvl, own in zip(levels, buf.levels):
-            if lvl is not own:
-                break
-            n += 1
+        fills ``infos`` and ``cas``; returns (the index of the first level left, the step
+        taken there or None)."""
+        buf, n = buffered_prefix(levels)
         if n == 0:
-            return 0
+            return 0, None
         d = self.damping
         key = (n, d.rank_tol, d.threshold, d.max_damping)
         got = self._prefix
@@ -161,20 +157,27 @@ class RecursiveProjection:
         b_idx, b_lo, b_hi = box
         out = projection_prefix(buf.A, buf.b, rows, nv, cas.x, b_idx, b_lo, b_hi, self._hints, tols[0], tols[1],
                                 tols[2], GRAM_MIN_RATIO, self.box_tol)
-        return adopt_prefix(levels, cas, infos, 0, *out)[0]
+        stop = out[0]
+        stop_rows = None
+        if len(out[6]):                 # a joint limit in the way: the step taken there, in q̈ rows
+            r0, r1 = rows[stop]
+            stop_rows = (np.ascontiguousarray(buf.A[r0:r1, :nv]), buf.b[r0:r1])
+        return adopt_prefix(levels, cas, infos, 0, *out, stop_rows=stop_rows)
 
-    def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
+    def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool, step=None):
         """One level with Saturation in the Null Space, then task scaling if needed.
 
         Invariant: no joint's box violation grows (x̂ starts inside the box, so it
         stays inside). A saturation is accepted only if it keeps that invariant;
         when no saturation helps any more, the level's step is scaled by the largest
         s ∈ [0, 1] that keeps it (Flacco et al.'s task scaling). Level 0 is never
-        scaled: its equalities (contacts) come first, as in the HQP.
+        scaled: its equalities (contacts) come first, as in the HQP. ``step``: the level's
+        least-squares step if already taken (by the compiled prefix).
         """
         b_idx, b_lo, b_hi = box
         tol = self.box_tol
-        step = cas.ls_step(Ay, b, self.damping)
+        if step is None:
+            step = cas.ls_step(Ay, b, self.damping)
         if not len(b_idx) or (T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol):
             cas.commit(step)            # the common case: no joint limit in the way
             return step
@@ -252,7 +255,8 @@ class RecursiveProjection:
         """Contact forces for q̈: each contact's force is f₀ + V λ, λ ≥ 0, V the generators
         of its friction/CoP cone (:meth:`~wbc.tasks.Contact.generators`), so every
         candidate is admissible by construction. Non-negative least squares (scipy
-        ``nnls``) on, in decreasing weight: a ramping contact's normal force
+        ``nnls``, unless the last cycle's support still passes the KKT test:
+        :func:`~wbc.solvers.level_kernel.nnls_on_support`) on, in decreasing weight: a ramping contact's normal force
         (×``ramp_weight``), the unactuated dynamics rows S_u J_fᵀ f = S_u (M q̈ + h)
         (×``dynamics_weight``), ContactWrench targets (×``wrench_weight``), and a small
         least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""

@@ -118,22 +118,20 @@ class Contact(MotionTask):
         return robot.frame_jacobian(self._fid, WORLD_ALIGNED)[:3]
 
     def _errors(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(e, v_c, J̇_c q̇) of the rows' docstring; the LOCAL quantities straight from
-        pinocchio (a contact frame has one task; J_c goes through the robot's cache, the
-        layout's J_f uses it too)."""
+        """(e, v_c, J̇_c q̇) of the rows' docstring."""
         s = self._surface if self._surface is not None else self.surface(robot)
-        fid, m, d = self._fid, robot.model, robot.data
-        oMc = d.oMf[fid]
+        fid = self._fid
+        oMc = robot.frame_placement(fid)
         if self.reference is None:
             self.reference = oMc.copy()
         if s.kind == "surface":
             e = pin.log6(oMc.actInv(self.reference)).vector
-            vel = pin.getFrameVelocity(m, d, fid, LOCAL).vector
-            drift = pin.getFrameAcceleration(m, d, fid, LOCAL).vector
+            vel = robot.frame_velocity(fid, LOCAL)
+            drift = robot.frame_drift(fid, LOCAL, classical=False)
         else:
             e = self.reference.translation - oMc.translation
-            vel = pin.getFrameVelocity(m, d, fid, WORLD_ALIGNED).vector[:3]
-            drift = pin.getFrameClassicalAcceleration(m, d, fid, WORLD_ALIGNED).vector[:3]
+            vel = robot.frame_velocity(fid, WORLD_ALIGNED)[:3]
+            drift = robot.frame_drift(fid, WORLD_ALIGNED)[:3]
         return e, vel, drift
 
     def error(self, robot) -> np.ndarray:

@@ -6,11 +6,11 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
+from ..checks import se3_from
 from ..errors import TargetError, TaskDefinitionError
 from ..model import WORLD_ALIGNED
 from ..rows import Layout, Rows
-from ..checks import se3_from
-from .base import MotionTask, as_vector, eq_buffer
+from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _MASKS = {
     "pose": (1, 1, 1, 1, 1, 1),
@@ -115,17 +115,14 @@ class Frame(MotionTask):
         fid = self._fid
         if fid is None:
             fid = self._frame(robot)
-        m, d = robot.model, robot.data
-        oMf = d.oMf[fid]
+        oMf = robot.frame_placement(fid)
         T = self._target if self._target is not None else self._target_at(oMf)
         A, b = eq_buffer(self, len(self._sel), layout.nx)
         kp, kd = self.gain_vectors(6)
-        # the frame's Jacobian, twist and J̇q̇ as pinocchio extracts them (one task per frame
-        # as a rule: not worth the robot's per-cycle cache)
-        _frame_rows(A, b, pin.getFrameJacobian(m, d, fid, WORLD_ALIGNED), self._sel, self.target_acceleration, kp,
-                    kd, self.target_velocity, pin.getFrameVelocity(m, d, fid, WORLD_ALIGNED).vector,
-                    pin.getFrameClassicalAcceleration(m, d, fid, WORLD_ALIGNED).vector, T.translation,
-                    oMf.translation, pin.log3(T.rotation @ oMf.rotation.T))
+        _frame_rows(A, b, robot.frame_jacobian(fid, WORLD_ALIGNED), self._sel, self.target_acceleration, kp, kd,
+                    self.target_velocity, robot.frame_velocity(fid, WORLD_ALIGNED),
+                    robot.frame_drift(fid, WORLD_ALIGNED), T.translation, oMf.translation,
+                    pin.log3(T.rotation @ oMf.rotation.T))
         return Rows(A=A, b=b)
 
     def params(self) -> dict:
@@ -143,12 +140,9 @@ class Frame(MotionTask):
 
 @nb.njit(cache=True)
 def _frame_rows(out_A, out_b, J, sel, acc_d, kp, kd, vel_d, vel, drift, p_d, p, rot_err):
-    """The selected rows of J q̈ = ẍ_d + K_d (ẋ_d − ẋ) + K_p e − J̇q̇ (5.16) with the pose
-    error e = (p_d − p, log₃(R_d Rᵀ)) (``rot_err`` the latter), one compiled pass."""
-    nv = J.shape[1]
-    for i in range(sel.shape[0]):
-        j = sel[i]
-        for c in range(nv):
-            out_A[i, c] = J[j, c]
-        e = p_d[j] - p[j] if j < 3 else rot_err[j - 3]
-        out_b[i] = acc_d[j] + kd[j] * (vel_d[j] - vel[j]) + kp[j] * e - drift[j]
+    """:func:`~wbc.tasks.base.motion_rows` with the pose error e = (p_d − p, log₃(R_d Rᵀ))
+    (``rot_err`` the latter) formed in the same compiled call."""
+    err = np.empty(6)
+    err[:3] = p_d - p
+    err[3:] = rot_err
+    motion_rows(out_A, out_b, J, sel, acc_d, kp, err, kd, vel_d, vel, drift)
