@@ -55,3 +55,30 @@ def test_one_control_cycle_runs_each_whole_body_algorithm_once(talos, rng, monke
     # the cycle's algorithms once each, nothing computed twice
     assert calls == {"forwardKinematics": 1, "computeJointJacobians": 1, "crba": 1, "nonLinearEffects": 1,
                      "jacobianCenterOfMass": 1}
+
+
+def test_one_control_cycle_extracts_each_frame_quantity_once(talos, rng, monkeypatch):
+    """A frame's Jacobian, twist and J̇q̇ are extracted once per frame and reference per cycle
+    (the robot's cache), however many tasks read them: here the layout and a contact task
+    read the same LOCAL Jacobian, and a hand pose task and a null-space impedance on that
+    hand both read its world-aligned Jacobian."""
+    from wbc.tasks import CoM, Contact, Frame, JointLimits, NullSpaceImpedance, Posture
+
+    stack = wbc.Stack([[JointLimits(), Contact("left_foot"), Contact("right_foot")], [CoM()],
+                       [Frame("right_hand")], [NullSpaceImpedance("right_hand")], [Posture()]])
+    ctrl = wbc.Controller(talos, stack)
+    q, v = random_state(talos, rng)
+    ctrl.solve(q, v)
+    calls: dict[tuple, int] = {}
+    for fn in ("getFrameJacobian", "getFrameVelocity", "getFrameAcceleration", "getFrameClassicalAcceleration"):
+        orig = getattr(pin, fn)
+
+        def counted(model, data, fid, ref, *a, _orig=orig, _fn=fn):
+            calls[(_fn, fid, ref)] = calls.get((_fn, fid, ref), 0) + 1
+            return _orig(model, data, fid, ref, *a)
+
+        monkeypatch.setattr(pin, fn, counted)
+    ctrl.solve(q, v)
+    hand = talos.frame_id("right_hand")
+    assert calls.get(("getFrameJacobian", hand, pin.LOCAL_WORLD_ALIGNED)) == 1
+    assert len(calls) >= 8 and all(n == 1 for n in calls.values()), calls
