@@ -284,7 +284,7 @@ def test_a_qp_answer_outside_its_rows_is_not_accepted():
         def solve(self, H, g, C, lo, hi, key=None, feasible=False):
             return QPResult(np.full(H.shape[0], 10.0), True, "optimal")
 
-    hqp = HierarchicalQP(backend=Liar())
+    hqp = HierarchicalQP(backend=Liar(), certify=False)     # the back-ends themselves
     rng = np.random.default_rng(2)
     H = np.eye(4)
     g = rng.standard_normal(4)
@@ -351,6 +351,39 @@ def test_nnls_warm_start_is_certified_only_at_the_optimum():
             else:
                 refused += 1
     assert refused > 40         # a wrong support is, as a rule, caught
+
+
+def test_active_set_guess_is_certified_only_at_the_qp_optimum():
+    """A QP's optimum from the active set the unconstrained minimiser suggests is accepted
+    only with its KKT certificate: every certified point is daqp's optimum (unique, H ≻ 0),
+    including with two or more rows held; a wrong guess (the optimum holds other rows, or
+    fewer) is refused."""
+    from wbc.solvers.active_set import certified_active_set
+    from wbc.solvers.backends import make_backend
+
+    daqp = make_backend("daqp")
+    rng = np.random.default_rng(5)
+    certified, refused, held = 0, 0, set()
+    for trial in range(400):
+        k, m = int(rng.integers(2, 10)), int(rng.integers(1, 14))
+        F = rng.standard_normal((k + 2, k))
+        H = F.T @ F + (1e-6 if trial % 4 == 0 else 1e-2) * np.eye(k)     # some ill-conditioned
+        g = 3.0 * rng.standard_normal(k)
+        C = rng.standard_normal((m, k))
+        lo, hi = -rng.uniform(0.0, 2.0, m), rng.uniform(0.0, 2.0, m)   # z = 0 feasible
+        lo[rng.random(m) < 0.3] = -1e20
+        ref = daqp.solve(H, g, C, lo, hi)
+        assert ref.ok
+        ok, z = certified_active_set(H, g, C, lo, hi, 1e-9)
+        if not ok:
+            refused += 1
+            continue
+        certified += 1
+        np.testing.assert_allclose(z, ref.z, rtol=0, atol=1e-6 * (1 + np.abs(ref.z).max()))
+        y = C @ z
+        held.add(int(np.sum((np.abs(y - hi) < 1e-9) | (np.abs(y - lo) < 1e-9))))
+    print(f"\n{certified} certified ({sorted(held)} rows held), {refused} refused")
+    assert certified > 80 and refused > 50 and max(held) >= 2
 
 
 @pytest.mark.parametrize("solver", ["hqp", "projection"])

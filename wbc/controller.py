@@ -282,5 +282,5 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
             sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
-            unenforced_violation=unenforced))
+            unenforced_violation=unenforced, qp_status=info.qp_status))
     return residuals, task_res, diags

@@ -31,6 +31,9 @@ class LevelDiagnostics:
     saturated_joints: list[int] = field(default_factory=list)
     #: violation of rows this solver does not enforce (projection: torque limits, cones)
     unenforced_violation: float = 0.0
+    #: how the level's QP was answered, if it needed one: the back-end's status, or
+    #: ``"certified"`` (its optimum from a guessed active set, see wbc.solvers.active_set)
+    qp_status: str = ""
 
 
 class Solution:

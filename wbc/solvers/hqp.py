@@ -16,7 +16,10 @@ Equalities never reach the QP: they are eliminated by the null-space cascade
 (:mod:`wbc.solvers.cascade`), so each QP lives in the free directions z of
 x = x̂ + Z z. A level is first solved by least squares alone; only if that point
 violates an inequality (its own or a higher level's) is a QP solved. In the
-common case, no limit active, a whole cycle needs no QP at all.
+common case, no limit active, a whole cycle needs no QP at all. A QP is first
+answered from the active set its unconstrained minimiser suggests, kept only with
+its KKT certificate (:mod:`wbc.solvers.active_set`: then it is the QP's unique
+optimum); the back-end solves the QPs where that fails.
 """
 
 from __future__ import annotations
@@ -28,15 +31,21 @@ import numpy as np
 from ..rows import Level
 from ..stack import buffered_prefix
 from . import level_kernel
+from .active_set import certified_active_set
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, Step, singular_values
 from .level_kernel import (
+    LEVEL_INTS,
     cascade_prefix,
     higher_rows,
     hint_table,
     least_squares_objective,
     max_violation,
 )
+
+#: ``LevelInfo.qp_status`` of a level whose QP was solved by its KKT certificate
+#: (:mod:`wbc.solvers.active_set`) instead of a back-end
+CERTIFIED = "certified"
 
 
 @dataclass(slots=True)
@@ -82,18 +91,21 @@ class CascadeResult:
 class HierarchicalQP:
     """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names;
     ``margin`` (units of each inequality row: N, N·m, rad/s²) the room a QP keeps
-    from a limit where it can, so later levels rarely need one."""
+    from a limit where it can, so later levels rarely need one. ``certify``: try each QP's
+    optimum from a guessed active set first (:mod:`wbc.solvers.active_set`), the back-end
+    only where its KKT certificate fails (False: every QP goes to the back-end)."""
 
     name = "hqp"
 
     def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
                  regularization: float = 1e-6, slack_regularization: float = 1e-6,
-                 feasibility_tol: float = 1e-7, margin: float = 1.0) -> None:
+                 feasibility_tol: float = 1e-7, margin: float = 1.0, certify: bool = True) -> None:
         self.backend = make_backend(backend) if isinstance(backend, str) else backend
         self.damping = damping or Damping()
         self.regularization = regularization
         self.slack_regularization = slack_regularization
         self.margin = margin
+        self.certify = certify
         self.tol = feasibility_tol
         #: largest violation of its rows a QP answer may have (units of the rows)
         self.qp_tol = 1e-6
@@ -136,8 +148,9 @@ class HierarchicalQP:
             if resume:
                 # every level from k that needs no QP, in one compiled call; it hands over the
                 # step it took where it stopped
-                stop, pending = self._compiled_prefix(levels, cas, dampings, infos, k)
+                stop, pending, certified = self._compiled_prefix(levels, cas, dampings, infos, k)
                 stop = max(stop, k)
+                qp_count += certified
                 for lvl in levels[k:stop]:
                     C, lo, hi = lvl.inequalities(nx)
                     if len(lo):
@@ -208,10 +221,10 @@ class HierarchicalQP:
         :func:`~wbc.solvers.level_kernel.cascade_prefix` for as long as none needs a QP
         (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
         fills ``infos`` and ``cas``; returns (the index of the first level left, the step
-        taken there or None)."""
+        taken there or None, the QPs it solved by certificate)."""
         buf, n = buffered_prefix(levels)
         if n - start < 2:               # one level: the call costs what it saves
-            return start, None
+            return start, None, 0
         if dampings:
             damp = [dampings.get(lvl.index, self.damping) for lvl in levels[:n]]
         else:
@@ -226,7 +239,8 @@ class HierarchicalQP:
         _, e_end, i_end, tols = got
         Z, identity = cas.kernel_basis()
         out = cascade_prefix(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, cas.x, Z, identity, start,
-                             cas._calls, self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.tol)
+                             cas._calls, self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.tol,
+                             self.certify, self.regularization, self.margin)
         return adopt_prefix(levels, cas, infos, start, *out)
 
     def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key):
@@ -248,8 +262,12 @@ class HierarchicalQP:
                 rows.append(Cr)
                 los.append(lr)
                 his.append(hr)
-            res = self.backend.solve(np.eye(r), np.zeros(r), np.vstack(rows), np.concatenate(los),
-                                     np.concatenate(his), key=key, feasible=False)
+            H, g, Cq, lq, hq = np.eye(r), np.zeros(r), np.vstack(rows), np.concatenate(los), np.concatenate(his)
+            if self.certify:
+                ok, z = certified_active_set(H, g, Cq, lq, hq, self.tol)
+                if ok:
+                    return z, CERTIFIED
+            res = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=False)
             if res.ok:
                 return res.z, res.status
         return None, res.status
@@ -341,6 +359,10 @@ class HierarchicalQP:
 
     def _solve_qp(self, H, g, Cq, lq, hq, r, m, eps, key):
         """Solve the QP of :meth:`_qp` (z = 0 feasible), with the fallbacks; (z, slack, status)."""
+        if self.certify:
+            ok, z = certified_active_set(H, g, Cq, lq, hq, self.tol)
+            if ok:
+                return z[:r], z[r:], CERTIFIED
         res = self._attempt(self.backend, H, g, Cq, lq, hq, key)
         if not res.ok:
             # z = 0 is feasible by construction, so a failure is numerical (a degenerate
@@ -366,18 +388,22 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, sto
     """Take over what a compiled run of the cascade from level ``start`` did
     (:func:`~wbc.solvers.level_kernel.cascade_prefix`): a LevelInfo per level it solved
     appended to ``infos``, its point and basis into ``cas``. Returns (the first level
-    left, the step the kernel took there or None); ``stop_rows``: that level's (A, b) as
-    the kernel saw them (default its own)."""
-    n = (len(ints) - 1) // 6
+    left, the step the kernel took there or None, the QPs it solved by certificate);
+    ``stop_rows``: that level's (A, b) as the kernel saw them (default its own)."""
+    n = (len(ints) - 1) // (LEVEL_INTS + 1)
     iv, fv = ints.tolist(), floats[:3 * n].tolist()
     calls = cas._calls
+    qps = 0
     for k in range(start, min(stop, n)):
-        call, _, dof, _, rank = iv[5 * k: 5 * k + 5]
+        call, _, dof, _, rank, certified = iv[LEVEL_INTS * k: LEVEL_INTS * k + LEVEL_INTS]
         info = LevelInfo(levels[k].index, dof_before=dof)
+        if certified:
+            info.used_qp, info.qp_status = True, CERTIFIED
+            qps += certified
         if call >= 0:
             calls += 1
             info.rank, info.sigma_min, info.damping = rank, fv[3 * k], fv[3 * k + 2]
-            a, b = iv[5 * n + k], iv[5 * n + k + 1]
+            a, b = iv[LEVEL_INTS * n + k], iv[LEVEL_INTS * n + k + 1]
             if b > a:
                 mr = round((b - a) ** 0.5)
                 info.R = floats[a:b].reshape(mr, mr)
@@ -386,14 +412,15 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, sto
     if len(packed):
         calls += 1
         A, b = stop_rows if stop_rows is not None else (levels[stop].A, levels[stop].b)
-        step = Step.unpacked(packed, Z_next, iv[5 * stop + 4], fv[3 * stop], fv[3 * stop + 1], fv[3 * stop + 2],
-                             A, b, x, None if identity else Z, iv[5 * stop + 2], True, iv[5 * stop + 3])
+        step = Step.unpacked(packed, Z_next, iv[LEVEL_INTS * stop + 4], fv[3 * stop], fv[3 * stop + 1],
+                             fv[3 * stop + 2], A, b, x, None if identity else Z, iv[LEVEL_INTS * stop + 2], True,
+                             iv[LEVEL_INTS * stop + 3])
     cas.x = x
     if not identity:
         cas.Z = Z
         cas._identity = False
     cas._calls = calls
-    return stop, step
+    return stop, step, qps
 
 
 def _violated(Cs, los, his, x, tol: float) -> bool:

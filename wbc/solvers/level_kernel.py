@@ -6,7 +6,7 @@ f2py call overhead on top of its LAPACK work (products A Z and A x̂, a
 factorisation, the step, the new basis, the candidate point); compiled, the
 LAPACK work is what remains. The factorisations are LAPACK's, called directly:
 ``geqrf``/``orgqr``/``ormqr``/``geqp3``/``potrf``/``trtri`` through scipy's ``cython_lapack``
-table, ``gesdd`` through numba's own ``np.linalg`` binding.
+table (:mod:`wbc.solvers.lapack`), ``gesdd`` through numba's own ``np.linalg`` binding.
 
 Given A (m × n), b (m), x̂ (n) and the basis Z (n × k, or the identity), with
 AZ = A Z and r = b − A x̂, :func:`level_step` returns the damped least-squares step
@@ -32,30 +32,20 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
-from llvmlite import binding as _llvm
-from numba import types
-from numba.extending import get_cython_function_address
+
+from .active_set import certified_active_set
+from .lapack import (
+    SIDE_TRANS,
+    UPLO_DIAG,
+    dgeqp3,
+    dgeqrf,
+    dorgqr,
+    dormqr,
+    dpotrf,
+    dtrtri,
+)
 
 AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
-
-
-def _lapack(name: str, nargs: int):
-    """A LAPACK routine of scipy's ``cython_lapack`` (Fortran calling convention: every
-    argument a pointer) as a function numba can call and cache."""
-    symbol = f"wbc_{name}"
-    _llvm.add_symbol(symbol, get_cython_function_address("scipy.linalg.cython_lapack", name))
-    return types.ExternalFunction(symbol, types.void(*([types.voidptr] * nargs)))
-
-
-_dgeqrf = _lapack("dgeqrf", 8)    # m, n, a, lda, tau, work, lwork, info
-_dorgqr = _lapack("dorgqr", 9)    # m, n, k, a, lda, tau, work, lwork, info
-_dtrtri = _lapack("dtrtri", 6)    # uplo, diag, n, a, lda, info
-_dgeqp3 = _lapack("dgeqp3", 9)    # m, n, a, lda, jpvt, tau, work, lwork, info
-_dpotrf = _lapack("dpotrf", 5)    # uplo, n, a, lda, info
-_dormqr = _lapack("dormqr", 13)   # side, trans, m, n, k, a, lda, tau, c, ldc, work, lwork, info
-
-_UPLO_DIAG = np.frombuffer(b"UN", dtype=np.uint8)
-_SIDE_TRANS = np.frombuffer(b"RT", dtype=np.uint8)
 
 
 @nb.njit(cache=True)
@@ -101,10 +91,10 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
         for i in range(j + 1, k):
             U[i, j] = 0.0
     ki = np.array([k, k, 0], dtype=np.int32)     # n, lda, info
-    _dpotrf(_UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
+    dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] == 0:
         Uinv = U.copy().T.copy().T               # Fortran-order copy
-        _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
+        dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
                 ki[2:].ctypes)
         if ki[2] == 0:
             ub2 = np.sum(AZ * AZ)                # ≥ σ_max²
@@ -130,7 +120,7 @@ def _qr(AZ, r, rank_tol, threshold):
     lwork = 64 * k
     work = np.empty(lwork)
     iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
-    _dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
+    dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
             iw[3:].ctypes, iw[4:].ctypes)
     R = np.zeros((m, m))
     Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
@@ -141,7 +131,7 @@ def _qr(AZ, r, rank_tol, threshold):
             R[i, j] = Q[i, j]
             Rinv[i, j] = Q[i, j]
     mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
-    _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
+    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
             mi[2:].ctypes)
     if mi[2] != 0:
         return False, np.empty(0), np.empty((0, 0)), R
@@ -157,7 +147,7 @@ def _qr(AZ, r, rank_tol, threshold):
     for j in range(nm):
         null[m + j, j] = 1.0
     io = np.array([nm, k, m, k, nm, lwork, 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
-    _dormqr(_SIDE_TRANS[0:].ctypes, _SIDE_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
+    dormqr(SIDE_TRANS[0:].ctypes, SIDE_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
             Q.ctypes, io[3:].ctypes, tau.ctypes, null.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
             io[6:].ctypes)
     if io[6] != 0:
@@ -187,7 +177,7 @@ def _cod(AZ, r, rank_tol, threshold):
     work = np.empty(lwork)
     iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
     fail = (False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0)))
-    _dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
+    dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
             iw[3:].ctypes, iw[4:].ctypes)
     if iw[4] != 0:
         return fail
@@ -215,7 +205,7 @@ def _cod(AZ, r, rank_tol, threshold):
             W[j, i] = a[i, j]
     tau2 = np.empty(rho)
     iw2 = np.array([k, rho, k, lwork, 0, k], dtype=np.int32)
-    _dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
+    dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
             iw2[3:].ctypes, iw2[4:].ctypes)
     if iw2[4] != 0:
         return fail
@@ -226,7 +216,7 @@ def _cod(AZ, r, rank_tol, threshold):
             Tinv[i, j] = W[i, j]
             T[i, j] = W[i, j]
     ti = np.array([rho, rho, 0], dtype=np.int32)
-    _dtrtri(_UPLO_DIAG[0:].ctypes, _UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
+    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
             ti[2:].ctypes)
     if ti[2] != 0:
         return fail
@@ -236,7 +226,7 @@ def _cod(AZ, r, rank_tol, threshold):
     # Q₁ᵀ r through the first ρ reflectors of the pivoted QR (Q₁ is never formed)
     c = r.copy()
     _apply_reflectors(a, tau, rho, c, True)
-    _dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
+    dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
             work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
     if iw2[4] != 0:
         return fail
@@ -335,6 +325,8 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     return True, SVD, rank, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), R), Z_next
 
 
+#: entries per level in the ints a compiled run returns (see :func:`cascade_prefix`)
+LEVEL_INTS = 6
 #: cycles a level goes straight to the route it last needed before its first route is retried
 HINT_RETRY = 50
 
@@ -382,9 +374,9 @@ def hint_record(table, call, m, dof, path, route):
 def _record_level(ints, floats, k, call, route, rank, smin, smax, lam2, packed, head, r_at):
     """Level k's entries in the output of :func:`cascade_prefix` (its R factor, the part of
     ``packed`` after z and x̂, at ``r_at``); returns where the next R goes."""
-    ints[5 * k] = call
-    ints[5 * k + 3] = route
-    ints[5 * k + 4] = rank
+    ints[LEVEL_INTS * k] = call
+    ints[LEVEL_INTS * k + 3] = route
+    ints[LEVEL_INTS * k + 4] = rank
     floats[3 * k:3 * k + 3] = (smin, smax, lam2)
     nr = packed.shape[0] - head
     floats[r_at:r_at + nr] = packed[head:]
@@ -393,7 +385,7 @@ def _record_level(ints, floats, k, call, route, rank, smin, smax, lam2, packed, 
 
 @nb.njit(cache=True)
 def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
-                   max_damping, gram_min_ratio, tol):
+                   max_damping, gram_min_ratio, tol, certify, regularization, margin):
     """The strict cascade's levels, one after the other, for as long as none needs a QP:
     the hierarchical QP's common case in one call (its per-level Python is the same
     mathematics, step for step, see :meth:`~wbc.solvers.hqp.HierarchicalQP.solve_levels`).
@@ -401,9 +393,13 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
     Level k's equalities are rows [e_end[k−1], e_end[k]) of (A, b) and its inequalities
     (general and box rows) rows [i_end[k−1], i_end[k]) of (C, lo, hi), so the rows of
     every level above k are one block. Level k's least-squares step (:func:`level_step`)
-    is taken if the candidate point meets every higher level's inequalities to ``tol``,
-    and kept if the point then meets its own too; the first level where either fails is
-    where the caller takes over, with the state before it and the step it took there.
+    is taken if the candidate point meets every higher level's inequalities to ``tol``;
+    if it does not, and ``certify``, the level's QP (the solver's: the objective of
+    :func:`least_squares_objective` with ``regularization``, the rows of
+    :func:`higher_rows` with ``margin``) is solved by :func:`certified_active_set` where
+    its certificate holds. The point is kept if it then meets the level's own rows too;
+    the first level where any of this fails is where the caller takes over, with the
+    state before it and the step it took there.
     It starts at level ``k0`` from x̂ = ``x0`` and Z = ``Z0`` (``identity0``: Z is the
     identity, ``Z0`` then empty) after ``calls0`` steps (the caller resumes it after a
     level it solved itself). ``hints``: the solver's :func:`hint_table`, read and updated
@@ -411,16 +407,16 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
 
     Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
     ints, floats, the stop level's step as :func:`level_step` packs it and its next basis
-    (both empty if it took none)): per level k ≤ stop, ints[5k:5k+5] = (call index or −1
-    for no step, rows, free directions before it, route, rank) and floats[3k:3k+3] =
-    (σ_min, σ_max, λ²), then the levels' R factors row by row (ints[5L:] their offsets;
-    σ NaN where R gives them)."""
+    (both empty if it took none)): per level k ≤ stop, ints[6k:6k+6] = (call index or −1
+    for no step, rows, free directions before it, route, rank, 1 if its QP was solved
+    by certificate) and floats[3k:3k+3] = (σ_min, σ_max, λ²), then the levels' R factors
+    row by row (ints[6L:] their offsets; σ NaN where R gives them)."""
     L = e_end.shape[0]
     n = x0.shape[0]
     x = x0.copy()
     Z = Z0
     identity = identity0
-    ints = np.zeros(6 * L + 1, dtype=np.int64)
+    ints = np.zeros(LEVEL_INTS * L + L + 1, dtype=np.int64)
     r_size = 0
     e0 = e_end[k0 - 1] if k0 else 0
     for k in range(k0, L):
@@ -429,40 +425,88 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
         e0 = e_end[k]
     floats = np.empty(3 * L + r_size)
     r_at = 3 * L
-    ints[5 * L + k0] = r_at
+    ints[LEVEL_INTS * L + k0] = r_at
     calls = calls0
     e0 = e_end[k0 - 1] if k0 else 0
     for k in range(k0, L):
         i0 = i_end[k - 1] if k else 0
         m = e_end[k] - e0
         dof = n if identity else Z.shape[1]
-        ints[5 * k:5 * k + 5] = (-1, m, dof, 0, 0)
+        ints[LEVEL_INTS * k:LEVEL_INTS * k + LEVEL_INTS] = (-1, m, dof, 0, 0, 0)
         floats[3 * k:3 * k + 3] = (np.inf, 0.0, 0.0)
         x_next = x
         if m and dof:
+            Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
             path = hint_route(hints, calls, m, dof)
             _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
-                A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, path, False, rank_tol[k], threshold[k],
-                max_damping[k], gram_min_ratio)
+                Ak, bk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
             x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
             r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
-            ints[5 * L + k + 1] = r_at
+            ints[LEVEL_INTS * L + k + 1] = r_at
             calls += 1
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
-                return k, x, Z, identity, ints, floats, packed, Z_next
+                if not certify:
+                    return k, x, Z, identity, ints, floats, packed, Z_next
+                AZ = Ak if identity else Ak @ Z
+                H, g = least_squares_objective(AZ, bk - Ak @ x, regularization)
+                Cz, lz, hz = higher_rows(C[:i0], lo[:i0], hi[:i0], x, Z, identity, margin)
+                ok, z = certified_active_set(H, g, Cz, lz, hz, tol)
+                if not ok:
+                    return k, x, Z, identity, ints, floats, packed, Z_next
+                x_next = x + (z if identity else Z @ z)
+                ints[LEVEL_INTS * k + 5] = 1
         else:
-            ints[5 * L + k + 1] = r_at
+            ints[LEVEL_INTS * L + k + 1] = r_at
         if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
-            if m and dof:
-                return k, x, Z, identity, ints, floats, packed, Z_next
-            return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+            ok = False
+            if certify:
+                stepped = m > 0 and dof > 0
+                ok, z = _nearest_feasible(C, lo, hi, i0, i_end[k], x_next, Z_next if stepped else Z,
+                                          identity and not stepped, margin, tol)
+            if not ok:
+                ints[LEVEL_INTS * k + 5] = 0       # the caller solves the whole level
+                if m and dof:
+                    return k, x, Z, identity, ints, floats, packed, Z_next
+                return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+            if not (m and dof):
+                Z_next = Z
+            x_next = x_next + (z if identity and not (m and dof) else Z_next @ z)
+            ints[LEVEL_INTS * k + 5] += 1
         if m and dof:
             x = x_next
             Z = Z_next
             identity = False
+        else:
+            x = x_next
         e0 = e_end[k]
     return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+
+
+@nb.njit(cache=True)
+def _nearest_feasible(C, lo, hi, i0, i1, x, Z, identity, margin, tol):
+    """(certified, z) of the hierarchical solver's inequality sub-level (its
+    ``_nearest_feasible``, first pass): min ½‖z‖² s.t. the level's rows [i0, i1) of
+    l ≤ C(x + Z z) ≤ u, each tightened by min(``margin``, ¼ of its range), and the higher
+    rows [0, i0) as :func:`higher_rows` gives them, by :func:`certified_active_set`."""
+    Co = C[i0:i1]
+    Cl = Co if identity else Co @ Z
+    y = Co @ x
+    k = Cl.shape[1]
+    Ch, lh, hh = higher_rows(C[:i0], lo[:i0], hi[:i0], x, Z, identity, margin)
+    mo, mh = Cl.shape[0], Ch.shape[0]
+    Cq = np.empty((mo + mh, k))
+    lq = np.empty(mo + mh)
+    hq = np.empty(mo + mh)
+    Cq[:mo] = Cl
+    Cq[mo:] = Ch
+    for i in range(mo):
+        d = min(margin, 0.25 * (hi[i0 + i] - lo[i0 + i]))
+        lq[i] = lo[i0 + i] - y[i] + d
+        hq[i] = hi[i0 + i] - y[i] - d
+    lq[mo:] = lh
+    hq[mo:] = hh
+    return certified_active_set(np.eye(k), np.zeros(k), Cq, lq, hq, tol)
 
 
 @nb.njit(cache=True)
@@ -482,21 +526,21 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
     x = x0.copy()
     Z = np.empty((0, 0))
     identity = True
-    ints = np.zeros(6 * L + 1, dtype=np.int64)
+    ints = np.zeros(LEVEL_INTS * L + L + 1, dtype=np.int64)
     r_size = 0
     for k in range(L):
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         r_size += m * m
     floats = np.empty(3 * L + r_size)
     r_at = 3 * L
-    ints[5 * L] = r_at
+    ints[LEVEL_INTS * L] = r_at
     calls = 0
     for k in range(L):
         if rows[k, 0] == -2:
             return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         dof = nv if identity else Z.shape[1]
-        ints[5 * k:5 * k + 5] = (-1, m, dof, 0, 0)
+        ints[LEVEL_INTS * k:LEVEL_INTS * k + LEVEL_INTS] = (-1, m, dof, 0, 0, 0)
         floats[3 * k:3 * k + 3] = (np.inf, 0.0, 0.0)
         if m and dof:
             Ak = np.ascontiguousarray(A[rows[k, 0]:rows[k, 1], :nv])
@@ -507,14 +551,14 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
             hint_record(hints, calls, m, dof, path, route)
             x_next = packed[dof:dof + nv]
             r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r_at)
-            ints[5 * L + k + 1] = r_at
+            ints[LEVEL_INTS * L + k + 1] = r_at
             calls += 1
             if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
                 return k, x, Z, identity, ints, floats, packed, Z_next
             x = x_next
             Z = Z_next
             identity = False
-        ints[5 * L + k + 1] = r_at
+        ints[LEVEL_INTS * L + k + 1] = r_at
     return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
 
 
@@ -640,7 +684,7 @@ def nnls_on_support(A, b, previous, rel_tol, abs_tol):
         lwork = 64 * k
         work = np.empty(lwork)
         iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
-        _dgeqrf(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
+        dgeqrf(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
                 iw[3:].ctypes, iw[4:].ctypes)
         if iw[4] != 0:
             return False, lam
@@ -720,5 +764,6 @@ def prepare() -> None:
     higher_rows(A, -b, b, x, Z, False, 1.0)
     higher_rows(A, -b, b, x, np.empty((0, 0)), True, 1.0)
     least_squares_objective(A, b, 1e-6)
+    certified_active_set(np.eye(n), np.ones(n), A, -b, b, 1e-7)
     damping_lambda2(1e-4, 1e-3, 1e-2)
     _PREPARED[0] = True

@@ -162,7 +162,7 @@ class RecursiveProjection:
         if len(out[6]):                 # a joint limit in the way: the step taken there, in q̈ rows
             r0, r1 = rows[stop]
             stop_rows = (np.ascontiguousarray(buf.A[r0:r1, :nv]), buf.b[r0:r1])
-        return adopt_prefix(levels, cas, infos, 0, *out, stop_rows=stop_rows)
+        return adopt_prefix(levels, cas, infos, 0, *out, stop_rows=stop_rows)[:2]
 
     def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool, step=None):
         """One level with Saturation in the Null Space, then task scaling if needed.
