@@ -151,6 +151,8 @@ class HierarchicalQP:
                 stop, pending, certified = self._compiled_prefix(levels, cas, dampings, infos, k)
                 stop = max(stop, k)
                 qp_count += certified
+                if stop == n_levels:
+                    break
                 for lvl in levels[k:stop]:
                     C, lo, hi = lvl.inequalities(nx)
                     if len(lo):
@@ -158,8 +160,6 @@ class HierarchicalQP:
                         acc_lo.append(lo)
                         acc_hi.append(hi)
                 k = stop
-                if k == n_levels:
-                    break
             lvl = levels[k]
             k += 1
             info = LevelInfo(lvl.index, dof_before=cas.dof)
