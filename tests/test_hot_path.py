@@ -384,6 +384,12 @@ def test_active_set_guess_is_certified_only_at_the_qp_optimum():
         held.add(int(np.sum((np.abs(y - hi) < 1e-9) | (np.abs(y - lo) < 1e-9))))
     print(f"\n{certified} certified ({sorted(held)} rows held), {refused} refused")
     assert certified > 80 and refused > 50 and max(held) >= 2
+    # nothing is certified from non-finite data or an H that is not positive definite
+    eye, g, lo, hi = np.eye(2), np.array([3.0, 1.0]), -np.ones(2), np.ones(2)
+    assert certified_active_set(eye, g, eye, lo, hi, 1e-9)[0]
+    assert not certified_active_set(eye, np.array([np.nan, 1.0]), eye, lo, hi, 1e-9)[0]
+    assert not certified_active_set(eye, g, np.array([[np.nan, 1.0], [0.0, 1.0]]), lo, hi, 1e-9)[0]
+    assert not certified_active_set(np.array([[1.0, 2.0], [2.0, 1.0]]), g, eye, lo, hi, 1e-9)[0]
 
 
 @pytest.mark.parametrize("solver", ["hqp", "projection"])

@@ -62,6 +62,8 @@ def certified_active_set(H, g, C, lo, hi, tol):
         return False, none
     Ui = np.ascontiguousarray(U)                  # H⁻¹ = U⁻¹U⁻ᵀ
     z0 = -(Ui @ (Ui.T @ g))
+    if not np.all(np.isfinite(z0)):
+        return False, none
     y = C @ z0
     side = np.zeros(m, dtype=np.int64)
     nw = 0
@@ -72,6 +74,8 @@ def certified_active_set(H, g, C, lo, hi, tol):
         elif y[i] < lo[i] - tol:
             side[i] = -1
             nw += 1
+        elif not y[i] == y[i]:
+            return False, none
     if nw == 0:
         return True, z0
     if nw > k:
@@ -100,7 +104,7 @@ def certified_active_set(H, g, C, lo, hi, tol):
             return False, none
     y = C @ z
     for i in range(m):
-        if y[i] > hi[i] + tol or y[i] < lo[i] - tol:
+        if not (lo[i] - tol <= y[i] <= hi[i] + tol):     # NaN fails too
             return False, none
     return True, z
 
