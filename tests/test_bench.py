@@ -40,8 +40,10 @@ def test_tiny_run_reports_every_section():
     assert fl["talos"] == pytest.approx(fl["talos_parts"]["sum"])
     assert fl["talos_parts"]["qp_size"] == {"variables": 50, "equalities": 18, "inequalities": 100}
     assert set(fl["talos_parts"]["daqp_exitflags"]) <= {"1", "2"}   # every floor QP solved
-    assert set(res["placo_ms"]) == {"talos_dynamics", "talos_kinematics"}
-    for key, val in res["placo_ms"].items():                    # a number, or reported missing
+    assert set(res["placo_ms"]) == {"talos", "talos_dynamics", "talos_kinematics"}
+    assert res["placo_ms"]["talos"] == res["placo_ms"]["talos_dynamics"]
+    for key in ("talos_dynamics", "talos_kinematics"):          # a number, or reported missing
+        val = res["placo_ms"][key]
         assert (val is not None and val > 0) or "missing" in res["placo"][key]
     sl = res["sim_loop"]                                        # the closed loop, both solvers
     for solver in ("hqp", "projection"):

@@ -392,6 +392,59 @@ def test_active_set_guess_is_certified_only_at_the_qp_optimum():
     assert not certified_active_set(np.array([[1.0, 2.0], [2.0, 1.0]]), g, eye, lo, hi, 1e-9)[0]
 
 
+def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
+    """The projection solver's compiled levels (``projection_prefix``) take the steps of
+    its Python SNS loop (``_sns_level``): the same saturated joints in the same order, the
+    same task scaling, ranks, point, step count and route hints, on random levels and
+    joint-acceleration boxes."""
+    from types import SimpleNamespace
+
+    from wbc.solvers.cascade import GRAM_MIN_RATIO, NO_DAMPING
+    from wbc.solvers.hqp import LevelInfo, adopt_prefix
+    from wbc.solvers.projection import RecursiveProjection
+
+    solver = RecursiveProjection()
+    d = solver.damping
+    rng = np.random.default_rng(7)
+    saturations = scaled = 0
+    for trial in range(1000):
+        # one-row levels (half the trials) make refused saturations, hence scaling, common
+        nv, L = int(rng.integers(5, 10)), int(rng.integers(2, 5))
+        ms = rng.integers(1, 2 if trial % 2 else 4, L)
+        A = rng.standard_normal((int(ms.sum()), nv))
+        b = 3.0 * rng.standard_normal(int(ms.sum()))
+        ends = np.cumsum(ms)
+        rows = np.stack([ends - ms, ends], axis=1).astype(np.int64)
+        idx = np.arange(nv, dtype=np.int64)
+        lo = rng.uniform(-1.0, 0.0, nv)
+        hi = lo + rng.uniform(0.5, 2.0, nv)
+        x0 = np.clip(np.zeros(nv), lo, hi)
+        tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * L).T.copy()
+        hints_c, hints_p = level_kernel.hint_table(), level_kernel.hint_table()
+        out = level_kernel.projection_prefix(A, b, rows, nv, x0, idx, lo, hi, hints_c, tols[0], tols[1], tols[2],
+                                             GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol)
+        fast, cas_c = [], Cascade(nv, hints_c)
+        levels = [SimpleNamespace(index=k) for k in range(L)]
+        assert adopt_prefix(levels, cas_c, fast, 0, *out)[0] == L
+        cas = Cascade(nv, hints_p)
+        cas.x = x0.copy()
+        for k in range(L):
+            info = LevelInfo(k, dof_before=cas.dof)
+            r0, r1 = rows[k]
+            step = solver._sns_level(cas, A[r0:r1], b[r0:r1], (idx, lo, hi), None, info, scale=k > 0)
+            info.rank = step.rank
+            a = fast[k]
+            assert (a.saturated, a.dof_before, a.rank) == (info.saturated, info.dof_before, info.rank)
+            assert a.scale == pytest.approx(info.scale, rel=1e-12, abs=1e-12)
+            saturations += len(info.saturated)
+            scaled += info.scale < 1.0
+        np.testing.assert_allclose(cas_c.x, cas.x, rtol=0, atol=1e-9 * (1 + np.abs(cas.x).max()))
+        assert cas_c._calls == cas._calls
+        np.testing.assert_array_equal(hints_c, hints_p)
+    print(f"\n{saturations} saturations, {scaled} scaled levels")
+    assert saturations > 1000 and scaled > 40
+
+
 @pytest.mark.parametrize("solver", ["hqp", "projection"])
 def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
     """The compiled prefix (every level that needs no QP, or whose step keeps the joint

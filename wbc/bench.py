@@ -1082,8 +1082,9 @@ def run(cycles: int = 2000, warmup: int = WARMUP, backends=BACKENDS, robots=("ta
             pk = placo_kinematics(talos)
         except Exception as exc:
             pk = {"missing": f"{type(exc).__name__}: {exc}"}
-        res["placo_ms"] = {"talos_dynamics": pd["solve"]["median_ms"] if "solve" in pd else None,
-                           "talos_kinematics": pk.get("solve_median_ms")}
+        dyn = pd["solve"]["median_ms"] if "solve" in pd else None
+        # "talos": the issue's key, the DynamicsSolver on the same stack (the peer of the cases)
+        res["placo_ms"] = {"talos": dyn, "talos_dynamics": dyn, "talos_kinematics": pk.get("solve_median_ms")}
         res["placo"] = {"talos_dynamics": pd, "talos_kinematics": pk}
         for ln in _fmt_placo(pd, pk):
             say(ln)

@@ -35,6 +35,7 @@ from .active_set import certified_active_set
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, Step, singular_values
 from .level_kernel import (
+    LEVEL_FLOATS,
     LEVEL_INTS,
     cascade_prefix,
     higher_rows,
@@ -383,43 +384,44 @@ class HierarchicalQP:
 
 
 def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, stop: int, x, Z, identity: bool,
-                 ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray,
-                 stop_rows: tuple | None = None) -> tuple:
+                 ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
     """Take over what a compiled run of the cascade from level ``start`` did
-    (:func:`~wbc.solvers.level_kernel.cascade_prefix`): a LevelInfo per level it solved
-    appended to ``infos``, its point and basis into ``cas``. Returns (the first level
-    left, the step the kernel took there or None, the QPs it solved by certificate);
-    ``stop_rows``: that level's (A, b) as the kernel saw them (default its own)."""
-    n = (len(ints) - 1) // (LEVEL_INTS + 1)
-    iv, fv = ints.tolist(), floats[:3 * n].tolist()
-    calls = cas._calls
-    qps = 0
+    (:func:`~wbc.solvers.level_kernel.cascade_prefix` or ``projection_prefix``): a
+    LevelInfo per level it solved appended to ``infos``, its point and basis into ``cas``.
+    Returns (the first level left, the step the kernel took there or None, the QPs it
+    solved by certificate)."""
+    n = int(ints[-1])
+    head = LEVEL_INTS * n
+    iv, fv = ints[:head + n + 2].tolist(), floats[:LEVEL_FLOATS * n].tolist()
+    qps, sat_at = 0, head + n + 2
     for k in range(start, min(stop, n)):
-        call, _, dof, _, rank, certified = iv[LEVEL_INTS * k: LEVEL_INTS * k + LEVEL_INTS]
+        call, _, dof, _, rank, certified, saturated = iv[LEVEL_INTS * k: LEVEL_INTS * k + LEVEL_INTS]
         info = LevelInfo(levels[k].index, dof_before=dof)
         if certified:
             info.used_qp, info.qp_status = True, CERTIFIED
             qps += certified
+        if saturated:
+            info.saturated = ints[sat_at:sat_at + saturated].tolist()
+            sat_at += saturated
+        info.scale = fv[LEVEL_FLOATS * k + 3]
         if call >= 0:
-            calls += 1
-            info.rank, info.sigma_min, info.damping = rank, fv[3 * k], fv[3 * k + 2]
-            a, b = iv[LEVEL_INTS * n + k], iv[LEVEL_INTS * n + k + 1]
+            info.rank, info.sigma_min, info.damping = rank, fv[LEVEL_FLOATS * k], fv[LEVEL_FLOATS * k + 2]
+            a, b = iv[head + k], iv[head + k + 1]
             if b > a:
                 mr = round((b - a) ** 0.5)
                 info.R = floats[a:b].reshape(mr, mr)
         infos.append(info)
     step = None
     if len(packed):
-        calls += 1
-        A, b = stop_rows if stop_rows is not None else (levels[stop].A, levels[stop].b)
-        step = Step.unpacked(packed, Z_next, iv[LEVEL_INTS * stop + 4], fv[3 * stop], fv[3 * stop + 1],
-                             fv[3 * stop + 2], A, b, x, None if identity else Z, iv[LEVEL_INTS * stop + 2], True,
-                             iv[LEVEL_INTS * stop + 3])
+        f = LEVEL_FLOATS * stop
+        step = Step.unpacked(packed, Z_next, iv[LEVEL_INTS * stop + 4], fv[f], fv[f + 1], fv[f + 2],
+                             levels[stop].A, levels[stop].b, x, None if identity else Z, iv[LEVEL_INTS * stop + 2],
+                             True, iv[LEVEL_INTS * stop + 3])
     cas.x = x
     if not identity:
         cas.Z = Z
         cas._identity = False
-    cas._calls = calls
+    cas._calls = iv[head + n + 1]
     return stop, step, qps
 
 

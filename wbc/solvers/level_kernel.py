@@ -325,8 +325,9 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     return True, SVD, rank, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), R), Z_next
 
 
-#: entries per level in the ints a compiled run returns (see :func:`cascade_prefix`)
-LEVEL_INTS = 6
+#: entries per level in the ints and floats a compiled run returns (see :func:`cascade_prefix`)
+LEVEL_INTS = 7
+LEVEL_FLOATS = 4
 #: cycles a level goes straight to the route it last needed before its first route is retried
 HINT_RETRY = 50
 
@@ -371,16 +372,40 @@ def hint_record(table, call, m, dof, path, route):
 
 
 @nb.njit(cache=True)
+def _outputs(L, r_size, k0, extra):
+    """(ints, floats) of a compiled run over L levels (layout in :func:`cascade_prefix`),
+    room for ``r_size`` entries of R factors and ``extra`` saturated joints."""
+    ints = np.zeros(LEVEL_INTS * L + L + 3 + extra, dtype=np.int64)
+    floats = np.empty(LEVEL_FLOATS * L + r_size)
+    ints[LEVEL_INTS * L + k0] = LEVEL_FLOATS * L
+    ints[-1] = L
+    return ints, floats
+
+
+@nb.njit(cache=True)
+def _start_level(ints, floats, k, m, dof):
+    """Level k's entries before it is solved: no step, scale 1."""
+    ints[LEVEL_INTS * k:LEVEL_INTS * k + LEVEL_INTS] = (-1, m, dof, 0, 0, 0, 0)
+    floats[LEVEL_FLOATS * k:LEVEL_FLOATS * k + LEVEL_FLOATS] = (np.inf, 0.0, 0.0, 1.0)
+
+
+@nb.njit(cache=True)
 def _record_level(ints, floats, k, call, route, rank, smin, smax, lam2, packed, head, r_at):
     """Level k's entries in the output of :func:`cascade_prefix` (its R factor, the part of
     ``packed`` after z and x̂, at ``r_at``); returns where the next R goes."""
     ints[LEVEL_INTS * k] = call
     ints[LEVEL_INTS * k + 3] = route
     ints[LEVEL_INTS * k + 4] = rank
-    floats[3 * k:3 * k + 3] = (smin, smax, lam2)
+    floats[LEVEL_FLOATS * k:LEVEL_FLOATS * k + 3] = (smin, smax, lam2)
     nr = packed.shape[0] - head
     floats[r_at:r_at + nr] = packed[head:]
     return r_at + nr
+
+
+@nb.njit(cache=True)
+def _set_calls(ints, L, calls):
+    """The run's step count so far (the caller's cascade continues from it)."""
+    ints[LEVEL_INTS * L + L + 1] = calls
 
 
 @nb.njit(cache=True)
@@ -407,33 +432,33 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
 
     Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
     ints, floats, the stop level's step as :func:`level_step` packs it and its next basis
-    (both empty if it took none)): per level k ≤ stop, ints[6k:6k+6] = (call index or −1
-    for no step, rows, free directions before it, route, rank, 1 if its QP was solved
-    by certificate) and floats[3k:3k+3] = (σ_min, σ_max, λ²), then the levels' R factors
-    row by row (ints[6L:] their offsets; σ NaN where R gives them)."""
+    (both empty if it took none)): per level k ≤ stop, ints[7k:7k+7] = (call index of its
+    step or −1 for none, rows, free directions before it, route, rank, QPs solved by
+    certificate, joints saturated) and floats[4k:4k+4] = (σ_min, σ_max, λ², step scale),
+    then the levels' R factors row by row (σ NaN where R gives them); after the levels'
+    ints, the L + 1 offsets of the R factors in floats, the count of steps taken (the
+    caller's cascade goes on from it), the saturated joints level by level, and L last."""
     L = e_end.shape[0]
     n = x0.shape[0]
     x = x0.copy()
     Z = Z0
     identity = identity0
-    ints = np.zeros(LEVEL_INTS * L + L + 1, dtype=np.int64)
     r_size = 0
     e0 = e_end[k0 - 1] if k0 else 0
     for k in range(k0, L):
         m = e_end[k] - e0
         r_size += m * m
         e0 = e_end[k]
-    floats = np.empty(3 * L + r_size)
-    r_at = 3 * L
-    ints[LEVEL_INTS * L + k0] = r_at
+    ints, floats = _outputs(L, r_size, k0, 0)
+    r_at = LEVEL_FLOATS * L
     calls = calls0
+    _set_calls(ints, L, calls)
     e0 = e_end[k0 - 1] if k0 else 0
     for k in range(k0, L):
         i0 = i_end[k - 1] if k else 0
         m = e_end[k] - e0
         dof = n if identity else Z.shape[1]
-        ints[LEVEL_INTS * k:LEVEL_INTS * k + LEVEL_INTS] = (-1, m, dof, 0, 0, 0)
-        floats[3 * k:3 * k + 3] = (np.inf, 0.0, 0.0)
+        _start_level(ints, floats, k, m, dof)
         x_next = x
         if m and dof:
             Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
@@ -445,6 +470,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
             r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
             ints[LEVEL_INTS * L + k + 1] = r_at
             calls += 1
+            _set_calls(ints, L, calls)
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
                 if not certify:
                     return k, x, Z, identity, ints, floats, packed, Z_next
@@ -480,6 +506,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
         else:
             x = x_next
         e0 = e_end[k]
+    _set_calls(ints, L, calls)
     return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
 
 
@@ -511,54 +538,124 @@ def _nearest_feasible(C, lo, hi, i0, i1, x, Z, identity, margin, tol):
 
 @nb.njit(cache=True)
 def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, threshold, max_damping,
-                      gram_min_ratio, box_tol):
-    """The projection solver's levels in q̈, one after the other, for as long as each
-    level's step keeps every joint limit (the common case of its saturation in the null
-    space, see :meth:`~wbc.solvers.projection.RecursiveProjection.solve_accelerations`).
+                      gram_min_ratio, box_tol, saturation_rank_tol):
+    """The projection solver's levels in q̈, one after the other, each with Saturation in
+    the Null Space where a joint limit is in the way (the steps of
+    :meth:`~wbc.solvers.projection.RecursiveProjection._sns_level`, identity weighting).
 
     Level k's motion rows are rows [rows[k, 0], rows[k, 1]) of (A[:, :nv], b), or none
     when rows[k, 0] = −1 (a level of force-only tasks: no step); rows[k, 0] = −2 (rows not
     in one block) stops there. A level's step is kept when no box bound (b_idx, b_lo,
-    b_hi) is violated more than before by ``box_tol``; the first level where one is,
-    is where the caller takes over, with the step taken there. Returns as
-    :func:`cascade_prefix`."""
+    b_hi) is violated more than before by ``box_tol``. Otherwise the joint whose
+    violation would grow most is moved to the bound it crosses by a step of its own
+    (a unit row, undamped, rank tolerance ``saturation_rank_tol``), kept if it makes no
+    bound worse, and the level is solved again in what is left; when no joint is left to
+    saturate, the step is scaled by the largest s ∈ [0, 1] that keeps every bound (level 0
+    is never scaled). Returns as :func:`cascade_prefix` (the stop level, if any, with no
+    step taken there)."""
     L = rows.shape[0]
+    nb = b_idx.shape[0]
     x = x0.copy()
     Z = np.empty((0, 0))
     identity = True
-    ints = np.zeros(LEVEL_INTS * L + L + 1, dtype=np.int64)
     r_size = 0
     for k in range(L):
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         r_size += m * m
-    floats = np.empty(3 * L + r_size)
-    r_at = 3 * L
-    ints[LEVEL_INTS * L] = r_at
+    ints, floats = _outputs(L, r_size, 0, L * nb)
+    r_at = LEVEL_FLOATS * L
+    sat_at = LEVEL_INTS * L + L + 2
     calls = 0
+    _set_calls(ints, L, calls)
+    unit = np.zeros((1, nv))
+    target = np.zeros(1)
+    blocked = np.zeros(nb, dtype=np.bool_)
     for k in range(L):
         if rows[k, 0] == -2:
             return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         dof = nv if identity else Z.shape[1]
-        ints[LEVEL_INTS * k:LEVEL_INTS * k + LEVEL_INTS] = (-1, m, dof, 0, 0, 0)
-        floats[3 * k:3 * k + 3] = (np.inf, 0.0, 0.0)
+        _start_level(ints, floats, k, m, dof)
+        r0 = r_at
         if m and dof:
             Ak = np.ascontiguousarray(A[rows[k, 0]:rows[k, 1], :nv])
-            path = hint_route(hints, calls, m, dof)
-            _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
-                Ak, b[rows[k, 0]:rows[k, 1]], x, Z, identity, path, False, rank_tol[k], threshold[k],
-                max_damping[k], gram_min_ratio)
-            hint_record(hints, calls, m, dof, path, route)
-            x_next = packed[dof:dof + nv]
-            r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r_at)
-            ints[LEVEL_INTS * L + k + 1] = r_at
-            calls += 1
-            if b_idx.shape[0] and box_excess_max(x, x_next, b_idx, b_lo, b_hi) > box_tol:
-                return k, x, Z, identity, ints, floats, packed, Z_next
-            x = x_next
-            Z = Z_next
-            identity = False
+            bk = b[rows[k, 0]:rows[k, 1]]
+            blocked[:] = False
+            while True:
+                # the level's step in what is left (after any saturation of this level)
+                dof = nv if identity else Z.shape[1]
+                if dof == 0:                 # nothing left: no step, nothing changes
+                    ints[LEVEL_INTS * k] = -1
+                    ints[LEVEL_INTS * k + 4] = 0
+                    floats[LEVEL_FLOATS * k:LEVEL_FLOATS * k + 3] = (np.inf, 0.0, 0.0)
+                    r_at = r0
+                    break
+                path = hint_route(hints, calls, m, dof)
+                _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
+                    Ak, bk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
+                hint_record(hints, calls, m, dof, path, route)
+                x_next = packed[dof:dof + nv]
+                r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r0)
+                calls += 1
+                if not nb or box_excess_max(x, x_next, b_idx, b_lo, b_hi) <= box_tol:
+                    x, Z, identity = x_next, Z_next, False
+                    break
+                # the joint whose violation would grow most, not saturated yet in this level
+                j = -1
+                worst = -np.inf
+                for i in range(nb):
+                    if blocked[i]:
+                        continue
+                    a, c = x[b_idx[i]], x_next[b_idx[i]]
+                    grow = (max(b_lo[i] - c, 0.0) + max(c - b_hi[i], 0.0)) - (max(b_lo[i] - a, 0.0)
+                                                                             + max(a - b_hi[i], 0.0))
+                    if grow > worst:
+                        worst, j = grow, i
+                if j < 0 or worst <= box_tol:
+                    # no saturation left that helps: scale the step (not level 0's)
+                    s = 1.0
+                    if k > 0:
+                        for i in range(nb):
+                            a = x[b_idx[i]]
+                            d = x_next[b_idx[i]] - a
+                            if d > 0:
+                                s = min(s, (max(b_hi[i], a) - a) / d)
+                            elif d < 0:
+                                s = min(s, (min(b_lo[i], a) - a) / d)
+                        s = min(max(s, 0.0), 1.0)
+                        floats[LEVEL_FLOATS * k + 3] = s
+                        z = packed[:dof] * s
+                        x = x + (z if identity else Z @ z)
+                    else:
+                        x = x_next
+                    Z, identity = Z_next, False
+                    break
+                blocked[j] = True
+                c = x_next[b_idx[j]]
+                target[0] = b_lo[j] if c < b_lo[j] else b_hi[j]
+                unit[0, :] = 0.0
+                unit[0, b_idx[j]] = 1.0
+                path = hint_route(hints, calls, 1, dof)
+                _, route, rank, _, _, _, sat, Z_sat = level_step(
+                    unit, target, x, Z, identity, path, False, saturation_rank_tol, 0.0, 0.0, gram_min_ratio)
+                hint_record(hints, calls, 1, dof, path, route)
+                calls += 1
+                if rank:
+                    x_sat = sat[dof:dof + nv]
+                    keeps = True
+                    for i in range(nb):
+                        a, c = x[b_idx[i]], x_sat[b_idx[i]]
+                        if (max(b_lo[i] - c, 0.0) + max(c - b_hi[i], 0.0)) > \
+                                (max(b_lo[i] - a, 0.0) + max(a - b_hi[i], 0.0)) + box_tol:
+                            keeps = False
+                            break
+                    if keeps:
+                        x, Z, identity = x_sat, Z_sat, False
+                        ints[sat_at] = b_idx[j]
+                        sat_at += 1
+                        ints[LEVEL_INTS * k + 6] += 1
         ints[LEVEL_INTS * L + k + 1] = r_at
+        _set_calls(ints, L, calls)
     return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
 
 

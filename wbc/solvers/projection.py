@@ -112,9 +112,9 @@ class RecursiveProjection:
             cas.x = x0 if T is None else L.T @ x0
         box = (b_idx, b_lo, b_hi)
         infos = []
-        start, pending = 0, None
+        start = 0
         if T is None and self.compiled:
-            start, pending = self._compiled_prefix(levels, cas, box, infos, nv)
+            start = self._compiled_prefix(levels, cas, box, infos, nv)
         for lvl in levels[start:]:
             info = LevelInfo(lvl.index, dof_before=cas.dof)
             rows = self._motion_rows(lvl)
@@ -123,21 +123,20 @@ class RecursiveProjection:
                 continue
             A = lvl.A[rows, :nv]
             Ay = A if T is None else A @ T
-            step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0, step=pending)
-            pending = None
+            step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
             info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             infos.append(info)
         return CascadeResult(cas.x if T is None else T @ cas.x, infos)
 
-    def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> tuple:
-        """The leading levels that come straight from the stack's row buffer, in one call of
-        :func:`~wbc.solvers.level_kernel.projection_prefix` for as long as no joint limit
-        is in the way (the loop of :meth:`solve_accelerations` without the interpreter);
-        fills ``infos`` and ``cas``; returns (the index of the first level left, the step
-        taken there or None)."""
+    def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> int:
+        """The leading levels that come straight from the stack's row buffer, joint-limit
+        saturations included, in one call of
+        :func:`~wbc.solvers.level_kernel.projection_prefix` (the loop of
+        :meth:`solve_accelerations` without the interpreter); fills ``infos`` and ``cas``;
+        returns the index of the first level left."""
         buf, n = buffered_prefix(levels)
         if n == 0:
-            return 0, None
+            return 0
         d = self.damping
         key = (n, d.rank_tol, d.threshold, d.max_damping)
         got = self._prefix
@@ -156,28 +155,22 @@ class RecursiveProjection:
         _, _, rows, tols = got
         b_idx, b_lo, b_hi = box
         out = projection_prefix(buf.A, buf.b, rows, nv, cas.x, b_idx, b_lo, b_hi, self._hints, tols[0], tols[1],
-                                tols[2], GRAM_MIN_RATIO, self.box_tol)
-        stop = out[0]
-        stop_rows = None
-        if len(out[6]):                 # a joint limit in the way: the step taken there, in q̈ rows
-            r0, r1 = rows[stop]
-            stop_rows = (np.ascontiguousarray(buf.A[r0:r1, :nv]), buf.b[r0:r1])
-        return adopt_prefix(levels, cas, infos, 0, *out, stop_rows=stop_rows)[:2]
+                                tols[2], GRAM_MIN_RATIO, self.box_tol, NO_DAMPING.rank_tol)
+        return adopt_prefix(levels, cas, infos, 0, *out)[0]
 
-    def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool, step=None):
+    def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
         """One level with Saturation in the Null Space, then task scaling if needed.
 
         Invariant: no joint's box violation grows (x̂ starts inside the box, so it
         stays inside). A saturation is accepted only if it keeps that invariant;
         when no saturation helps any more, the level's step is scaled by the largest
         s ∈ [0, 1] that keeps it (Flacco et al.'s task scaling). Level 0 is never
-        scaled: its equalities (contacts) come first, as in the HQP. ``step``: the level's
-        least-squares step if already taken (by the compiled prefix).
+        scaled: its equalities (contacts) come first, as in the HQP. (Compiled, for the
+        identity weighting: :func:`~wbc.solvers.level_kernel.projection_prefix`.)
         """
         b_idx, b_lo, b_hi = box
         tol = self.box_tol
-        if step is None:
-            step = cas.ls_step(Ay, b, self.damping)
+        step = cas.ls_step(Ay, b, self.damping)
         if not len(b_idx) or (T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol):
             cas.commit(step)            # the common case: no joint limit in the way
             return step
