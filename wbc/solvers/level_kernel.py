@@ -95,7 +95,7 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
     if ki[2] == 0:
         Uinv = U.copy().T.copy().T               # Fortran-order copy
         dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
-                ki[2:].ctypes)
+               ki[2:].ctypes)
         if ki[2] == 0:
             ub2 = np.sum(AZ * AZ)                # ≥ σ_max²
             lb2 = 1.0 / np.sum(Uinv * Uinv)      # ≤ σ_min²
@@ -121,7 +121,7 @@ def _qr(AZ, r, rank_tol, threshold):
     work = np.empty(lwork)
     iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
     dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
-            iw[3:].ctypes, iw[4:].ctypes)
+           iw[3:].ctypes, iw[4:].ctypes)
     R = np.zeros((m, m))
     Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
     if iw[4] != 0:
@@ -132,7 +132,7 @@ def _qr(AZ, r, rank_tol, threshold):
             Rinv[i, j] = Q[i, j]
     mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
-            mi[2:].ctypes)
+           mi[2:].ctypes)
     if mi[2] != 0:
         return False, np.empty(0), np.empty((0, 0)), R
     ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
@@ -148,8 +148,8 @@ def _qr(AZ, r, rank_tol, threshold):
         null[m + j, j] = 1.0
     io = np.array([nm, k, m, k, nm, lwork, 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
     dormqr(SIDE_TRANS[0:].ctypes, SIDE_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
-            Q.ctypes, io[3:].ctypes, tau.ctypes, null.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
-            io[6:].ctypes)
+           Q.ctypes, io[3:].ctypes, tau.ctypes, null.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
+           io[6:].ctypes)
     if io[6] != 0:
         return False, np.empty(0), np.empty((0, 0)), R
     z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
@@ -178,7 +178,7 @@ def _cod(AZ, r, rank_tol, threshold):
     iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
     fail = (False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0)))
     dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
-            iw[3:].ctypes, iw[4:].ctypes)
+           iw[3:].ctypes, iw[4:].ctypes)
     if iw[4] != 0:
         return fail
     colmax = 0.0
@@ -206,7 +206,7 @@ def _cod(AZ, r, rank_tol, threshold):
     tau2 = np.empty(rho)
     iw2 = np.array([k, rho, k, lwork, 0, k], dtype=np.int32)
     dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
-            iw2[3:].ctypes, iw2[4:].ctypes)
+           iw2[3:].ctypes, iw2[4:].ctypes)
     if iw2[4] != 0:
         return fail
     Tinv = np.zeros((rho, rho)).T
@@ -217,7 +217,7 @@ def _cod(AZ, r, rank_tol, threshold):
             T[i, j] = W[i, j]
     ti = np.array([rho, rho, 0], dtype=np.int32)
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
-            ti[2:].ctypes)
+           ti[2:].ctypes)
     if ti[2] != 0:
         return fail
     lb = 1.0 / np.sqrt(np.sum(Tinv * Tinv)) - e
@@ -227,7 +227,7 @@ def _cod(AZ, r, rank_tol, threshold):
     c = r.copy()
     _apply_reflectors(a, tau, rho, c, True)
     dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
-            work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
+           work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
     if iw2[4] != 0:
         return fail
     y = Tinv.T @ c[:rho]
@@ -782,7 +782,7 @@ def nnls_on_support(A, b, previous, rel_tol, abs_tol):
         work = np.empty(lwork)
         iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
         dgeqrf(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
-                iw[3:].ctypes, iw[4:].ctypes)
+               iw[3:].ctypes, iw[4:].ctypes)
         if iw[4] != 0:
             return False, lam
         y = b.copy()
