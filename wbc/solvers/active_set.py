@@ -74,7 +74,7 @@ def certified_active_set(H, g, C, lo, hi, tol):
         elif y[i] < lo[i] - tol:
             side[i] = -1
             nw += 1
-        elif not y[i] == y[i]:
+        elif y[i] != y[i]:                          # NaN
             return False, none
     if nw == 0:
         return True, z0

@@ -42,6 +42,7 @@ from .level_kernel import (
     hint_table,
     least_squares_objective,
     max_violation,
+    nearest_feasible_rows,
 )
 
 #: ``LevelInfo.qp_status`` of a level whose QP was solved by its KKT certificate
@@ -253,17 +254,12 @@ class HierarchicalQP:
         of lower levels rarely need a QP. Returns (None, status) when the rows cannot
         all hold even untightened."""
         r = cas.dof
-        Cl = C @ cas.Z
-        y = C @ cas.x
-        d = np.minimum(self.margin, 0.25 * (hi - lo))
+        H, g = np.eye(r), np.zeros(r)
+        Ca, la, ha = _stacked(acc_C, acc_lo, acc_hi, len(cas.x))
+        Z, identity = cas.kernel_basis()
         for tighten in ((True, False) if self.margin > 0 else (False,)):
-            rows, los, his = [Cl], [lo - y + (d if tighten else 0.0)], [hi - y - (d if tighten else 0.0)]
-            if acc_C:
-                Cr, lr, hr = self._higher_rows(cas, acc_C, acc_lo, acc_hi)
-                rows.append(Cr)
-                los.append(lr)
-                his.append(hr)
-            H, g, Cq, lq, hq = np.eye(r), np.zeros(r), np.vstack(rows), np.concatenate(los), np.concatenate(his)
+            Cq, lq, hq = nearest_feasible_rows(np.ascontiguousarray(C), lo, hi, Ca, la, ha, cas.x, Z, identity,
+                                               self.margin, tighten)
             if self.certify:
                 ok, z = certified_active_set(H, g, Cq, lq, hq, self.tol)
                 if ok:
@@ -277,12 +273,9 @@ class HierarchicalQP:
         """Higher levels' inequality rows in z; z = 0 stays feasible (a row at, or a hair
         past, its bound stays there). Rows Z has no say on are dropped. Rows with room
         keep ``margin`` of it, so the solution stays off the limits where it can."""
-        if len(acc_C) == 1:
-            Ca, la, ha = acc_C[0], acc_lo[0], acc_hi[0]
-        else:
-            Ca, la, ha = np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
+        Ca, la, ha = _stacked(acc_C, acc_lo, acc_hi, len(cas.x))
         Z, identity = cas.kernel_basis()
-        return higher_rows(np.ascontiguousarray(Ca), la, ha, cas.x, Z, identity, self.margin)
+        return higher_rows(Ca, la, ha, cas.x, Z, identity, self.margin)
 
     def _fallback(self) -> Backend:
         if getattr(self, "_fb", None) is None:
@@ -423,6 +416,15 @@ def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, sto
         cas._identity = False
     cas._calls = iv[head + n + 1]
     return stop, step, qps
+
+
+def _stacked(acc_C, acc_lo, acc_hi, nx: int) -> tuple:
+    """The higher levels' inequality blocks as one (C, lo, hi), C contiguous."""
+    if not acc_C:
+        return np.zeros((0, nx)), np.zeros(0), np.zeros(0)
+    if len(acc_C) == 1:
+        return np.ascontiguousarray(acc_C[0]), acc_lo[0], acc_hi[0]
+    return np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
 
 
 def _violated(Cs, los, his, x, tol: float) -> bool:

@@ -287,9 +287,14 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     and σ_max are then NaN and come from R on demand. Empty for the SVD route and the
     GRAM route's eigen branch (σ given). Non-finite rows give a NaN step, never an
     exception: the controller reports the cycle as failed."""
+    return step_from(A if identity else A @ Z, b - A @ x, x, Z, identity, path, strict, rank_tol, threshold,
+                     max_damping, gram_min_ratio)
+
+
+@nb.njit(cache=True)
+def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damping, gram_min_ratio):
+    """:func:`level_step` from AZ and r = b − A x̂ already formed."""
     n = x.shape[0]
-    AZ = A if identity else A @ Z
-    r = b - A @ x
     m, k = AZ.shape
     R = np.empty((0, 0))
     none = np.empty((n, 0))
@@ -461,10 +466,12 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
         _start_level(ints, floats, k, m, dof)
         x_next = x
         if m and dof:
-            Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
+            Ak = A[e0:e_end[k]]
+            AZ = Ak if identity else Ak @ Z
+            rk = b[e0:e_end[k]] - Ak @ x
             path = hint_route(hints, calls, m, dof)
-            _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
-                Ak, bk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
+            _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
+                AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
             x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
             r_at = _record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
@@ -474,8 +481,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
                 if not certify:
                     return k, x, Z, identity, ints, floats, packed, Z_next
-                AZ = Ak if identity else Ak @ Z
-                H, g = least_squares_objective(AZ, bk - Ak @ x, regularization)
+                H, g = least_squares_objective(AZ, rk, regularization)
                 Cz, lz, hz = higher_rows(C[:i0], lo[:i0], hi[:i0], x, Z, identity, margin)
                 ok, z = certified_active_set(H, g, Cz, lz, hz, tol)
                 if not ok:
@@ -488,8 +494,10 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
             ok = False
             if certify:
                 stepped = m > 0 and dof > 0
-                ok, z = _nearest_feasible(C, lo, hi, i0, i_end[k], x_next, Z_next if stepped else Z,
-                                          identity and not stepped, margin, tol)
+                Cq, lq, hq = nearest_feasible_rows(C[i0:i_end[k]], lo[i0:i_end[k]], hi[i0:i_end[k]], C[:i0],
+                                                   lo[:i0], hi[:i0], x_next, Z_next if stepped else Z,
+                                                   identity and not stepped, margin, True)
+                ok, z = certified_active_set(np.eye(Cq.shape[1]), np.zeros(Cq.shape[1]), Cq, lq, hq, tol)
             if not ok:
                 ints[LEVEL_INTS * k + 5] = 0       # the caller solves the whole level
                 if m and dof:
@@ -511,29 +519,28 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
 
 
 @nb.njit(cache=True)
-def _nearest_feasible(C, lo, hi, i0, i1, x, Z, identity, margin, tol):
-    """(certified, z) of the hierarchical solver's inequality sub-level (its
-    ``_nearest_feasible``, first pass): min ½‖z‖² s.t. the level's rows [i0, i1) of
-    l ≤ C(x + Z z) ≤ u, each tightened by min(``margin``, ¼ of its range), and the higher
-    rows [0, i0) as :func:`higher_rows` gives them, by :func:`certified_active_set`."""
-    Co = C[i0:i1]
+def nearest_feasible_rows(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, margin, tighten):
+    """The rows, in z, of the hierarchical solver's inequality sub-level
+    min ½‖z‖² s.t. l ≤ C_o(x + Z z) ≤ u (the level's own rows, each tightened by
+    min(``margin``, ¼ of its range) when ``tighten``) and the higher rows (C_h, as
+    :func:`higher_rows` gives them): (C, lo, hi) stacked, own rows first."""
     Cl = Co if identity else Co @ Z
     y = Co @ x
     k = Cl.shape[1]
-    Ch, lh, hh = higher_rows(C[:i0], lo[:i0], hi[:i0], x, Z, identity, margin)
-    mo, mh = Cl.shape[0], Ch.shape[0]
+    Cr, lr, hr = higher_rows(Ch, lo_h, hi_h, x, Z, identity, margin)
+    mo, mh = Cl.shape[0], Cr.shape[0]
     Cq = np.empty((mo + mh, k))
     lq = np.empty(mo + mh)
     hq = np.empty(mo + mh)
     Cq[:mo] = Cl
-    Cq[mo:] = Ch
+    Cq[mo:] = Cr
     for i in range(mo):
-        d = min(margin, 0.25 * (hi[i0 + i] - lo[i0 + i]))
-        lq[i] = lo[i0 + i] - y[i] + d
-        hq[i] = hi[i0 + i] - y[i] - d
-    lq[mo:] = lh
-    hq[mo:] = hh
-    return certified_active_set(np.eye(k), np.zeros(k), Cq, lq, hq, tol)
+        d = min(margin, 0.25 * (hi_o[i] - lo_o[i])) if tighten else 0.0
+        lq[i] = lo_o[i] - y[i] + d
+        hq[i] = hi_o[i] - y[i] - d
+    lq[mo:] = lr
+    hq[mo:] = hr
+    return Cq, lq, hq
 
 
 @nb.njit(cache=True)
@@ -606,9 +613,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                 for i in range(nb):
                     if blocked[i]:
                         continue
-                    a, c = x[b_idx[i]], x_next[b_idx[i]]
-                    grow = (max(b_lo[i] - c, 0.0) + max(c - b_hi[i], 0.0)) - (max(b_lo[i] - a, 0.0)
-                                                                             + max(a - b_hi[i], 0.0))
+                    grow = (_box_violation(x_next[b_idx[i]], b_lo[i], b_hi[i])
+                            - _box_violation(x[b_idx[i]], b_lo[i], b_hi[i]))
                     if grow > worst:
                         worst, j = grow, i
                 if j < 0 or worst <= box_tol:
@@ -644,9 +650,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                     x_sat = sat[dof:dof + nv]
                     keeps = True
                     for i in range(nb):
-                        a, c = x[b_idx[i]], x_sat[b_idx[i]]
-                        if (max(b_lo[i] - c, 0.0) + max(c - b_hi[i], 0.0)) > \
-                                (max(b_lo[i] - a, 0.0) + max(a - b_hi[i], 0.0)) + box_tol:
+                        if _box_violation(x_sat[b_idx[i]], b_lo[i], b_hi[i]) > \
+                                _box_violation(x[b_idx[i]], b_lo[i], b_hi[i]) + box_tol:
                             keeps = False
                             break
                     if keeps:
@@ -673,15 +678,19 @@ def max_violation(C, lo, hi, x) -> float:
 
 
 @nb.njit(cache=True)
+def _box_violation(q, lo, hi):
+    """How far q is outside [lo, hi] (0 inside)."""
+    return max(lo - q, 0.0) + max(q - hi, 0.0)
+
+
+@nb.njit(cache=True)
 def box_excess_max(x, x_new, idx, lo, hi) -> float:
     """max_i of how much more q[idx_i] violates lo_i ≤ q ≤ hi_i at x_new than at x (−inf
     for no bounds): the projection solver's test that a step keeps every joint limit."""
     worst = -np.inf
     for i in range(idx.shape[0]):
-        a, c = x[idx[i]], x_new[idx[i]]
-        over_a = max(lo[i] - a, 0.0) + max(a - hi[i], 0.0)
-        over_c = max(lo[i] - c, 0.0) + max(c - hi[i], 0.0)
-        worst = max(worst, over_c - over_a)
+        grow = _box_violation(x_new[idx[i]], lo[i], hi[i]) - _box_violation(x[idx[i]], lo[i], hi[i])
+        worst = max(worst, grow)
     return worst
 
 
@@ -860,6 +869,7 @@ def prepare() -> None:
     max_violation(A, -b, b, x)
     higher_rows(A, -b, b, x, Z, False, 1.0)
     higher_rows(A, -b, b, x, np.empty((0, 0)), True, 1.0)
+    nearest_feasible_rows(A, -b, b, A, -b, b, x, Z, False, 1.0, True)
     least_squares_objective(A, b, 1e-6)
     certified_active_set(np.eye(n), np.ones(n), A, -b, b, 1e-7)
     damping_lambda2(1e-4, 1e-3, 1e-2)
