@@ -11,7 +11,7 @@ import pytest
 from wbc.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
-OWN = ("run", "plot", "validate", "robots", "tasks")      # `bench` documents itself (wbc/bench.py)
+OWN = ("run", "plot", "validate", "examples", "robots", "tasks")      # `bench` documents itself (wbc/bench.py)
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -71,3 +71,23 @@ def test_tasks_lists_parameters_with_units(capsys):
     assert main(["tasks"]) == 0
     out = capsys.readouterr().out
     assert "kp = 100.0" in out and "1/s²" in out and "fmin = 0.0" in out and ", N" in out
+
+
+def test_bundled_scenario_runs_by_name_from_any_directory(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)                            # no tasks/ folder here
+    assert main(["validate", "talos_balance"]) == 0
+    assert main(["run", "talos_balance", "--headless", "--duration", "0.02"]) == 0
+    assert main(["validate", "no_such_scenario"]) == 2
+    err = capsys.readouterr().err
+    assert "no_such_scenario" in err and "talos_balance" in err   # names the choices
+
+
+def test_examples_lists_and_copies_the_bundled_scenarios(tmp_path, capsys):
+    from wbc.examples import available_scenarios
+
+    assert main(["examples"]) == 0
+    assert all(name in capsys.readouterr().out for name in available_scenarios())
+    assert main(["examples", str(tmp_path / "mine")]) == 0
+    copied = sorted(p.stem for p in (tmp_path / "mine").glob("*.yaml"))
+    assert copied == available_scenarios() and "talos_balance" in copied
+    assert main(["validate", str(tmp_path / "mine" / "talos_balance.yaml")]) == 0

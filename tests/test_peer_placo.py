@@ -12,7 +12,8 @@ import wbc
 from wbc.robots import package_share_dir
 from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture
 
-placo_peer = pytest.importorskip("tests.placo_peer", reason="PlaCo is in the [dev] extras")
+pytest.importorskip("placo", reason="PlaCo is an optional peer: the [peers] extra, installable with pinocchio 3.8 only")
+from wbc import placo_peer  # noqa: E402  (needs placo)
 
 
 @pytest.mark.parametrize("offset", [(0.10, 0.0, 0.10), (0.05, -0.10, -0.05)])

@@ -18,7 +18,7 @@ Measures only; nothing here changes how the controller solves.
   single weighted QP, level 0 as constraints: 50 variables, 18 equality and 100 inequality
   rows).
 - **Peer**: PlaCo's ``DynamicsSolver`` on Talos with comparable tasks, and PlaCo's
-  ``KinematicsSolver`` on the IK problem of ``tests/placo_peer.py``.
+  ``KinematicsSolver`` on the IK problem of ``wbc/placo_peer.py``.
 - **Scaling**: cycle time against nv (serial chains built with pinocchio, nv 12 to 156)
   and against the number of levels (Talos, the same tasks split over 1 to 10 levels), with
   the log-log exponents, plotted to ``<out-dir>/scaling.png``.
@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import ctypes
-import importlib.util
 import json
 import os
 import platform
@@ -485,9 +484,9 @@ def sim_loop(scenario: str = "talos_balance", duration: float = 3.0, solvers=("h
     from .scenario import load_config
     from .sim.simulator import Simulator
 
-    path = Path(__file__).resolve().parents[1] / "tasks" / f"{scenario}.yaml"
-    if not path.exists():
-        return {"missing": f"{path} not found (the scenarios ship with the repository)"}
+    from .examples import SCENARIOS_DIR
+
+    path = SCENARIOS_DIR / f"{scenario}.yaml"
     out = {"scenario": scenario, "duration_s": duration}
     for solver in solvers:
         sc = load_config(path)
@@ -547,7 +546,8 @@ def _placo_available() -> str | None:
     try:
         import placo  # noqa: F401
     except Exception as exc:  # pragma: no cover - depends on the environment
-        return f"placo not importable ({type(exc).__name__}: {exc})"
+        return (f"placo not importable ({type(exc).__name__}: {exc}); PlaCo is an optional peer "
+                "(pip install 'wbc[peers]', pinocchio 3.8 only)")
     return None
 
 
@@ -644,18 +644,8 @@ def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
     return out
 
 
-def _load_placo_peer():
-    path = Path(__file__).resolve().parent.parent / "tests" / "placo_peer.py"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} (the IK peer problem) not found")
-    spec = importlib.util.spec_from_file_location("_wbc_placo_peer", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def placo_kinematics(robot: RobotModel) -> dict:
-    """PlaCo's KinematicsSolver on the IK problem of ``tests/placo_peer.py`` (feet fixed,
+    """PlaCo's KinematicsSolver on the IK problem of ``wbc/placo_peer.py`` (feet fixed,
     CoM xy over the feet, right hand 10 cm forward and up), median per ``solve`` call."""
     missing = _placo_available()
     if missing:
@@ -663,7 +653,7 @@ def placo_kinematics(robot: RobotModel) -> dict:
     from .robots import package_share_dir
 
     try:
-        peer = _load_placo_peer()
+        from . import placo_peer as peer
     except Exception as exc:
         return {"missing": f"{type(exc).__name__}: {exc}"}
     q0 = robot.q_default.copy()
@@ -932,9 +922,9 @@ def _fmt_placo(pd: dict, pk: dict) -> list[str]:
                      f"median {pd['cycle']['median_ms']:.3f} ms; {pd['success']}/{pd['cycles']} successful; "
                      f"mean CoM error {pd['com_error_mean_mm']:.2f} mm")
     if "missing" in pk:
-        lines.append(f"PlaCo KinematicsSolver (tests/placo_peer.py IK): missing: {pk['missing']}")
+        lines.append(f"PlaCo KinematicsSolver (wbc/placo_peer.py IK): missing: {pk['missing']}")
     else:
-        lines.append(f"PlaCo KinematicsSolver (tests/placo_peer.py IK): solve median {pk['solve_median_ms']:.3f} ms "
+        lines.append(f"PlaCo KinematicsSolver (wbc/placo_peer.py IK): solve median {pk['solve_median_ms']:.3f} ms "
                      f"over {pk['iterations']} iterations, hand error {pk['hand_error_mm']:.3f} mm")
     return lines
 

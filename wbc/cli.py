@@ -1,4 +1,4 @@
-"""The ``wbc`` command: run, plot, validate, robots, tasks, bench."""
+"""The ``wbc`` command: run, plot, validate, examples, robots, tasks, bench."""
 
 from __future__ import annotations
 
@@ -12,10 +12,12 @@ from pathlib import Path
 from .errors import WbcError
 
 EPILOG = """examples:
-  wbc run tasks/talos_balance.yaml                     live in the browser (URL printed), real time
-  wbc run tasks/talos_reach.yaml --headless --metrics m.json --plot m.png --record m.html
+  wbc run talos_balance                                a bundled scenario, live in the browser (URL printed)
+  wbc run talos_reach --headless --metrics m.json --plot m.png --record m.html
+  wbc run my_scenario.yaml --headless                  your own scenario file
   wbc plot m.json -o again.png                         re-plot a run saved with --series or --plot
-  wbc validate tasks/talos_step.yaml                   exit 0, or 2 with file, key path and expectation
+  wbc validate talos_step                              exit 0, or 2 with file, key path and expectation
+  wbc examples my_scenarios/                           copy the bundled scenarios out, to edit
   wbc robots | wbc tasks | wbc bench --quick
 
 units: SI throughout (m, rad, N, N·m, s); metrics JSON as described in README.md."""
@@ -79,6 +81,24 @@ def _cmd_validate(args) -> int:
     sc = load_config(args.file)
     print(f"{args.file}: ok ({sc.robot.name}, {len(sc.stack)} levels, {sum(1 for _ in sc.stack)} tasks, "
           f"solver {sc.solver.get('type', 'hqp')})")
+    return 0
+
+
+def _cmd_examples(args) -> int:
+    from .examples import SCENARIOS_DIR, available_scenarios, copy_examples
+
+    if args.dest is None:
+        print(f"bundled scenarios ({SCENARIOS_DIR}):")
+        for name in available_scenarios():
+            print(f"  {name}")
+        print("run one by name (wbc run talos_balance) or copy them out: wbc examples DIR")
+        return 0
+    written = copy_examples(args.dest, overwrite=args.force)
+    for f in written:
+        print(f"wrote {f}")
+    skipped = len(available_scenarios()) - len(written)
+    if skipped:
+        print(f"{skipped} existing file(s) kept (--force overwrites)")
     return 0
 
 
@@ -161,15 +181,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser(
         "run", formatter_class=_Help, help="simulate a scenario YAML; browser view, metrics, plots, recordings",
-        description="Simulate a scenario (tasks/*.yaml): the controller drives a pinocchio simulation at the "
+        description="Simulate a scenario (a YAML file or a bundled scenario's name): the controller drives a pinocchio simulation at the "
                     "scenario's control rate. Without --headless a Meshcat server starts on 127.0.0.1, its URL "
                     "is printed and the run plays in real time with the priority diagnostics (per level: "
                     "residual, rank and σ_min of the projected Jacobian, sacrificed tasks, active constraints) "
                     "drawn top left. Prints the metrics JSON (or writes it with --metrics). Exit status: 0, 1 "
                     "if the robot fell or the solver failed, 2 on a bad scenario.",
-        epilog="examples:\n  wbc run tasks/talos_push.yaml --headless --solver projection --duration 3\n"
-               "  wbc run tasks/talos_reach.yaml --headless --plot reach.png --record reach.html")
-    r.add_argument("file", help="scenario YAML (e.g. tasks/talos_balance.yaml)")
+        epilog="examples:\n  wbc run talos_push --headless --solver projection --duration 3\n"
+               "  wbc run talos_reach --headless --plot reach.png --record reach.html\n"
+               "  wbc run my_scenario.yaml --headless")
+    r.add_argument("file", help="scenario YAML, or the name of a bundled scenario (see `wbc examples`)")
     r.add_argument("--headless", action="store_true",
                    help="no browser view: run as fast as possible and print progress (simulated time, "
                         "real-time factor, solver failures)")
@@ -206,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "normal forces (N, m g for reference), friction margins μ F_n − ‖F_t‖ (N, < 0 means "
                     "sliding), and joint torques against their limits (|τ_i|/τ_max,i: the worst per cycle and "
                     "the joints that came closest). Exit 2 if the file has no series.",
-        epilog="example:\n  wbc run tasks/talos_step.yaml --headless --series --metrics step.json\n"
+        epilog="example:\n  wbc run talos_step --headless --series --metrics step.json\n"
                "  wbc plot step.json -o step.png")
     p.add_argument("metrics", metavar="METRICS.json", help="metrics JSON written by `wbc run --series --metrics`")
     p.add_argument("-o", "--output", metavar="FILE.png",
@@ -221,10 +242,16 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Load and check a scenario YAML without running it: robot, frames, task "
                                    "parameters, trajectories, events. Exit 0 and a one-line summary, or exit 2 "
                                    "with the file, the key path and what was expected.")
-    v.add_argument("file", help="scenario YAML")
+    v.add_argument("file", help="scenario YAML, or a bundled scenario's name")
     v.set_defaults(fn=_cmd_validate)
+    e = sub.add_parser("examples", formatter_class=_Help, help="list the bundled scenarios, or copy them into DIR",
+                       description="Without DIR: list the scenarios shipped with wbc (run them by name: "
+                                   "`wbc run talos_balance`). With DIR: copy their YAMLs there to edit.")
+    e.add_argument("dest", nargs="?", metavar="DIR", help="folder to copy the scenario YAMLs into (created)")
+    e.add_argument("--force", action="store_true", help="overwrite files that exist in DIR")
+    e.set_defaults(fn=_cmd_examples)
     sub.add_parser("robots", formatter_class=_Help, help="list the bundled robots and their named frames",
-                   description="List the bundled robots (robots/*.yaml): nq, nv, root joint, named frames "
+                   description="List the bundled robots (wbc/data/robots/*.yaml): nq, nv, root joint, named frames "
                                "(alias and URDF frame) and contact surfaces.").set_defaults(fn=_cmd_robots)
     sub.add_parser("tasks", formatter_class=_Help, help="list task types with their parameters and defaults",
                    description="List the task types a scenario's `stack` accepts, with their parameters "

@@ -20,7 +20,8 @@ from .errors import RobotDefinitionError, RobotNotFound
 if TYPE_CHECKING:
     from .model import RobotModel
 
-ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
+#: the bundled robot YAMLs, shipped inside the package (``wbc/data/robots``)
+ROBOTS_DIR = Path(__file__).resolve().parent / "data" / "robots"
 
 
 @lru_cache(maxsize=None)
@@ -44,7 +45,7 @@ def package_share_dir(package: str) -> Path:
 
 
 def available_robots() -> list[str]:
-    """Names of the robot YAMLs bundled in ``robots/``."""
+    """Names of the bundled robot YAMLs (``wbc/data/robots``)."""
     return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml"))
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import build_task, read_yaml
+from .examples import scenario_path
 from .errors import ConfigError, WbcError
 from .robots import load_robot
 from .sim.environment import Box, ground, incline
@@ -87,8 +88,9 @@ def _environment(src, spec) -> list:
 
 
 def load_config(path: str | Path) -> Scenario:
-    """Read and validate a scenario YAML (see the module docstring)."""
-    src = Path(path)
+    """Read and validate a scenario YAML (see the module docstring): a path, or the name
+    of a bundled scenario (``"talos_balance"``, see :mod:`wbc.examples`)."""
+    src = scenario_path(path)
     cfg = read_yaml(src)
     for key in cfg:
         if key not in _TOP:

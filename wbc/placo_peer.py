@@ -1,6 +1,6 @@
 """PlaCo reference ("peer") solver for the Talos hand-reaching IK problem.
 
-Helper module (not a test file): tests import :func:`placo_talos_hand_ik` to get an
+The IK peer problem: the tests and `wbc bench` call :func:`placo_talos_hand_ik` to get an
 independent solution of the same whole-body IK problem that ``wbc`` solves.
 
 Units: positions in metres, angles in radians, times in milliseconds.
