@@ -86,7 +86,8 @@ def test_examples_lists_and_copies_the_bundled_scenarios(tmp_path, capsys):
     from wbc.examples import available_scenarios
 
     assert main(["examples"]) == 0
-    assert all(name in capsys.readouterr().out for name in available_scenarios())
+    out = capsys.readouterr().out
+    assert all(name in out for name in available_scenarios())
     assert main(["examples", str(tmp_path / "mine")]) == 0
     copied = sorted(p.stem for p in (tmp_path / "mine").glob("*.yaml"))
     assert copied == available_scenarios() and "talos_balance" in copied

@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from wbc.errors import WbcError
 from wbc.sim import Simulator, box_model, ground, incline
 
 DT = 1e-3
@@ -262,3 +263,108 @@ def test_push_moves_resting_box_iff_force_exceeds_mu_m_g(ratio):
         assert abs(d[0] / expected - 1.0) <= 1e-2, f"slid {d[0]:.5f} m, Coulomb predicts {expected:.5f} m"
         assert abs(d[1]) < 1e-6 and abs(d[2]) < 1e-6
         assert np.abs(sim.v).max() < 1e-6, "box should have stopped by t = 1 s"
+
+
+# ---------------------------------------------------------------- (e) the contact solver binding
+@pytest.mark.parametrize("mu", [0.3, 1.5])
+def test_contact_solver_impulse_layout_is_tangents_then_normal(mu):
+    """One point of mass m hitting the ground at (vx, vy, vz) = (1, -0.5, −2) m/s:
+    G = I/m, g = v. The normal impulse stops the fall, λ_n = 2m; the tangential one
+    is −m v_t if that fits in the cone, else μ λ_n against v_t. A solver reading
+    the normal first (or the cone about another axis) gives something else."""
+    from wbc.sim.contact_solver import BACKEND, ContactSolver
+
+    assert BACKEND == ("PGSContactSolver" if hasattr(pin, "PGSContactSolver") else "PGSConstraintSolver")
+    m, v = 3.0, np.array([1.0, -0.5, -2.0])
+    lam = ContactSolver((mu,)).solve(np.eye(3) / m, v, np.zeros(3))
+    lam_n = -m * v[2]
+    vt = v[:2]
+    lam_t = -m * vt if m * np.linalg.norm(vt) <= mu * lam_n else -mu * lam_n * vt / np.linalg.norm(vt)
+    assert np.allclose(lam, np.r_[lam_t, lam_n], rtol=1e-9, atol=1e-9), lam
+
+
+def test_contact_solver_warm_start_is_not_modified_and_matches_cold_start():
+    from wbc.sim.contact_solver import ContactSolver
+
+    rng = np.random.default_rng(4)
+    J = rng.normal(size=(12, 6))
+    G, g = J @ J.T / 5.0 + 1e-6 * np.eye(12), rng.normal(size=12)
+    s = ContactSolver((0.5, 0.8, 0.5, 1.0))
+    cold = s.solve(G, g, np.zeros(12))
+    warm0 = cold + 0.01
+    keep = warm0.copy()
+    warm = s.solve(G, g, warm0)
+    assert np.array_equal(warm0, keep)
+    assert np.allclose(warm, cold, atol=1e-7)
+
+
+# ---------------------------------------------------------------- (f) actuator saturation
+def test_driver_clips_torques_to_limits_and_counts_saturated_steps():
+    """Force-free box, the three body torques actuated with a 1 N·m driver: one step of
+    ±5 N·m spins it as 1 N·m would (ω = I⁻¹ τ_clipped h), and counts; a command within
+    the limits is applied as is and not counted."""
+    m, pts = box_model(size=CUBE, mass=2.0)
+    m.gravity.linear[:] = 0.0
+    inertia = m.inertias[1].inertia
+    q0 = np.r_[0, 0, 1.0, 0, 0, 0, 1]
+    actuated = np.r_[np.zeros(3, bool), np.ones(3, bool)]
+    lim = np.array([1.0, 2.0, np.inf])
+
+    sim = Simulator(m, pts, [], q0, dt=DT, actuated=actuated, tau_limits=lim)
+    assert sim.saturated_steps == 0
+    sim.step(np.array([5.0, -5.0, 7.0]))           # na actuated torques
+    assert sim.saturated_steps == 1
+    assert np.allclose(sim.v[3:], np.linalg.solve(inertia, [1.0, -2.0, 7.0]) * DT, rtol=1e-9)
+
+    sim = Simulator(m, pts, [], q0, dt=DT, actuated=actuated, tau_limits=np.r_[np.zeros(3), lim])   # per dof
+    sim.step(np.r_[np.zeros(3), 0.5, -1.5, 3.0])   # within the limits
+    assert sim.saturated_steps == 0
+    assert np.allclose(sim.v[3:], np.linalg.solve(inertia, [0.5, -1.5, 3.0]) * DT, rtol=1e-9)
+    sim.step(np.r_[np.zeros(3), -1.5, 0.0, 0.0])
+    sim.step(np.r_[np.zeros(3), 0.0, 0.0, 0.0])
+    assert sim.saturated_steps == 1
+
+    with pytest.raises(WbcError):
+        Simulator(m, pts, [], q0, actuated=actuated, tau_limits=[1.0, 2.0])
+    with pytest.raises(WbcError):
+        Simulator(m, pts, [], q0, actuated=actuated, tau_limits=[1.0, -1.0, 1.0])
+
+
+# ---------------------------------------------------------------- (g) differential drive + contact
+def test_differential_drive_base_with_contact_keeps_zero_lateral_velocity():
+    """A planar base (10 kg, x, y, yaw; differential drive: no lateral velocity) carrying a
+    passive 0.5 m rod (2 kg) hinged 0.4 m above the ground about a horizontal axis at 45°
+    to the base's x axis. The rod falls, its tip hits the ground (μ = 0.5) and pushes the
+    base along x; the block Gauss-Seidel of contacts and lateral constraint must keep the
+    lateral velocity zero while the tip neither sinks nor pulls. At rest the tip carries
+    half the rod's weight (moments about the hinge: COM at half the tip's lever), no
+    friction (the base is free along its x axis)."""
+    m = pin.Model()
+    b = m.addJoint(0, pin.JointModelPlanar(), pin.SE3.Identity(), "base")
+    m.appendBodyToJoint(b, pin.Inertia(10.0, np.zeros(3), np.diag([0.2, 0.2, 0.3])), pin.SE3.Identity())
+    hinge = pin.SE3(pin.exp3(np.array([0.0, 0.0, -np.pi / 4])), np.array([0.0, 0.0, 0.4]))
+    a = m.addJoint(b, pin.JointModelRX(), hinge, "rod")
+    m.appendBodyToJoint(a, pin.Inertia(2.0, np.array([0.0, 0.25, 0.0]), np.diag([0.04, 0.001, 0.04])),
+                        pin.SE3.Identity())
+    pts = [("rod", np.array([0.0, 0.5, 0.0]))]
+    sim = Simulator(m, pts, [ground(mu=0.5)], pin.neutral(m), dt=DT, actuated=np.r_[False, False, False, True],
+                    differential_drive=True)
+    worst = {"lat": 0.0, "pen": 0.0, "touched": False}
+
+    def watch(s):
+        worst["lat"] = max(worst["lat"], abs(s.v[1]))
+        worst["pen"] = max(worst["pen"], -_corners(m, pts, s.q)[0, 2])
+        worst["touched"] |= bool(s.point_forces.any())
+
+    for _ in range(3000):
+        sim.step(np.zeros(1))
+        watch(sim)
+    assert worst["touched"] and sim.solver_failures == 0
+    assert worst["lat"] <= 1e-9, f"lateral base velocity {worst['lat']:.3g} m/s"
+    # 3e-6 m (the impact step); 4e-5 m if the contacts ignored the lateral impulse
+    assert worst["pen"] <= 1e-5, f"tip penetration {worst['pen']:.3g} m"
+    assert sim.q[0] > 1e-3, "the impact should have pushed the base along its x axis"
+    assert np.abs(sim.v).max() < 1e-6
+    F, half_weight = sim.point_forces[0], 0.5 * 2.0 * _gravity(m)
+    assert abs(F[2] / half_weight - 1.0) <= 1e-3, f"tip force {F} N, half the rod's weight {half_weight} N"
+    assert np.linalg.norm(F[:2]) <= 1e-3 * half_weight

@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
+from .compile_notice import CompileNotice
 from .controller import Controller
 from .scenario import Scenario
 from .sim.simulator import Simulator
@@ -237,8 +238,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     opts.pop("type", None)
     if backend:
         opts["backend"] = backend
+    notice = CompileNotice(enabled=progress)   # a first run compiles the kernels: say so
+    notice.start()
     ctrl = Controller(robot, stack, solver=solver_name, dt=sc.dt, **opts)
-    sim = Simulator.for_robot(robot, sc.environment, dt=sc.dt, substeps=sc.substeps, **sc.sensing)
+    sim = Simulator.for_robot(robot, sc.environment, dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max,
+                              **sc.sensing)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
     duration = sc.duration if duration is None else duration
@@ -280,7 +284,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
     qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
     vi = np.array([m.joints[j].idx_v for j in range(1, m.njoints) if m.joints[j].nq == 1])
-    t_wall = time.perf_counter()
+    t_wall, k_wall = time.perf_counter(), 0
     refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
     pending = list(sc.events)
     switched: set[str] = set()
@@ -314,6 +318,10 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         t0 = time.perf_counter()
         sol = ctrl.solve(q, v)
         cycle.append(time.perf_counter() - t0)
+        if k == 0:
+            # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
+            notice.stop()
+            t_wall, k_wall = time.perf_counter(), 1
         if sol.status == "failed":
             failures += 1
         for name, task, live in err_live:
@@ -367,10 +375,12 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             fell = True
             break
         if progress and (k % 500 == 0 or k == n - 1):
-            rtf = (k + 1) * sc.dt / (time.perf_counter() - t_wall)
+            rtf = (k + 1 - k_wall) * sc.dt / max(time.perf_counter() - t_wall, 1e-9)
             sys.stderr.write(f"\r  t = {t + sc.dt:6.2f} s / {duration:.2f} s   real-time factor {rtf:5.2f}   "
                              f"solver failures {failures}")
             sys.stderr.flush()
+    if k_wall == 0:      # no cycle ran
+        notice.stop()
     if progress:
         sys.stderr.write("\n")
     ct = np.array(cycle)
@@ -383,7 +393,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
                      for c in contacts if c.name not in switched},
         "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)), "max": float(ct.max())},
         "solver_failures": failures,
-        "real_time_factor": float(len(ct) * sc.dt / (time.perf_counter() - t_wall)),
+        "real_time_factor": float((len(ct) - k_wall) * sc.dt / max(time.perf_counter() - t_wall, 1e-9)),
     }
     if margins:
         out["support_margin_min"] = float(np.min(margins))

@@ -9,7 +9,9 @@ simulators. Each step of length h:
    Delassus matrix G = J M⁻¹ Jᵀ (``computeMinverse``) and g = J v_free, find the
    impulses λ_i in the Coulomb cones ‖λ_t‖ ≤ μ λ_n such that the contact
    velocities σ = G λ + g are complementary to them (no pulling, no
-   penetration, sliding opposes the impulse): pinocchio's ``PGSContactSolver``.
+   penetration, sliding opposes the impulse): pinocchio's projected Gauss-Seidel
+   (``PGSContactSolver`` on pinocchio 3, ``PGSConstraintSolver`` on pinocchio 4;
+   :mod:`wbc.sim.contact_solver`).
    The normal rows carry a Baumgarte term (−β·depth/h for a penetrating point,
    +gap/h for one about to touch) that removes penetration without bouncing.
 3. v⁺ = v_free + M⁻¹ Jᵀ λ,  q⁺ = q ⊕ h v⁺ (``integrate`` on the manifold).
@@ -22,6 +24,10 @@ the impact is perfectly inelastic, so nothing rebounds higher than it fell.
 
 A differential-drive base (planar root) adds the bilateral constraint of zero
 lateral base velocity, solved in the same Gauss-Seidel sweep.
+
+An optional motor driver saturates the torques: τ_i is clipped to ±``tau_limits``_i
+(N·m) before it is applied, and ``saturated_steps`` counts the control periods in
+which that changed anything.
 
 The simulator owns its own pinocchio Data: it never shares state with a
 controller. What a controller may read is :meth:`measure` (q, v with optional
@@ -37,6 +43,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import WbcError
+from .contact_solver import ContactSolver
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -64,13 +71,15 @@ class Simulator:
 
     ``points``: contact points as ``(joint name, position in that joint's frame)``;
     ``environment``: shapes from :mod:`wbc.sim.environment`; ``dt`` the control
-    period, ``substeps`` physics steps per control period.
+    period, ``substeps`` physics steps per control period; ``tau_limits`` the
+    driver's torque limits (N·m, ≥ 0, ``inf`` = none), per actuated joint (na) or
+    per dof (nv, unactuated entries ignored), ``None`` for no saturation.
     """
 
     def __init__(self, model: pin.Model, points, environment, q0, v0=None, dt: float = 1e-3,
                  substeps: int = 1, actuated: np.ndarray | None = None, differential_drive: bool = False,
                  baumgarte: float = 0.2, margin: float = 2e-3, noise_q: float = 0.0, noise_v: float = 0.0,
-                 latency_steps: int = 0, seed: int = 0) -> None:
+                 latency_steps: int = 0, seed: int = 0, tau_limits: np.ndarray | None = None) -> None:
         self.model = model
         self.data = model.createData()
         self.env = list(environment)
@@ -88,7 +97,7 @@ class Simulator:
         # the resting body rattles; 0.6 converges on every case tested
         self.over_relax = 0.6
         self.points = [(model.getJointId(j), np.asarray(r, float)) for j, r in points]
-        self._pgs: dict = {}     # PGS solver and cones per set of friction coefficients
+        self._pgs: dict[tuple, ContactSolver] = {}   # one solver per tuple of friction coefficients
         self._tril = np.tril_indices(model.nv, -1)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
@@ -98,10 +107,30 @@ class Simulator:
         self._delay: deque = deque(maxlen=latency_steps + 1)
         self.solver_failures = 0
         self._free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
+        self.tau_limits = self._full_limits(tau_limits)
+        self.saturated_steps = 0    # control periods in which the driver clipped τ
+
+    def _full_limits(self, tau_limits) -> np.ndarray | None:
+        """``tau_limits`` (na or nv, N·m) as an nv vector, inf on the unactuated dofs."""
+        if tau_limits is None:
+            return None
+        lim = np.asarray(tau_limits, dtype=float).ravel()
+        na = int(self.actuated.sum())
+        full = np.full(self.model.nv, np.inf)
+        if lim.shape[0] == self.model.nv:
+            full[self.actuated] = lim[self.actuated]
+        elif lim.shape[0] == na:
+            full[self.actuated] = lim
+        else:
+            raise WbcError(f"simulator: tau_limits has {lim.shape[0]} entries, expected {na} (actuated) "
+                           f"or {self.model.nv} (dofs)")
+        if np.any(np.isnan(full)) or np.any(full < 0.0):
+            raise WbcError("simulator: tau_limits must be >= 0 (inf for no limit)")
+        return full
 
     # ----------------------------------------------------------- construction
     @classmethod
-    def for_robot(cls, robot, environment, q0=None, extra_points=(), **kwargs) -> "Simulator":
+    def for_robot(cls, robot, environment, q0=None, extra_points=(), **kwargs) -> Simulator:
         """A simulator of ``robot`` (a :class:`~wbc.model.RobotModel`): sole corners of its
         contact surfaces and the origins of its point contacts touch the environment;
         ``extra_points``: more ``(frame name, offset in the frame)``."""
@@ -127,7 +156,8 @@ class Simulator:
 
     # ----------------------------------------------------------- stepping
     def step(self, tau: np.ndarray) -> None:
-        """Advance one control period with joint torques ``tau`` (nv, or na actuated)."""
+        """Advance one control period with joint torques ``tau`` (N·m; nv, or na actuated),
+        clipped to ±``tau_limits`` as a motor driver would."""
         tau = np.asarray(tau, dtype=float)
         if tau.shape[0] != self.model.nv:
             full = np.zeros(self.model.nv)
@@ -137,6 +167,10 @@ class Simulator:
             tau = np.where(self.actuated, tau, 0.0)
         if not np.all(np.isfinite(tau)):
             raise WbcError("simulator: non-finite torque")
+        lim = self.tau_limits
+        if lim is not None and np.any(np.abs(tau) > lim):
+            tau = np.clip(tau, -lim, lim)
+            self.saturated_steps += 1
         for _ in range(self.substeps):
             self._substep(tau)
 
@@ -189,11 +223,11 @@ class Simulator:
                 for k, dep in enumerate(depths):
                     g[3 * k + 2] -= (self.baumgarte * dep if dep > 0 else dep) / h
                 lam = np.concatenate([self._warm.get(i, np.zeros(3)) for i in ids])
-                cones, solver = self._pgs_for(tuple(mus))
+                solver = self._pgs_for(tuple(mus))
                 if nh:
-                    lam = self._solve_with_nonholonomic(G, g, J, Minv, v_free, cones, lam, solver)
+                    lam = self._solve_with_nonholonomic(G, g, J, Minv, v_free, lam, solver)
                 else:
-                    solver.solve(G, g, cones, lam, self.over_relax)
+                    lam = solver.solve(G, g, lam)
                 if not np.all(np.isfinite(lam)):
                     self.solver_failures += 1
                     lam = np.zeros_like(g)
@@ -241,29 +275,26 @@ class Simulator:
             ids.append(i)
         return rows, frames, depths, mus, ids
 
-    def _pgs_for(self, mus: tuple):
-        """pinocchio's PGS solver and cone list for this set of contacts, built once."""
+    def _pgs_for(self, mus: tuple) -> ContactSolver:
+        """pinocchio's PGS for this set of contacts (one μ per point), built once."""
         got = self._pgs.get(mus)
         if got is None:
-            cones = pin.StdVec_CoulombFrictionCone()
-            for mu in mus:
-                cones.append(pin.CoulombFrictionCone(mu))
-            solver = pin.PGSContactSolver(3 * len(mus))
-            solver.setMaxIterations(300)
-            solver.setAbsolutePrecision(1e-10)
-            solver.setRelativePrecision(1e-12)
-            got = self._pgs[mus] = (cones, solver)
+            got = self._pgs[mus] = ContactSolver(mus, over_relax=self.over_relax, max_iterations=300,
+                                                 absolute_precision=1e-10, relative_precision=1e-12)
         return got
 
     def _lateral_projection(self, v: np.ndarray, Minv: np.ndarray) -> np.ndarray:
         """Impulse along the base's lateral axis that zeroes its lateral velocity v[1]."""
         return v - Minv[:, 1] * (v[1] / Minv[1, 1])
 
-    def _solve_with_nonholonomic(self, G, g, J, Minv, v_free, cones, lam, solver):
-        for _ in range(5):   # block Gauss-Seidel: lateral impulse, then contacts
-            v = self._lateral_projection(v_free + Minv @ (J.T @ lam), Minv)
-            shift = v - (v_free + Minv @ (J.T @ lam))
-            solver.solve(G, g + J @ shift, cones, lam, self.over_relax)
+    def _solve_with_nonholonomic(self, G, g, J, Minv, v_free, lam, solver: ContactSolver):
+        """Contacts and the zero-lateral-velocity constraint by block Gauss-Seidel: the
+        lateral impulse for the current contact impulses (its velocity change ``shift``
+        enters the contacts' free velocity g + J shift), then the contacts, 5 sweeps."""
+        for _ in range(5):
+            v_c = v_free + Minv @ (J.T @ lam)
+            shift = self._lateral_projection(v_c, Minv) - v_c
+            lam = solver.solve(G, g + J @ shift, lam)
         return lam
 
     # ----------------------------------------------------------- sensing
