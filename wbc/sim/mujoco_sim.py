@@ -1,0 +1,508 @@
+"""MuJoCo as a second physics back-end: :class:`MujocoSimulator`, the interface of
+:class:`wbc.sim.Simulator` on a MuJoCo model built at run time from the robot's URDF.
+
+Model (:func:`build_model`; SI units: m, kg, s, rad, N, N·m)
+- Tree: MuJoCo's URDF parser on the URDF without visuals, collisions, transmissions, mimic tags;
+  ``fusestatic`` fuses fixed-joint links into their parents: bodies and pinocchio joints match one
+  to one, a body's frame is its joint's. Joints the YAML locks are fixed where pinocchio locked them.
+- Root: ``free_flyer`` -> free joint; ``planar`` -> slide x, slide y (world), hinge z; ``fixed`` -> welded.
+- Inertias: ``inertias="model"`` (default): pinocchio's inertia of each joint (URDF inertials, fixed
+  links merged), as MuJoCo refuses URDF inertials pinocchio takes (TIAGo's antenna links are not
+  positive definite); ``"urdf"``: MuJoCo reads them (Talos, Panda: equal to 1e-14).
+- Joint damping, dry friction, armature zeroed (ABA has none); position limits kept as MuJoCo's soft
+  limits (``joint_limits=False`` drops them).
+- A motor per actuated joint, ``ctrlrange`` ±τ_max (``tau_limits``, default the robot's): MuJoCo
+  saturates (the URDF effort's joint ``actuatorfrcrange`` is cleared). An actuated root (TIAGo) has
+  site motors at the root origin geared along the base axes (force x, y, torque z, base frame).
+- Contacts: under each sole a box of the YAML's half_length × half_width, 1 cm thick, bottom face on
+  the sole plane; a sphere (r 5 mm) touching each point contact; sites at Simulator.for_robot's
+  points. Robot geoms touch the environment only: HalfSpace -> plane, Box -> box (all its faces; in
+  wbc.sim its top only), with its μ (geom priority), condim 3, elliptic cones.
+- Options: timestep dt / substeps, MuJoCo's defaults otherwise (Euler, Newton, solref, solimp; no
+  impratio or noslip tuning); pinocchio's gravity.
+
+Conventions (each checked numerically in tests/test_mujoco_model.py)
+- q = [p, quaternion x y z w, joints in pinocchio's order] <-> qpos = [p, quaternion w x y z, joints
+  in MuJoCo's order], mapped by name; planar [x, y, cos θ, sin θ] <-> [x, y, θ]; continuous (cos, sin) <-> angle.
+- Free flyer v = [Rᵀ ṗ, ω_b] (base frame), qvel = [ṗ (world), ω_b]; planar v = [R(θ)ᵀ(ẋ, ẏ), θ̇],
+  qvel = [ẋ, ẏ, θ̇]. So qvel = T(q) v, T = blockdiag(R, I) with the joints permuted (orthogonal),
+  q̈_mj = T v̇ + Ṫ v, Ṫ v = [R (ω × v_lin), 0] (planar: θ̇ R(θ) (−v_y, v_x)).
+- Dynamics: M = Tᵀ M_mj T, h = Tᵀ (M_mj Ṫ v + h_mj), τ = Tᵀ τ_mj.
+- ``xfrc_applied`` acts at the body's CoM c (``xipos``): a push f at the frame origin p is applied
+  as (f, (p − c) × f), the same wrench about every point as f at p.
+- ``mj_contactForce``: geom1's force on geom2 in ``contact.frame`` (rows: normal from geom1 to geom2,
+  tangents). Each contact's force is kept with its point in the body's frame (:meth:`contact_wrench`
+  about a frame's origin, as Simulator's) and added to its geom's nearest point (``point_forces``, world).
+
+Differential drive (TIAGo): MuJoCo's equalities are holonomic, so the zero lateral base velocity is
+imposed as :class:`Simulator` does, along e = [−sin θ, cos θ, 0] (qvel coordinates): before the step
+a generalized force e λ, λ = −eᵀ v_free / (h eᵀ M⁻¹ e), v_free = qvel + h q̈ of ``mj_forward`` (exact
+without active contacts or limits); after it, the impulse along the new heading's e zeroing eᵀ qvel.
+
+Factory: ``MujocoSimulator.for_robot(robot, environment, q0=None, extra_points=(), **kw)`` takes
+Simulator.for_robot's arguments (``dt``, ``substeps``, ``tau_limits``, ``noise_q``, ``noise_v``,
+``latency_steps``, ``seed``; ``baumgarte``, ``margin`` accepted, unused): the runner can build either
+class; :func:`make_simulator` picks one by name.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections import deque
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from ..errors import WbcError
+from .environment import Box, HalfSpace
+from .simulator import Push, Simulator
+
+if TYPE_CHECKING:
+    from ..model import RobotModel
+
+SOLE_THICKNESS = 0.01   # m, the sole boxes' height
+POINT_RADIUS = 0.005    # m, the point contacts' spheres
+
+
+def _sole_points(robot: RobotModel, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:
+    """Simulator.for_robot's contact points: (joint name, offset in the joint frame (m), kind
+    ("surface" corner or "point"), rotation of the point's frame in the joint frame, contact name)."""
+    m = robot.model
+    pts = []
+    for c in robot.contacts.values():
+        f = m.frames[m.getFrameId(c.frame)]
+        offs = ([np.array([sx * c.half_length, sy * c.half_width, 0.0]) for sx in (-1, 1) for sy in (-1, 1)]
+                if c.kind == "surface" else [np.zeros(3)])
+        pts += [(m.names[f.parentJoint], f.placement.act(o), c.kind, f.placement.rotation, c.name) for o in offs]
+    for fname, off in extra_points:
+        f = m.frames[robot.frame_id(fname)]
+        pts.append((m.names[f.parentJoint], f.placement.act(np.asarray(off, float)), "point",
+                    f.placement.rotation, fname))
+    return pts
+
+
+def _urdf_xml(robot: RobotModel, keep_inertials: bool) -> str:
+    """The robot's URDF without visuals/collisions/transmissions; locked joints made fixed at
+    the placement pinocchio locked them at (child link frame relative to the parent link's)."""
+    tree = ET.parse(robot.urdf_path).getroot()
+    for tag in ("transmission", "gazebo", "mujoco"):
+        for e in tree.findall(tag):
+            tree.remove(e)
+    for link in tree.iter("link"):
+        for tag in ("visual", "collision") + (() if keep_inertials else ("inertial",)):
+            for e in link.findall(tag):
+                link.remove(e)
+    m = robot.model
+    for joint in tree.iter("joint"):
+        locked = joint.get("name") in robot.locked_joints   # pinocchio leaves mimic joints independent
+        for tag in ("mimic",) + (("origin", "axis", "limit", "dynamics", "calibration", "safety_controller")
+                                 if locked else ()):
+            for e in joint.findall(tag):
+                joint.remove(e)
+        if not locked:
+            continue
+        fp, fc = (m.frames[m.getFrameId(joint.find(k).get("link"))] for k in ("parent", "child"))
+        rel = fp.placement.actInv(fc.placement)
+        joint.set("type", "fixed")
+        ET.SubElement(joint, "origin", xyz=" ".join(map(repr, rel.translation.tolist())),
+                      rpy=" ".join(map(repr, pin.rpy.matrixToRpy(rel.rotation).tolist())))
+    return ET.tostring(tree, encoding="unicode")
+
+
+def _quat_wxyz(R: np.ndarray) -> np.ndarray:
+    c = pin.Quaternion(R).coeffs()     # x y z w
+    return np.array([c[3], c[0], c[1], c[2]])
+
+
+def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
+                joint_limits: bool = True,
+                inertias: str = "model", tau_max: np.ndarray | None = None) -> mujoco.MjModel:
+    """The MuJoCo model of ``robot`` (a :class:`~wbc.model.RobotModel`) in ``environment``
+    (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`_sole_points`. See the
+    module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
+    motors' limits, the robot's by default."""
+    if inertias not in ("model", "urdf"):
+        raise WbcError(f"mujoco: inertias must be 'model' or 'urdf', got {inertias!r}")
+    m = robot.model
+    spec = mujoco.MjSpec.from_string(_urdf_xml(robot, keep_inertials=inertias == "urdf"))
+    spec.compiler.fusestatic = True
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.balanceinertia = False
+    spec.option.timestep = timestep
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.gravity = m.gravity.linear.copy()
+    root = spec.worldbody.first_body()
+    if robot.root == "free_flyer":
+        root.add_freejoint(name=m.names[1])
+    elif robot.root == "planar":
+        root.add_joint(name="root_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
+        root.add_joint(name="root_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
+        root.add_joint(name="root_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+    for j in spec.joints:
+        j.damping[:] = 0.0          # mjNPOLY + 1 coefficients since 4.x
+        j.frictionloss, j.armature = 0.0, 0.0
+        j.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        if not joint_limits and j.type != mujoco.mjtJoint.mjJNT_FREE:
+            j.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+
+    def body_of(jid: int):
+        if jid == 0:
+            return spec.worldbody
+        return root if jid == 1 and robot.root != "fixed" else spec.joint(m.names[jid]).parent
+
+    for jid in range(1, m.njoints) if inertias == "model" else ():
+        Y, b = m.inertias[jid], body_of(jid)
+        I = Y.inertia
+        b.mass, b.ipos, b.explicitinertial = Y.mass, Y.lever.copy(), True
+        b.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
+    robot_geom = dict(contype=1, conaffinity=0, condim=3, group=3)
+    for i, (jname, r, kind, R, _) in enumerate(points):
+        b = body_of(m.getJointId(jname))
+        b.add_site(name=f"wbc_point_{i}", pos=r)
+        if kind == "point":
+            b.add_geom(name=f"wbc_point_geom_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                       pos=r + POINT_RADIUS * R[:, 2], size=[POINT_RADIUS, 0, 0], **robot_geom)
+    for c in (c for c in robot.contacts.values() if c.kind == "surface"):
+        f = m.frames[m.getFrameId(c.frame)]
+        M = f.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, SOLE_THICKNESS / 2]))
+        body_of(f.parentJoint).add_geom(name=f"wbc_contact_{c.name}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                                        pos=M.translation, quat=_quat_wxyz(M.rotation),
+                                        size=[c.half_length, c.half_width, SOLE_THICKNESS / 2], **robot_geom)
+    for k, s in enumerate(environment):
+        env = dict(contype=0, conaffinity=1, condim=3, priority=1, friction=[s.mu, 0.005, 0.0001])
+        if isinstance(s, HalfSpace):
+            spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_PLANE, pos=s.point,
+                                    quat=_quat_wxyz(s.R), size=[0, 0, 1], **env)
+        elif isinstance(s, Box):
+            spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=s.center,
+                                    size=s.size / 2, **env)
+        else:
+            raise WbcError(f"mujoco: unsupported environment shape {type(s).__name__}")
+
+    tau_max = robot.tau_max if tau_max is None else tau_max
+    for i in robot.actuated_idx:
+        lim = float(tau_max[i])
+        rng = dict(ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE, ctrlrange=[-lim, lim]) if math.isfinite(lim) \
+            else dict(ctrllimited=mujoco.mjtLimited.mjLIMITED_FALSE)
+        if i < robot.n_root:        # actuated root: a site motor along the root's i-th axis
+            if not spec.site("wbc_root"):
+                root.add_site(name="wbc_root")
+            gear = np.zeros(6)
+            gear[{"planar": (0, 1, 5), "free_flyer": tuple(range(6))}[robot.root][i]] = 1.0
+            spec.add_actuator(name=f"wbc_root_{i}", trntype=mujoco.mjtTrn.mjTRN_SITE, target="wbc_root",
+                              gear=gear, **rng)
+        else:
+            jid = int(np.searchsorted(m.idx_vs, i, side="right")) - 1
+            spec.add_actuator(name=m.names[jid], trntype=mujoco.mjtTrn.mjTRN_JOINT, target=m.names[jid], **rng)
+    return spec.compile()
+
+
+class MujocoSimulator:
+    """:class:`wbc.sim.Simulator`'s interface on MuJoCo (module docstring). Units: s, m, rad, N, N·m.
+
+    As Simulator's: ``model``, ``data`` (pinocchio, owned), ``q``, ``v`` (pinocchio coordinates,
+    updated by each step), ``t``, ``dt``, ``substeps``, ``h``, ``points`` ((pinocchio joint id,
+    offset in its frame)), ``point_forces`` (world, N, last step), ``pushes``, ``env``,
+    ``solver_failures`` (MuJoCo's bad-acceleration resets), ``saturated_steps``;
+    MuJoCo's ``mj_model``, ``mj_data``.
+    """
+
+    def __init__(self, robot: RobotModel, environment: Sequence[HalfSpace | Box], q0: np.ndarray | None = None,
+                 v0: np.ndarray | None = None, dt: float = 1e-3, substeps: int = 1, extra_points=(),
+                 noise_q: float = 0.0, noise_v: float = 0.0, latency_steps: int = 0, seed: int = 0,
+                 joint_limits: bool = True, inertias: str = "model", tau_limits: np.ndarray | None = None,
+                 baumgarte: float | None = None, margin: float | None = None) -> None:
+        self.robot, self.model, self.root = robot, robot.model, robot.root
+        m = self.model
+        self.data = m.createData()
+        self.env = list(environment)
+        self.dt, self.substeps = float(dt), int(substeps)
+        self.h = self.dt / self.substeps
+        self.actuated = robot.actuated_mask.copy()
+        self.differential_drive = bool(robot.differential_drive)
+        pts = _sole_points(robot, extra_points)
+        self.points = [(m.getJointId(p[0]), np.asarray(p[1], float)) for p in pts]
+        lim = np.asarray(robot.tau_max if tau_limits is None else tau_limits, float)
+        self.tau_limits = lim.copy() if lim.shape[0] == m.nv else np.where(self.actuated, 0.0, np.inf)
+        if lim.shape[0] != m.nv:
+            self.tau_limits[self.actuated] = lim
+        self.mj_model = mm = build_model(robot, self.env, pts, self.h, joint_limits, inertias, self.tau_limits)
+        self.mj_data = mujoco.MjData(mm)
+        # pinocchio joint -> MuJoCo body, and the (q, v) <-> (qpos, qvel) indices of the joints
+        self._body = np.zeros(m.njoints, int)
+        self._n_root = {"free_flyer": 6, "planar": 3, "fixed": 0}[robot.root]
+        self._body[1] = mm.jnt_bodyid[0] if self._n_root else 0
+        qi, qm, vi, vm, self._cont = [], [], [], [], []
+        for jid in range(1 + bool(self._n_root), m.njoints):
+            mj, jm = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_JOINT, m.names[jid]), m.joints[jid]
+            self._body[jid] = mm.jnt_bodyid[mj]
+            if jm.nq == 2:
+                self._cont.append((jm.idx_q, mm.jnt_qposadr[mj]))
+            else:
+                qi.append(jm.idx_q)
+                qm.append(mm.jnt_qposadr[mj])
+            vi.append(jm.idx_v)
+            vm.append(mm.jnt_dofadr[mj])
+        self._qi, self._qm, self._vi, self._vm = (np.array(x, int) for x in (qi, qm, vi, vm))
+        self._root_q = int(mm.jnt_qposadr[0]) if self._n_root else 0
+        self._root_v = int(mm.jnt_dofadr[0]) if self._n_root else 0
+        self._act_v = np.asarray(robot.actuated_idx, int)   # actuator k drives pinocchio dof _act_v[k]
+        gp: dict[int, list] = {}
+        for i, (_, r, kind, _, cname) in enumerate(pts):
+            g = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_GEOM,
+                                  f"wbc_contact_{cname}" if kind == "surface" else f"wbc_point_geom_{i}")
+            gp.setdefault(g, []).append((i, r))
+        # robot geom -> (its points' indices, their offsets in the body frame)
+        self._geom_points = {g: (np.array([i for i, _ in v]), np.array([r for _, r in v])) for g, v in gp.items()}
+        self._sites = np.array([mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, f"wbc_point_{i}")
+                                for i in range(len(pts))], int)
+        self.pushes: list[Push] = []
+        self.point_forces = np.zeros((len(pts), 3))
+        self._contacts: list[tuple[int, np.ndarray, np.ndarray]] = []   # (body, point, force), body frame
+        self._rng = np.random.default_rng(seed)
+        self.noise_q, self.noise_v = noise_q, noise_v
+        self._delay: deque = deque(maxlen=latency_steps + 1)
+        self.solver_failures = self.saturated_steps = 0
+        self._f6 = np.zeros(6)
+        self.t = 0.0
+        self.set_state(robot.q_default if q0 is None else q0, np.zeros(m.nv) if v0 is None else v0)
+
+    @classmethod
+    def for_robot(cls, robot: RobotModel, environment: Sequence[HalfSpace | Box], q0: np.ndarray | None = None,
+                  extra_points=(), **kwargs) -> MujocoSimulator:
+        """Simulator.for_robot's arguments: the sole corners and point contacts of ``robot``'s
+        YAML, ``extra_points`` more ``(frame name, offset in the frame)``; ``kwargs``: ``dt``,
+        ``substeps``, ``tau_limits``, sensing (``noise_q``, ``noise_v``, ``latency_steps``,
+        ``seed``), and ``joint_limits``, ``inertias``, ``v0``."""
+        return cls(robot, environment, q0=q0, extra_points=extra_points, **kwargs)
+
+    # ----------------------------------------------------------- conversions
+    def _root_rotation(self, q: np.ndarray) -> np.ndarray:
+        if self.root == "free_flyer":
+            return pin.Quaternion(q[6], q[3], q[4], q[5]).normalized().matrix()
+        c, s = np.array([q[2], q[3]]) / math.hypot(q[2], q[3])
+        return np.array([[c, -s], [s, c]])
+
+    def qpos_from_q(self, q: np.ndarray) -> np.ndarray:
+        """MuJoCo's qpos of the pinocchio configuration q."""
+        qpos, a = np.zeros(self.mj_model.nq), self._root_q
+        if self.root == "free_flyer":
+            qpos[a: a + 3] = q[:3]
+            qpos[a + 3: a + 7] = np.array([q[6], q[3], q[4], q[5]]) / np.linalg.norm(q[3:7])
+        elif self.root == "planar":
+            qpos[a: a + 3] = q[0], q[1], math.atan2(q[3], q[2])
+        qpos[self._qm] = q[self._qi]
+        for iq, im in self._cont:
+            qpos[im] = math.atan2(q[iq + 1], q[iq])
+        return qpos
+
+    def q_from_qpos(self, qpos: np.ndarray) -> np.ndarray:
+        """pinocchio's configuration of a MuJoCo qpos."""
+        q, a = np.zeros(self.model.nq), self._root_q
+        if self.root == "free_flyer":
+            q[:3] = qpos[a: a + 3]
+            w, x, y, z = qpos[a + 3: a + 7] / np.linalg.norm(qpos[a + 3: a + 7])
+            q[3:7] = x, y, z, w
+        elif self.root == "planar":
+            q[:4] = qpos[a], qpos[a + 1], math.cos(qpos[a + 2]), math.sin(qpos[a + 2])
+        q[self._qi] = qpos[self._qm]
+        for iq, im in self._cont:
+            q[iq], q[iq + 1] = math.cos(qpos[im]), math.sin(qpos[im])
+        return q
+
+    def velocity_map(self, q: np.ndarray) -> np.ndarray:
+        """T(q) (nv × nv, orthogonal): qvel = T v."""
+        T, a, n = np.zeros((self.mj_model.nv, self.model.nv)), self._root_v, self._n_root
+        if n:
+            T[a: a + n, :n] = np.eye(n)
+            k = 3 if self.root == "free_flyer" else 2
+            T[a: a + k, :k] = self._root_rotation(q)
+        T[self._vm, self._vi] = 1.0
+        return T
+
+    def velocity_map_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Ṫ v (MuJoCo's nv, m/s² and rad/s²): q̈_mj = T v̇ + Ṫ v."""
+        out, a = np.zeros(self.mj_model.nv), self._root_v
+        if self.root == "free_flyer":
+            out[a: a + 3] = self._root_rotation(q) @ np.cross(v[3:6], v[:3])
+        elif self.root == "planar":
+            out[a: a + 2] = v[2] * (self._root_rotation(q) @ np.array([-v[1], v[0]]))
+        return out
+
+    def qvel_from_v(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """MuJoCo's qvel of the pinocchio velocity v at q."""
+        return self.velocity_map(q) @ v
+
+    def v_from_qvel(self, q: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+        """pinocchio's velocity of a MuJoCo qvel at q."""
+        return self.velocity_map(q).T @ qvel
+
+    # ----------------------------------------------------------- state, frames
+    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
+        """Set MuJoCo's state from pinocchio's (q, v) and run ``mj_forward``."""
+        d = self.mj_data
+        d.qpos[:] = self.qpos_from_q(np.asarray(q, float))
+        d.qvel[:] = self.qvel_from_v(q, np.asarray(v, float))
+        mujoco.mj_forward(self.mj_model, d)
+        self._read_state()
+
+    def _read_state(self) -> None:
+        self.q = self.q_from_qpos(self.mj_data.qpos)
+        self.v = self.v_from_qvel(self.q, self.mj_data.qvel)
+        self._fresh = False
+
+    def _kinematics(self) -> None:
+        """Kinematics of the current qpos (mj_step leaves those of the state it integrated from)."""
+        if not self._fresh:
+            mujoco.mj_kinematics(self.mj_model, self.mj_data)
+            mujoco.mj_comPos(self.mj_model, self.mj_data)
+            self._fresh = True
+
+    def _frame(self, frame: str) -> pin.Frame:
+        if not self.model.existFrame(frame):
+            raise WbcError(f"simulator: no frame '{frame}'")
+        return self.model.frames[self.model.getFrameId(frame)]
+
+    def frame_placement(self, frame: str) -> pin.SE3:
+        """World placement (m) of a pinocchio frame, from its MuJoCo body's pose now."""
+        self._kinematics()
+        f = self._frame(frame)
+        b, d = self._body[f.parentJoint], self.mj_data
+        return pin.SE3(d.xmat[b].reshape(3, 3).copy(), d.xpos[b].copy()) * f.placement
+
+    def frame_velocity(self, frame: str) -> np.ndarray:
+        """(linear, angular) velocity (m/s, rad/s) of a frame's origin in world axes (pinocchio's
+        LOCAL_WORLD_ALIGNED), from MuJoCo's point Jacobian and qvel."""
+        p = self.frame_placement(frame).translation
+        jp, jr = np.zeros((3, self.mj_model.nv)), np.zeros((3, self.mj_model.nv))
+        mujoco.mj_jac(self.mj_model, self.mj_data, jp, jr, p, self._body[self._frame(frame).parentJoint])
+        return np.concatenate([jp @ self.mj_data.qvel, jr @ self.mj_data.qvel])
+
+    # ----------------------------------------------------------- pushes
+    def push(self, frame: str, force, start: float, duration: float) -> None:
+        """Schedule an external force (N, world) on ``frame`` (a model frame name)."""
+        if not self.model.existFrame(frame):
+            raise WbcError(f"simulator: no frame '{frame}' to push")
+        self.pushes.append(Push(frame, np.asarray(force, float), float(start), float(duration)))
+
+    def push_wrenches(self, t: float) -> np.ndarray:
+        """``xfrc_applied`` (nbody × 6, N and N·m, world) of the pushes active at t (s): the
+        force and its moment about the body's CoM."""
+        x = np.zeros((self.mj_model.nbody, 6))
+        for p in self.pushes:
+            if p.active(t):
+                b = self._body[self._frame(p.frame).parentJoint]
+                r = self.frame_placement(p.frame).translation - self.mj_data.xipos[b]
+                x[b, :3] += p.force
+                x[b, 3:] += np.cross(r, p.force)
+        return x
+
+    # ----------------------------------------------------------- stepping
+    def step(self, tau: np.ndarray) -> None:
+        """Advance one control period with joint torques ``tau`` (N·m or N; nv, or na actuated),
+        saturated by the motors' ``ctrlrange``."""
+        tau = np.asarray(tau, dtype=float)
+        if tau.shape[0] == self.model.nv:
+            tau = tau[self._act_v]
+        if not np.all(np.isfinite(tau)):
+            raise WbcError("simulator: non-finite torque")
+        mm, d = self.mj_model, self.mj_data
+        d.ctrl[:] = tau
+        self.saturated_steps += bool(np.any(np.abs(tau) > self.tau_limits[self._act_v]))
+        bad = mujoco.mjtWarning.mjWARN_BADQACC
+        for _ in range(self.substeps):
+            d.xfrc_applied[:] = self.push_wrenches(self.t) if self.pushes else 0.0
+            if self.differential_drive:
+                d.qfrc_applied[:] = 0.0
+                mujoco.mj_forward(mm, d)
+                e, Me = self._lateral()
+                d.qfrc_applied[:] = e * (-(e @ (d.qvel + self.h * d.qacc)) / (self.h * (e @ Me)))
+            n_bad = d.warning[bad].number
+            mujoco.mj_step(mm, d)
+            self._fresh = False
+            if self.differential_drive:       # the impulse along the new heading's lateral axis
+                e, Me = self._lateral()
+                d.qvel[:] -= Me * ((e @ d.qvel) / (e @ Me))
+            self.solver_failures += d.warning[bad].number - n_bad
+            self.t += self.h
+        self._read_contacts()
+        self._read_state()
+
+    def _lateral(self) -> tuple[np.ndarray, np.ndarray]:
+        """The base's lateral axis e (qvel coordinates) and M⁻¹e (MuJoCo's last factorization)."""
+        mm, d = self.mj_model, self.mj_data
+        th = d.qpos[self._root_q + 2]
+        e, Me = np.zeros(mm.nv), np.zeros(mm.nv)
+        e[self._root_v: self._root_v + 2] = -math.sin(th), math.cos(th)
+        mujoco.mj_solveM(mm, d, Me.reshape(1, -1), e.reshape(1, -1))
+        return e, Me
+
+    def _read_contacts(self) -> None:
+        """The last step's contact forces on the robot (world, N): each kept with its point in
+        the body's frame, and added to the nearest of its geom's points."""
+        mm, d = self.mj_model, self.mj_data
+        self.point_forces[:] = 0.0
+        self._contacts = []
+        for k in range(d.ncon):
+            c = d.contact[k]
+            g, sign = (int(c.geom2), 1.0) if int(c.geom2) in self._geom_points else (int(c.geom1), -1.0)
+            if g not in self._geom_points:
+                continue
+            mujoco.mj_contactForce(mm, d, k, self._f6)
+            f = sign * (c.frame.reshape(3, 3).T @ self._f6[:3])      # on geom g
+            b = mm.geom_bodyid[g]
+            R = d.xmat[b].reshape(3, 3)
+            r = R.T @ (c.pos - d.xpos[b])
+            self._contacts.append((b, r, R.T @ f))
+            idx, offs = self._geom_points[g]
+            self.point_forces[idx[np.argmin(((offs - r) ** 2).sum(axis=1))]] += f
+
+    # ----------------------------------------------------------- sensing
+    def measure(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) in pinocchio's coordinates, with Simulator's optional noise (``noise_q`` rad
+        or m, ``noise_v`` rad/s or m/s) and ``latency_steps`` delay."""
+        q, v = self.q.copy(), self.v.copy()
+        if self.noise_q:
+            q = pin.integrate(self.model, q, self._rng.normal(0.0, self.noise_q, self.model.nv))
+        if self.noise_v:
+            v = v + self._rng.normal(0.0, self.noise_v, self.model.nv)
+        self._delay.append((q, v))
+        return self._delay[0]
+
+    def contact_wrench(self, frame: str) -> np.ndarray:
+        """Wrench (f, τ) in the frame ``frame`` (N, N·m, about its origin) of the last step's
+        contact forces on that frame's body (its joint's): what a 6-axis sensor there reads."""
+        f = self._frame(frame)
+        b, bMf = self._body[f.parentJoint], f.placement
+        w = np.zeros(6)
+        for body, r, fb in self._contacts:
+            if body == b:
+                fl = bMf.rotation.T @ fb
+                w[:3] += fl
+                w[3:] += np.cross(bMf.actInv(r), fl)
+        return w
+
+    def point_positions(self) -> np.ndarray:
+        """World positions (m) of the contact points at the current state."""
+        self._kinematics()
+        return self.mj_data.site_xpos[self._sites].copy().reshape(-1, 3)
+
+    def energy(self) -> float:
+        """Kinetic + gravitational potential energy (J) of the current state (pinocchio's)."""
+        m, d = self.model, self.data
+        return float(pin.computeKineticEnergy(m, d, self.q, self.v) + pin.computePotentialEnergy(m, d, self.q))
+
+
+def make_simulator(backend: str, robot: RobotModel, environment: Sequence[HalfSpace | Box],
+                   **kwargs) -> Simulator | MujocoSimulator:
+    """``Simulator.for_robot`` (``backend="pinocchio"``) or ``MujocoSimulator.for_robot``
+    (``"mujoco"``), with the same arguments."""
+    if backend == "pinocchio":
+        return Simulator.for_robot(robot, environment, **kwargs)
+    if backend == "mujoco":
+        return MujocoSimulator.for_robot(robot, environment, **kwargs)
+    raise WbcError(f"simulator backend must be 'pinocchio' or 'mujoco', got {backend!r}")
