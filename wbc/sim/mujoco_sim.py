@@ -42,7 +42,7 @@ without active contacts or limits); after it, the impulse along the new heading'
 Factory: ``MujocoSimulator.for_robot(robot, environment, q0=None, extra_points=(), **kw)`` takes
 Simulator.for_robot's arguments (``dt``, ``substeps``, ``tau_limits``, ``noise_q``, ``noise_v``,
 ``latency_steps``, ``seed``; ``baumgarte``, ``margin`` accepted, unused): the runner can build either
-class; :func:`make_simulator` picks one by name.
+class; :func:`wbc.sim.backends.make_simulator` picks one by name.
 """
 
 from __future__ import annotations
@@ -496,13 +496,3 @@ class MujocoSimulator:
         m, d = self.model, self.data
         return float(pin.computeKineticEnergy(m, d, self.q, self.v) + pin.computePotentialEnergy(m, d, self.q))
 
-
-def make_simulator(backend: str, robot: RobotModel, environment: Sequence[HalfSpace | Box],
-                   **kwargs) -> Simulator | MujocoSimulator:
-    """``Simulator.for_robot`` (``backend="pinocchio"``) or ``MujocoSimulator.for_robot``
-    (``"mujoco"``), with the same arguments."""
-    if backend == "pinocchio":
-        return Simulator.for_robot(robot, environment, **kwargs)
-    if backend == "mujoco":
-        return MujocoSimulator.for_robot(robot, environment, **kwargs)
-    raise WbcError(f"simulator backend must be 'pinocchio' or 'mujoco', got {backend!r}")
