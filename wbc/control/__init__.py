@@ -1,6 +1,8 @@
 """The chapter's controllers outside the stack of tasks (5.2, 5.3).
 
-Motion control (5.2): joint space (:mod:`.joint_space`), elastic joints
+Motion control (5.2): joint space (:mod:`.joint_space`; independent-joint PID with
+decentralised or centralised feedforward, :mod:`.independent_joint`; robust
+Slotine-Li, :mod:`.robust_passivity`), elastic joints
 (:mod:`.elastic_joints`), task space (:mod:`.task_space`). Every rigid-body
 controller is an object ``(q, v, t) -> τ``; see :mod:`.motion_common`.
 
@@ -14,6 +16,7 @@ from .admittance import AdmittanceControl
 from .elastic_joints import ElasticJointController, MotorPD, TorqueFeedback
 from .hybrid_force_motion import HybridForceMotion
 from .impedance import ImpedanceControl
+from .independent_joint import IndependentJointPID
 from .joint_space import (
     InverseDynamics,
     PassivityBased,
@@ -24,6 +27,7 @@ from .joint_space import (
 )
 from .motion_common import ControllerDefinitionError, MotionController, Reference
 from .null_space_impedance import NullSpaceImpedance
+from .robust_passivity import RobustPassivityBased, body_parameter_indices, body_parameter_scale, with_payload
 from .stiffness import StiffnessControl
 from .task_space import (
     ExtendedTaskSpace,
@@ -40,6 +44,7 @@ __all__ = [
     "ExtendedTaskSpace",
     "HybridForceMotion",
     "ImpedanceControl",
+    "IndependentJointPID",
     "InverseDynamics",
     "JacobianTransposePD",
     "MotionController",
@@ -50,10 +55,14 @@ __all__ = [
     "PDPlus",
     "PassivityBased",
     "Reference",
+    "RobustPassivityBased",
     "StiffnessControl",
     "TaskSpaceInverseDynamics",
     "TorqueFeedback",
+    "body_parameter_indices",
+    "body_parameter_scale",
     "dynamic_parameters",
     "extended_task_space",
     "slotine_li_regressor",
+    "with_payload",
 ]
