@@ -59,7 +59,8 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     live = args.viz or bool(os.environ.get("DISPLAY"))
     sc = load_config(ROOT / "tasks" / f"{scenario}.yaml")
     dur = args.duration or sc.duration
-    print(f"{doc.strip().split(chr(10))[0]}\n  scenario tasks/{scenario}.yaml, solver {args.solver or sc.solver.get('type', 'hqp')}, "
+    solver = args.solver or sc.solver.get('type', 'hqp')
+    print(f"{doc.strip().split(chr(10))[0]}\n  scenario {scenario} (bundled), solver {solver}, "
           f"{dur:.1f} s simulated at {1 / sc.dt:.0f} Hz")
     scene = Scene(sc.robot, sc.environment, open_browser=live, record=not live)
     try:

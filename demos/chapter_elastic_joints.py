@@ -22,7 +22,6 @@ import sys
 import numpy as np
 
 
-
 def main() -> int:
     from _arm_view import ArmView, demo_args
 

@@ -6,8 +6,9 @@ import numpy as np
 import pinocchio as pin
 
 import wbc
-FMIN = 0.0  # minimum normal force (N) of the test stacks
 from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture, TorqueLimits
+
+FMIN = 0.0  # minimum normal force (N) of the test stacks
 
 
 def talos_stack(bilateral: bool = False, limits: bool = True, torque_limits: bool = True) -> wbc.Stack:

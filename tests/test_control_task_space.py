@@ -159,4 +159,9 @@ def test_a_stack_of_frame_over_posture_is_the_same_controller(panda, rng, solver
         q = panda.random_configuration(rng, margin=0.2)
         v = rng.standard_normal(panda.nv)
         tau = mine(q, v, 0.0)
-        assert np.abs(ctrl.solve(q, v).tau - tau).max() < 1e-9 * (1 + np.abs(tau).max())
+        sol = ctrl.solve(q, v)
+        # the same law; the controller then saturates at ±τ_max what this random state asks
+        # beyond the Panda's limits (and says so)
+        lim = panda.tau_max[panda.actuated_idx]
+        assert np.abs(sol.tau - np.clip(tau, -lim, lim)).max() < 1e-9 * (1 + np.abs(tau).max())
+        assert sol.saturated == bool(np.any(np.abs(tau) > lim * (1 + 1e-6) + 1e-9))

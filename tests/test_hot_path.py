@@ -3,8 +3,9 @@
 - the Gram-matrix (Cholesky) path of the cascade = the SVD path (tall, well-conditioned levels),
   and is refused when the level is ill-conditioned or rank deficient;
 - the reused per-level buffers = rows stacked afresh, across cycles and stack changes;
-- the warm-started cascade keeps every fully solvable level exact, on average never does
-  worse on the sacrificed ones, and needs fewer QPs;
+- the cascade started from the state's nominal point (the contacts carrying gravity) keeps
+  every fully solvable level met, on average never does worse on the sacrificed ones than
+  the start from 0, and needs fewer QPs;
 - the simulator's contact Jacobians (one joint Jacobian per joint) = pinocchio's frame
   Jacobian of an operational frame placed at each contact point.
 """
@@ -44,7 +45,7 @@ def _svd_step(cas: Cascade, A, b, d):
 def test_qr_path_equals_svd_path(m, n):
     rng = np.random.default_rng(m * 100 + n)
     d = Damping()
-    for trial in range(20):
+    for _trial in range(20):
         cas = _cascade_with_free(n, 4, rng, d)
         A = rng.standard_normal((m, n + 4))
         b = rng.standard_normal(m)
@@ -73,7 +74,7 @@ def test_qr_path_refuses_rank_deficient_and_near_singular_levels():
 def test_gram_path_equals_svd_path(m, n):
     rng = np.random.default_rng(m * 100 + n)
     d = Damping()
-    for trial in range(20):
+    for _trial in range(20):
         cas = _cascade_with_free(n, 5, rng, d)
         A = rng.standard_normal((m, n + 5))
         b = rng.standard_normal(m)
@@ -157,13 +158,17 @@ def _moving_run(warm: bool, cycles: int = 600):
 
 
 def test_warm_started_cascade_keeps_optima_and_saves_qps():
+    """``warm_start``: the cascade starts from the state's nominal point (never from the
+    previous cycle) instead of 0."""
     warm, qp_warm = _moving_run(True)
     cold, qp_cold = _moving_run(False)
     print(f"\nmean residual per level: warm {np.round(warm.mean(0), 4)}, cold {np.round(cold.mean(0), 4)}; "
           f"QPs {qp_warm} vs {qp_cold}")
     # contacts + limits, CoM and hands are solvable: met (to the QPs' accuracy) either way,
-    # and the warm start is not worse on them
-    assert warm[:, :3].max() < 1e-3 and cold[:, :3].max() < 1e-3
+    # and the nominal start is not worse on them. (Each QP keeps its higher rows a margin
+    # from their bounds, and from 0 there are 1.6 per cycle with this trajectory's CoPs on
+    # their cop_margin rectangle: up to 1.3e-3 m/s² on the hands.)
+    assert warm[:, :3].max() < 1e-3 and cold[:, :3].max() < 2e-3
     assert warm[:, :3].mean() <= cold[:, :3].mean() + 1e-9
     # the sacrificed levels (posture, force regularisation): no worse on average
     assert np.all(warm.mean(0)[3:] <= 1.01 * cold.mean(0)[3:])
@@ -205,7 +210,7 @@ def test_cod_route_equals_svd_path_on_rank_deficient_levels(m, n, rank):
     space, and the cascade takes it when the level's first route refuses."""
     rng = np.random.default_rng(m * 1000 + n * 10 + rank)
     d = Damping()
-    for trial in range(20):
+    for _trial in range(20):
         cas = _cascade_with_free(n, 3, rng, d)
         A = rng.standard_normal((m, rank)) @ rng.standard_normal((rank, n)) @ cas.Z.T
         b = rng.standard_normal(m)
@@ -477,9 +482,9 @@ def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
                 for robot, stack in ((robot_a, stack_a), (robot_b, stack_b)):
                     robot.update(q, v)
                     randomise_targets(stack, robot, np.random.default_rng(seed))
-            # the same warm start for both (each cycle compared on its own: a rounding-level
-            # difference, which BLAS may make depending on memory alignment, is not fed back)
-            plain._warm = None if fast._warm is None else (fast._warm[0], fast._warm[1].copy())
+            # each cycle a function of its state alone (both at the fast one's state: a
+            # rounding-level difference, which BLAS may make depending on memory alignment,
+            # is not fed back)
             a, b = fast.solve(q, v), plain.solve(q, v)
             np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-8 * (1 + np.abs(b.x).max()))
             assert (a.status, a.qp_count) == (b.status, b.qp_count)
@@ -487,14 +492,14 @@ def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
                 assert (da.rank, da.dof_before, da.used_qp, da.saturated_joints) == \
                     (db.rank, db.dof_before, db.used_qp, db.saturated_joints)
                 assert da.sigma_min == pytest.approx(db.sigma_min, rel=1e-9, abs=1e-12)
-            stops.add(next((i for i, d in enumerate(a.diagnostics) if d.used_qp or d.saturated_joints),
-                           len(a.diagnostics)))
+            stops.add(next((i for i, d in enumerate(a.diagnostics) if d.used_qp or d.saturated_joints), "end"))
             qps += a.qp_count
             if moving:
                 v = v + a.qdd * DT
                 q = pin.integrate(robot_a.model, q, v * DT)
         print(f"\n{solver} ({'trajectory' if moving else 'random states'}): first level with a QP or a "
-              f"saturation {sorted(stops)}, {qps} QPs")
+              f"saturation {sorted(stops, key=str)}, {qps} QPs")
         seen |= stops
-    # the prefix was cut short at several levels, and ran through
-    assert len(seen) >= 3 and len(a.diagnostics) in seen
+    # the prefix was cut short at several levels (the projection's only stop is a joint
+    # limit: it has no QP), and ran through
+    assert len(seen - {"end"}) >= (3 if solver == "hqp" else 1) and "end" in seen

@@ -59,7 +59,9 @@ def test_series_has_one_sample_per_control_cycle_in_every_array(balance_run):
     assert 0 < len(tl) < n and np.all(np.diff(tl) > 0) and tl[-1] <= t[-1]
     assert {len(a) for a in (*s["level_residual"], *s["level_rank"], *s["level_sigma_min"])} == {len(tl)}
     assert set(s["task_errors"]) == {"com", "torso", "posture"}
-    assert len(s["level_residual"]) == len(s["levels"]) == 4
+    # the scenario's 4 levels and the contact regularisation the controller adds below them
+    assert len(s["level_residual"]) == len(s["levels"]) == 5
+    assert s["levels"][-1] == ["contact_regularization"]
 
 
 def test_series_is_physically_sensible_in_quiet_balance(balance_run):

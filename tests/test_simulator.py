@@ -49,9 +49,11 @@ def _random_rotation(seed: int) -> np.ndarray:
     return pin.exp3(np.random.default_rng(seed).normal(size=3))
 
 
-def _drop(size, mass, height, R=np.eye(3), omega=np.zeros(3), mu=0.8):
+def _drop(size, mass, height, R=None, omega=None, mu=0.8):
     """A box whose lowest corner is ``height`` above the ground, at rest or spinning
-    (``omega`` in the body frame, rad/s)."""
+    (``omega`` in the body frame, rad/s; default at rest, R default identity)."""
+    R = np.eye(3) if R is None else R
+    omega = np.zeros(3) if omega is None else omega
     m, pts = box_model(size=size, mass=mass)
     corners_body = np.array([r for _, r in pts])
     z = height - (corners_body @ R.T)[:, 2].min()

@@ -9,8 +9,17 @@
 
 from . import tasks
 from .controller import Controller
-from .errors import (ConfigError, FrameNotFound, RobotDefinitionError, RobotNotFound, SolverError,
-                     StackError, TargetError, TaskDefinitionError, WbcError)
+from .errors import (
+                     ConfigError,
+                     FrameNotFound,
+                     RobotDefinitionError,
+                     RobotNotFound,
+                     SolverError,
+                     StackError,
+                     TargetError,
+                     TaskDefinitionError,
+                     WbcError,
+)
 from .model import RobotModel
 from .robots import available_robots, load_robot
 from .scenario import Scenario, load_config

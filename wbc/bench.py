@@ -5,13 +5,13 @@
 Measures only; nothing here changes how the controller solves.
 
 - **Cases**: Talos, full stack (5 levels: limits + two foot contacts / CoM / both hands /
-  posture / contact-force regularisation, each sole's wrench towards half the weight) and TIAGo (limits / hand position / posture, differential
-  drive), each with the ``projection``, ``hqp`` and ``weighted`` solvers, the QP solvers with
-  every back-end. ``cycles`` cycles after a warm-up, along a moving trajectory: the targets
-  change every cycle (CoM sinusoid, hand targets on small circles) and the state moves
-  (the returned q̈ integrated as a double integrator, dt = 1 ms). Per case: median, p99 and
-  max cycle time, and the split by phase (model update, task rows, solve, torques and
-  diagnostics), measured by wrapping the controller's own methods with timers.
+  posture / contact-force regularisation, each sole's wrench towards half the weight) and TIAGo
+  (limits / hand position / posture, differential drive), each with the ``projection``, ``hqp``
+  and ``weighted`` solvers, the QP solvers with every back-end. ``cycles`` cycles after a
+  warm-up, along a moving trajectory: the targets change every cycle (CoM sinusoid, hand
+  targets on small circles) and the state moves (the returned q̈ integrated as a double
+  integrator, dt = 1 ms). Per case: median, p99 and max cycle time, and the split by phase
+  (model update, task rows, solve, torques and diagnostics), measured by wrapping the controller's own methods with timers.
 - **Floor**: what one Talos cycle cannot go below in this process: the pinocchio calls
   :meth:`RobotModel.update <wbc.model.RobotModel.update>` makes plus the Jacobians, velocities
   and drifts the tasks extract, and one daqp solve of a same-size QP (the whole stack as a
@@ -35,9 +35,9 @@ import sys
 import time
 import warnings
 from collections import Counter
+from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -363,7 +363,7 @@ def _timed_pass(robot: RobotModel, make_stack: Callable[[], Stack], solver: str,
                 sol = ctrl.solve(q, v)
                 t1 = clock()
                 if instrumented:
-                    sol.diagnostics                  # worked out on demand: timed apart
+                    _ = sol.diagnostics              # worked out on demand: timed apart
                 t2 = clock()
                 if k >= warmup:
                     i = k - warmup
@@ -480,11 +480,10 @@ def sim_loop(scenario: str = "talos_balance", duration: float = 3.0, solvers=("h
     physics at 1 kHz, metrics collected, no viewer): the real-time factor (simulated time /
     wall time, > 1 is faster than real time) and the median per cycle of the controller and
     of the simulator step, per solver."""
+    from .examples import SCENARIOS_DIR
     from .runner import run as run_scenario
     from .scenario import load_config
     from .sim.simulator import Simulator
-
-    from .examples import SCENARIOS_DIR
 
     path = SCENARIOS_DIR / f"{scenario}.yaml"
     out = {"scenario": scenario, "duration_s": duration}
@@ -555,8 +554,8 @@ def placo_dynamics(robot: RobotModel, cycles: int, warmup: int) -> dict:
     """PlaCo's DynamicsSolver on Talos, tasks comparable with the wbc stack: two planar foot
     contacts (hard frame tasks, 0.2 × 0.13 m soles, μ = 0.7), CoM (hard, kp 100: PlaCo has
     hard and weighted soft tasks only, and a soft CoM weighed against the hands drifts by
-    several cm), both hands' poses (soft, weight 1, kp 50), posture (weight 1e-3, kp 10), joint and torque limits; the same CoM and hand
-    trajectory; ``solve(True)`` integrates the state with dt = 1 ms. Timed: ``solve``
+    several cm), both hands' poses (soft, weight 1, kp 50), posture (weight 1e-3, kp 10), joint and
+    torque limits; the same CoM and hand trajectory; ``solve(True)`` integrates the state with dt = 1 ms. Timed: ``solve``
     alone, and ``update_kinematics`` + ``solve``."""
     missing = _placo_available()
     if missing:
@@ -746,7 +745,6 @@ def plot_scaling(sc: dict, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
     from matplotlib.ticker import NullFormatter, ScalarFormatter
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))

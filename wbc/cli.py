@@ -7,9 +7,11 @@ import inspect
 import json
 import sys
 import textwrap
+import traceback
 from pathlib import Path
 
 from .errors import WbcError
+from .sim.backends import SIMULATORS
 
 EPILOG = """examples:
   wbc run talos_balance                                a bundled scenario, live in the browser (URL printed)
@@ -20,7 +22,9 @@ EPILOG = """examples:
   wbc examples my_scenarios/                           copy the bundled scenarios out, to edit
   wbc robots | wbc tasks | wbc bench --quick
 
-units: SI throughout (m, rad, N, N·m, s); metrics JSON as described in README.md."""
+units: SI throughout (m, rad, N, N·m, s); metrics JSON as described in README.md.
+exit status: 0 ok, 1 the robot fell or the controller failed, 2 bad input (file, line, key path and
+what was expected), 3 an internal error (a bug: wbc --debug COMMAND ... prints its traceback)."""
 
 
 def _cmd_run(args) -> int:
@@ -40,7 +44,7 @@ def _cmd_run(args) -> int:
     want_series = bool(args.plot or args.series)
     try:
         metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
-                      progress=True, callback=callback, series=want_series)
+                      progress=True, callback=callback, series=want_series, simulator=args.sim)
         if not args.headless and sys.stdin.isatty():
             try:
                 input("wbc: run finished; press Enter to close the browser view ")
@@ -64,6 +68,9 @@ def _cmd_run(args) -> int:
     else:
         summary = {k: v for k, v in metrics.items() if k != "series"}
         print(json.dumps(summary, indent=2))
+    if metrics.get("saturated_cycles"):
+        print(f"wbc: torques saturated at the actuator limits in {metrics['saturated_cycles']} control cycles "
+              f"(the solver asked up to {metrics['tau_ratio_requested_max']:.2f} × τ_max)", file=sys.stderr)
     return 1 if metrics["fell"] or metrics["solver_failures"] else 0
 
 
@@ -105,6 +112,12 @@ def _cmd_examples(args) -> int:
 def _cmd_robots(args) -> int:
     from .robots import available_robots, load_robot
 
+    if getattr(args, "files", None):         # robot YAMLs of the user's: the full description
+        from .robot_init import describe
+
+        for f in args.files:
+            print(describe(load_robot(f)))
+        return 0
     for name in available_robots():
         r = load_robot(name)
         print(f"{name}: nq {r.nq}, nv {r.nv}, root {r.root}{' (differential drive)' if r.differential_drive else ''}")
@@ -159,6 +172,21 @@ def _cmd_tasks(args) -> int:
     return 0
 
 
+def _cmd_trajectories(args) -> int:
+    """Every trajectory key (wbc.trajectories.KEYS, wbc.trajectories_so3.KEYS) with its unit."""
+    from .trajectories import KEYS
+    from .trajectories_so3 import KEYS as ROTATION_KEYS
+
+    for title, keys in (("trajectory: (a com or frame task's, or an `events: add`'s)", KEYS),
+                        ("rotation: (inside a frame task's trajectory)", ROTATION_KEYS)):
+        print(title)
+        for kind, params in keys.items():
+            print(f"  {'type: ' + kind if kind[0] != '(' else kind}")
+            for name, about in params.items():
+                print(f"    {name:12s} {about}")
+    return 0
+
+
 class _Help(argparse.HelpFormatter):
     """Wraps prose paragraphs, keeps indented lines (examples) as written."""
 
@@ -177,11 +205,14 @@ def build_parser() -> argparse.ArgumentParser:
         prog="wbc", formatter_class=_Help, epilog=EPILOG,
         description="Whole-body multi-priority control on Pinocchio: run scenario YAMLs in closed loop "
                     "with a simulator, watch them in the browser (Meshcat), plot and benchmark them.")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an error, also print the Python traceback (for a bug report: "
+                             "wbc --debug run ...)")
     sub = parser.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
 
     r = sub.add_parser(
         "run", formatter_class=_Help, help="simulate a scenario YAML; browser view, metrics, plots, recordings",
-        description="Simulate a scenario (a YAML file or a bundled scenario's name): the controller drives a pinocchio simulation at the "
+        description="Simulate a scenario (a YAML file or a bundled scenario's name): the controller drives a simulation at the "
                     "scenario's control rate. Without --headless a Meshcat server starts on 127.0.0.1, its URL "
                     "is printed and the run plays in real time with the priority diagnostics (per level: "
                     "residual, rank and σ_min of the projected Jacobian, sacrificed tasks, active constraints) "
@@ -198,6 +229,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated duration in s (default: the scenario's `duration`)")
     r.add_argument("--solver", choices=["hqp", "projection", "weighted"],
                    help="priority solver (default: the scenario's `solver.type`, else hqp)")
+    r.add_argument("--sim", choices=list(SIMULATORS),
+                   help="physics: pinocchio (wbc's own, rigid contacts) or mujoco (MuJoCo's soft contacts, "
+                        "pip install 'wbc[mujoco]'); default: the scenario's `simulator`, else pinocchio")
     r.add_argument("--backend", metavar="NAME",
                    help="QP back-end: daqp, proxqp, or any qpsolvers name (default: the scenario's, else daqp)")
     r.add_argument("--metrics", metavar="FILE.json",
@@ -250,26 +284,62 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("dest", nargs="?", metavar="DIR", help="folder to copy the scenario YAMLs into (created)")
     e.add_argument("--force", action="store_true", help="overwrite files that exist in DIR")
     e.set_defaults(fn=_cmd_examples)
-    sub.add_parser("robots", formatter_class=_Help, help="list the bundled robots and their named frames",
+    rb = sub.add_parser("robots", formatter_class=_Help, help="list the bundled robots and their named frames",
                    description="List the bundled robots (wbc/data/robots/*.yaml): nq, nv, root joint, named frames "
-                               "(alias and URDF frame) and contact surfaces.").set_defaults(fn=_cmd_robots)
+                               "(alias and URDF frame) and contact surfaces. With FILE.yaml (or a bundled name): "
+                               "that robot's frames, contacts, limits, mass, gains and the static-torque margin at "
+                               "its default posture, with its warnings.")
+    rb.add_argument("files", nargs="*", metavar="FILE.yaml", help="robot YAMLs (or bundled names) to describe")
+    rb.set_defaults(fn=_cmd_robots)
     sub.add_parser("tasks", formatter_class=_Help, help="list task types with their parameters and defaults",
                    description="List the task types a scenario's `stack` accepts, with their parameters "
                                "and default values (gains in 1/s² and 1/s, weights unitless, forces in N)."
                    ).set_defaults(fn=_cmd_tasks)
+    sub.add_parser("trajectories", formatter_class=_Help, help="list trajectory types and keys, with units",
+                   description="List the keys of a task's `trajectory:` (constant, sinusoid, circle, waypoints, "
+                               "spline) and of its `rotation:` (frame tasks), with units (m, s, Hz, rad)."
+                   ).set_defaults(fn=_cmd_trajectories)
     from .bench import add_parser as add_bench_parser
 
     add_bench_parser(sub)
+    from .sweep.cli import add_parser as add_sweep_parser
+
+    add_sweep_parser(sub)
+    from .robot_init import add_parser as add_robot_parser
+
+    add_robot_parser(sub)
     return parser
 
 
+#: exit statuses of `wbc`: ok; the robot fell or the controller failed; bad input; a bug in wbc
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one `wbc` command; returns its exit status (:data:`EXIT_OK` ... :data:`EXIT_INTERNAL`).
+
+    Bad input (a :class:`WbcError`: a scenario or robot YAML that does not validate, an
+    unknown file) prints one ``error:`` line and returns 2; anything else is a bug in wbc:
+    a short message and 3, the traceback only with ``--debug``."""
     args = build_parser().parse_args(argv)
     try:
         return args.fn(args)
     except WbcError as exc:
+        if args.debug:
+            traceback.print_exc()
         print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("wbc: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:        # a bug: never a bare traceback unless asked for
+        if args.debug:
+            traceback.print_exc()
+        where = "".join(traceback.format_exception_only(type(exc), exc)).strip().splitlines()[-1]
+        print(f"wbc: internal error in `wbc {args.cmd}`: {where}\n"
+              f"  this is a bug in wbc, not in your input: please report it with --debug output "
+              f"(wbc --debug {args.cmd} ...)", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """YAML -> validated objects. Every error names the file, the key path and what was
-expected, e.g. ``tasks/talos_balance.yaml: stack[2][0].kp: must be >= 0, got -5``.
+expected, e.g. ``tasks/talos_balance.yaml:17: stack[2][0].kp: must be a number >= 0 (1/s²), got -5``.
 
 YAML is read with ``yaml.safe_load`` only.
 """
@@ -10,59 +10,58 @@ import inspect
 from pathlib import Path
 from typing import Any
 
-from .errors import ConfigError, WbcError
+from .errors import ConfigError, WbcError, placed
+from .schema import mapping, sequence, show, suggest
 from .stack import Stack
 from .tasks import TASK_TYPES
 from .tasks.base import Task
 from .yamlio import read_mapping
 
 
-def _accepted(cls) -> list[str]:
-    return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+def _parameters(cls) -> dict[str, inspect.Parameter]:
+    return {n: p for n, p in inspect.signature(cls.__init__).parameters.items() if n != "self"}
 
 
 def build_task(spec: Any, where: str) -> Task:
-    """A task from ``{type: ..., <constructor arguments>}``; ``where`` prefixes errors."""
-    if not isinstance(spec, dict):
-        raise ConfigError(f"{where}: expected a mapping with a 'type' key, got {type(spec).__name__}")
-    if "type" not in spec:
-        raise ConfigError(f"{where}.type: missing; expected one of {sorted(TASK_TYPES)}")
+    """A task from ``{type: ..., <constructor arguments>}``; ``where`` is its key path.
+
+    The mapping's keys are checked here (type, unknown and missing parameters); the values
+    by the task's constructor, whose errors (with the parameter's key) come out as a
+    :class:`ConfigError` under ``where``."""
+    spec = mapping(spec, where, required=("type",), what="a task mapping with a 'type' key")
     kind = spec["type"]
-    cls = TASK_TYPES.get(kind)
-    if cls is None:
-        raise ConfigError(f"{where}.type: unknown task type {kind!r}; expected one of {sorted(TASK_TYPES)}")
+    if not isinstance(kind, str) or kind not in TASK_TYPES:
+        hint = suggest(kind, TASK_TYPES) if isinstance(kind, str) else ""
+        raise ConfigError(f"unknown task type {show(kind)}{hint}; expected one of {sorted(TASK_TYPES)}",
+                          key=f"{where}.type")
+    cls = TASK_TYPES[kind]
+    params = _parameters(cls)
+    accepted = list(params)
     kwargs = {k: v for k, v in spec.items() if k != "type"}
-    accepted = _accepted(cls)
     for key in kwargs:
         if key not in accepted:
-            raise ConfigError(f"{where}.{key}: unknown parameter of a '{kind}' task; expected one of {accepted}")
-    for key in ("kp", "kd", "weight"):
-        val = kwargs.get(key)
-        if val is not None and not isinstance(val, (int, float, list)):
-            raise ConfigError(f"{where}.{key}: expected a number, got {val!r}")
-        if isinstance(val, (int, float)) and val < 0:
-            raise ConfigError(f"{where}.{key}: must be >= 0, got {val}")
+            raise ConfigError(f"unknown parameter of a '{kind}' task{suggest(key, accepted)}; expected one of "
+                              f"{accepted}", key=f"{where}.{key}")
+    for name, p in params.items():
+        if p.default is inspect.Parameter.empty and name not in kwargs:
+            raise ConfigError(f"missing (required by a '{kind}' task)", key=f"{where}.{name}")
     try:
         return cls(**kwargs)
     except WbcError as exc:
-        raise ConfigError(f"{where}: {exc}") from exc
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"{where}: {exc}") from exc
+        raise placed(exc, where, cls=ConfigError) from exc
 
 
 def build_stack(levels: Any, where: str = "stack") -> Stack:
     """A Stack from a list of levels, each a list of task mappings."""
-    if not isinstance(levels, list) or not levels:
-        raise ConfigError(f"{where}: expected a non-empty list of levels (each a list of tasks)")
+    levels = sequence(levels, where, min_len=1, what="a non-empty list of levels (each a list of tasks)")
     built = []
     for k, level in enumerate(levels):
-        if not isinstance(level, list) or not level:
-            raise ConfigError(f"{where}[{k}]: expected a non-empty list of tasks")
+        level = sequence(level, f"{where}[{k}]", min_len=1, what="a non-empty list of tasks")
         built.append([build_task(spec, f"{where}[{k}][{i}]") for i, spec in enumerate(level)])
     try:
         return Stack(built)
     except WbcError as exc:
-        raise ConfigError(f"{where}: {exc}") from exc
+        raise placed(exc, where, cls=ConfigError) from exc
 
 
 def read_yaml(path: str | Path) -> dict:

@@ -1,18 +1,33 @@
 """Controller: one control cycle, top to bottom.
 
     robot.update(q, v)           pinocchio, once
-    stack.layout / assemble      task rows, levels
+    stack.layout / assemble      task rows, levels (+ the contact regularisation, lowest)
     solver                       q̈ (and f) by projection, HQP or weighted QP
     torques                      τ = S_a (M q̈ + h − J_fᵀ f)   (5.26 solved for τ)
+    saturation                   τ_i ← clip(τ_i, −τ_max,i, τ_max,i)
 
-Nothing here returns a NaN torque: a non-finite or failed solve is reported in
-``Solution.status`` and the torque falls back to the last good one (or gravity
-compensation on the first cycle).
+Three guarantees, whatever the solver and the state:
+
+- **Nothing undecided.** Every direction of x = (q̈, f) is decided by the state and the
+  stack, never by the previous cycle. A stack with contacts gets a
+  :class:`~wbc.tasks.ContactRegularization` as its lowest level (unless it has one, or every
+  contact has a ContactWrench target, or ``contact_regularization=False``): it decides the
+  internal forces and the CoPs. What is still free after it (q̈ directions no task
+  names) keeps the value of the cascade's reference, a function of the state: the
+  nominal point x₀ = (q̈₀, f₀), q̈₀ the point of level 0's joint-acceleration bounds nearest
+  0 and f₀ the regularisation's distribution of gravity and the velocity terms
+  (:func:`~wbc.tasks.contact_regularization.reference_point`), or 0.
+- **Output inside the limits.** ``Solution.tau`` is finite and inside ±τ_max (the robot's
+  actuator limits). A solver's torque beyond them (a relaxed level, the projection
+  solver, which does not enforce torque limits, a stack without TorqueLimits) is clipped,
+  the cycle's status is ``"saturated"`` and the diagnostics name the joints.
+- **No NaN.** A non-finite or failed solve is reported in ``Solution.status`` and the
+  torque falls back to the last good one (or gravity compensation on the first cycle),
+  saturated too; q̈ is then 0 and the forces are the last good ones.
 """
 
 from __future__ import annotations
 
-import math
 from functools import partial
 
 import numba as nb
@@ -27,6 +42,7 @@ from .solvers.cascade import Damping
 from .solvers.hqp import CascadeResult, HierarchicalQP, WeightedQP
 from .solvers.projection import RecursiveProjection
 from .stack import Stack, row_values, split_values
+from .tasks.contact_regularization import ContactRegularization, reference_point
 from .tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
 SOLVERS = ("hqp", "projection", "weighted")
@@ -46,15 +62,22 @@ class Controller:
     residual exceeds sacrifice_tol + sacrifice_rel·‖b‖, b what its rows ask (units of its
     rows, m/s², rad/s², N): by default 0.1 % of the request, so a task met to the QPs'
     accuracy is not flagged. ``warm_start`` (hqp, weighted): the cascade's least-norm
-    choices start from the previous cycle's solution while the stack's structure is
-    unchanged (see :meth:`HierarchicalQP.solve_levels`); False makes every cycle
-    independent of the last.
+    choices start from the state's nominal point x₀ = (q̈₀, f₀) (module docstring: the
+    contacts already carry the weight there and the joints keep their acceleration
+    bounds, so level 0's point lies inside its cones and limits and needs no QP) instead
+    of 0. Either way a function of the state: no cycle
+    depends on the previous one (see :meth:`HierarchicalQP.solve_levels`).
+    ``contact_regularization``: True (default) adds a :class:`ContactRegularization` as the
+    lowest level of a stack with contacts that has none (module docstring); a
+    ContactRegularization instance is added instead (its weights); False adds nothing
+    (the internal forces are then left to the reference x₀).
     """
 
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str = "daqp",
                  weighting: str = "identity", damping: Damping | None = None,
                  sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
-                 warm_start: bool = True, sacrifice_rel: float = 1e-3) -> None:
+                 warm_start: bool = True, sacrifice_rel: float = 1e-3,
+                 contact_regularization: bool | ContactRegularization = True) -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
@@ -72,7 +95,21 @@ class Controller:
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
         self.warm_start = bool(warm_start)
-        self._warm: tuple | None = None      # (layout structure key, x) of the last solved cycle
+        if isinstance(contact_regularization, ContactRegularization):
+            self.regularization: ContactRegularization | None = contact_regularization
+        elif contact_regularization is True:
+            self.regularization = ContactRegularization()
+        elif contact_regularization is False or contact_regularization is None:
+            self.regularization = None
+        else:
+            raise SolverError("contact_regularization must be True, False or a ContactRegularization, got "
+                              f"{contact_regularization!r}")
+        # the weights of the nominal distribution f₀ when neither the stack nor the
+        # controller has a regularisation task
+        self._nominal_weights_of = self.regularization or ContactRegularization()
+        self._lowest_for: tuple | None = None   # (stack version, tasks added below the stack, weights' task)
+        self._x_ref: np.ndarray | None = None
+        self._last_forces: dict[str, np.ndarray] = {}
         self.dt = float(dt)
         # The cascade can make its least-norm choices in x̃ = (q̈, f / force_scale).
         # Measured: 100 makes level 0 pick interior forces (no QP there) but worsens
@@ -90,15 +127,16 @@ class Controller:
     # ------------------------------------------------------ contact switching
     def release_contact(self, name: str, duration: float = 0.2) -> None:
         """Lift-off without a torque jump: ramp the contact's normal-force bound from the
-        force it carries now down to 0 N over ``duration`` (s), then remove the task."""
+        force it carries now down to 0 N over ``duration`` (s, a smoothstep profile), then
+        remove the task."""
         task = self.stack[name]
-        f_now = float(self._last_forces.get(name, np.zeros(3))[2]) if hasattr(self, "_last_forces") else 0.0
+        f_now = float(self._last_forces.get(name, np.zeros(3))[2])
         self._ramps[name] = (max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), 0, True)
         task.fmax = max(f_now, 0.0)
 
     def make_contact(self, task, level: int = 0, duration: float = 0.1, fmax_end: float = np.inf) -> None:
         """Touch-down: add a Contact task (its reference is where the frame is now) with
-        its normal-force bound ramped up from 0 N over ``duration`` (s)."""
+        its normal-force bound ramped up from 0 N over ``duration`` (s, a smoothstep profile)."""
         task.bind(self.robot)
         task.reference = None
         task.fmax = 0.0
@@ -118,7 +156,12 @@ class Controller:
                 else:
                     task.fmax = np.inf
                 continue
-            task.fmax = f0 + (f1 - f0) * k / n
+            s_ = k / n
+            # smoothstep 3s² − 2s³: the bound starts and ends with zero slope. The contact
+            # regularisation loads a contact as far as the bound lets it, so the bound's
+            # profile is the torque's: a linear ramp starts at full slope (a step in dτ/dt,
+            # 1.4 N·m per cycle at Talos's touch-down), this one from rest (1.0).
+            task.fmax = f0 + (f1 - f0) * s_ * s_ * (3.0 - 2.0 * s_)
             self._ramps[name] = (f0, f1, n, k, remove)
 
     def _internal_constraints(self, layout: Layout) -> list:
@@ -129,6 +172,51 @@ class Controller:
             extra.append(self._diff_drive)
         return extra
 
+    def _lowest(self) -> tuple[list, ContactRegularization]:
+        """(the tasks added as the lowest level, the task whose weights define the nominal
+        forces f₀), worked out once per stack structure: the controller's regularisation
+        when the stack has contacts, no ContactRegularization of its own, and a contact
+        without a ContactWrench target (a wrench target on every contact decides every
+        force direction already)."""
+        got = self._lowest_for
+        if got is not None and got[0] == self.stack.version:
+            return got[1], got[2]
+        own = next((t for t in self.stack if isinstance(t, ContactRegularization)), None)
+        contacts = {c.name for c in self.stack.contacts()}
+        wrenched = {t.contact for t in self.stack if t.kind == "contact_wrench"}
+        lowest = []
+        if own is None and self.regularization is not None and contacts - wrenched:
+            self.regularization.bind(self.robot)
+            lowest = [self.regularization]
+        weights_of = own or self._nominal_weights_of
+        self._lowest_for = (self.stack.version, lowest, weights_of)
+        return lowest, weights_of
+
+    def lowest_tasks(self) -> list:
+        """The tasks the controller adds below the stack's levels (see ``contact_regularization``)."""
+        return list(self._lowest()[0])
+
+    def _reference(self, layout: Layout, weights_of: ContactRegularization, levels: list[Level]) -> np.ndarray | None:
+        """The cascade's reference x₀ = (q̈₀, f₀) (module docstring): q̈₀ the point of the
+        highest level's joint-acceleration bounds nearest 0 (a joint braking towards its
+        limit needs q̈ ≠ 0: from q̈ = 0 level 0 needed a QP in 9 % of the bench's cycles),
+        f₀ the nominal forces; None (x₀ = 0) when both are 0."""
+        robot = self.robot
+        box = levels[0].box if levels else None
+        forces = layout.nf and len(robot.unactuated_idx)
+        if not forces and box is None:
+            return None
+        x = self._x_ref
+        if x is None or len(x) != layout.nx:
+            x = self._x_ref = np.zeros(layout.nx)
+        idx, lo, hi = box if box is not None else (_NO_INDEX, _NO_BOUNDS, _NO_BOUNDS)
+        # inside the bounds by the margin the solver's QPs keep (a point on a bound sends
+        # the next level's step across it), in one compiled call with f₀
+        reference_point(x, layout.nv, idx, lo, hi, getattr(self.solver, "margin", 0.0),
+                        layout.force_jacobian if forces else _NO_FORCES, robot.h, robot.unactuated_idx,
+                        weights_of.force_weights(layout) if forces else _NO_BOUNDS)
+        return x
+
     def solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
         """One control cycle at state (q, v); see the module docstring."""
         robot = self.robot
@@ -137,7 +225,9 @@ class Controller:
             self._advance_ramps()
         robot.update(q, v)
         layout = self.stack.layout(robot)
-        levels = self.stack.assemble(robot, layout, self._internal_constraints(layout))
+        lowest, weights_of = self._lowest()
+        levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),
+                                     lowest if layout.nf else ())
         self.layout, self.levels = layout, levels
         nv = layout.nv
         if self.solver_name == "projection":
@@ -156,11 +246,9 @@ class Controller:
             if layout.nf and self.force_scale != 1.0:
                 scale = np.ones(layout.nx)
                 scale[nv:] = self.force_scale
-            key = layout.structure_key()
-            x_ref = self._warm[1] if self.warm_start and self._warm is not None and self._warm[0] == key else None
+            x_ref = self._reference(layout, weights_of, levels) if self.warm_start else None
             res = self.solver.solve_levels(levels, layout.nx, scale=scale, x_ref=x_ref)
             x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
-            self._warm = (key, x.copy()) if ok and math.isfinite(x.sum()) else None
         return self._finish(x, res, levels, layout, ok, message, qp_count)
 
     def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:
@@ -170,12 +258,12 @@ class Controller:
         # next cycle), in one compiled call; the per-level and per-task breakdown is done
         # only if the caller asks for it
         buf = self.stack.row_buffer
-        tau_full, finite, values = _cycle_outputs(
+        # τ (saturated in place), whether x and τ are finite, the rows' values, the worst
+        # |τ_i|/τ_max,i the solver asked for and the joints clipped beyond rounding
+        tau_full, finite, values, ratio, n_sat = _cycle_outputs(
             robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, x, robot.unactuated_idx,
-            buf.A, buf.b, buf.C, buf.lo, buf.hi)
+            buf.A, buf.b, buf.C, buf.lo, buf.hi, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
         relaxed = any(info.relaxed for info in res.levels)
-        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
-                           self.solver_name == "projection", self.sacrifice_tol, self.sacrifice_rel)
         status = "ok" if ok else "failed"
         if ok and relaxed:
             status = "relaxed"
@@ -185,13 +273,31 @@ class Controller:
             status, message = "failed", "non-finite solution"
         if status == "failed":
             tau_full = self._fallback_torque()
+            ratio, n_sat = _saturate(tau_full, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
             qdd = np.zeros(nv)
+            forces = {name: self._last_forces.get(name, np.zeros(sl.stop - sl.start)).copy()
+                      for name, sl in layout.contact_slices.items()}
+            x = np.concatenate([qdd] + [forces[name] for name in layout.contact_slices])
         else:
             self._last_tau = tau_full.copy()
-        forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
-        self._last_forces = forces
+            forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
+            self._last_forces = forces
+        saturated = n_sat > 0
+        if saturated:
+            lim = robot.tau_max[robot.actuated_idx]
+            at_limit = robot.actuated_idx[np.abs(tau_full[robot.actuated_idx]) >= lim * (1.0 - 1e-12)].tolist()
+            note = (f"τ saturated at ±τ_max on {n_sat} joint(s) (the solver asked up to {ratio:.3g} × τ_max)")
+            message = f"{message}; {note}" if message else note
+            if status != "failed":
+                status = "saturated"
+        else:
+            at_limit = []
+        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
+                           self.solver_name == "projection", self.sacrifice_tol, self.sacrifice_rel,
+                           saturated_torques=at_limit)
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
-                        x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate)
+                        x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
+                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit)
 
     def _fallback_torque(self) -> np.ndarray:
         if self._last_tau is not None:
@@ -203,6 +309,33 @@ class Controller:
 
 
 _NO_FORCES = np.zeros((0, 0))
+_NO_INDEX = np.zeros(0, dtype=np.int64)
+_NO_BOUNDS = np.zeros(0)
+#: relative excess |τ_i| > τ_max,i (1 + tol) (+ 1e-9 N·m) counted as a saturation: below
+#: it τ is clipped silently (a QP meets its torque rows to ~1e-7, not exactly)
+SATURATION_TOL = 1e-6
+
+
+@nb.njit(cache=True)
+def _saturate(tau, actuated, tau_max, tol):
+    """Clip τ_i to [−τ_max,i, τ_max,i] in place over the actuated joints; returns (the
+    worst |τ_i|/τ_max,i before, how many joints were beyond τ_max,i (1 + tol) + 1e-9).
+    Non-finite entries are left (the caller fails the cycle)."""
+    worst = 0.0
+    n = 0
+    for i in actuated:
+        lim = tau_max[i]
+        t = tau[i]
+        a = abs(t)
+        if lim > 0.0:
+            worst = max(worst, a / lim)
+        elif a > 0.0:
+            worst = np.inf
+        if a > lim:
+            if a > lim * (1.0 + tol) + 1e-9:
+                n += 1
+            tau[i] = lim if t > 0.0 else -lim
+    return worst, n
 
 
 @nb.njit(cache=True)
@@ -220,33 +353,44 @@ def _joint_torques(M, h, Jf, x, unactuated):
 
 
 @nb.njit(cache=True)
-def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi):
-    """(τ, whether x and τ are finite, the rows' values of :func:`~wbc.stack.row_values`,
-    whose residuals are +inf when not)."""
+def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi, actuated, tau_max, tol):
+    """(τ saturated by :func:`_saturate`, whether x and τ are finite, the rows' values of
+    :func:`~wbc.stack.row_values` (residuals +inf when not finite), the worst |τ_i|/τ_max,i
+    before saturation, the joints saturated)."""
     tau, finite = _joint_torques(M, h, Jf, x, unactuated)
     values = row_values(A, b, C, lo, hi, x)
     if not finite:
         values[:b.shape[0] + lo.shape[0]] = np.inf
-    return tau, finite, values
+        return tau, finite, values, np.inf, 0
+    ratio, n = _saturate(tau, actuated, tau_max, tol)
+    return tau, finite, values, ratio, n
 
 
 def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
-                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7):
+                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7, saturated_torques: list | None = None):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
     of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
     inequality rows): A x − b, C x, l, u and b over every level, level k's part
     given by ``spans[k]``; see :meth:`Controller._finish`). The projection solver enforces
     equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
-    force distribution and its torque limits are not enforced: those rows are reported
-    apart (``unenforced_violation``), not as residuals."""
+    force distribution and its torque limits are not enforced (the controller saturates
+    τ): those rows are reported apart (``unenforced_violation``), not as residuals.
+    ``saturated_torques``: the joints the controller clipped at ±τ_max, reported by the
+    level holding the torque limits (level 0 if the stack has none) as
+    ``saturated_torques`` and ``active["torque_saturation"]``. A regularisation task
+    (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met."""
     residuals, task_res, diags = [], {}, []
     E, Y, LO, HI, B = split_values(*values)
+    sat_level = -1
+    if saturated_torques:
+        sat_level = next((k for k, lvl in enumerate(levels) if any(t.kind == "torque_limits" for t in lvl.tasks)), 0)
     for lvl, (e0, e1, i0, n_gen, i1), info in zip(levels, spans, infos):
         index, tasks, eq_slices, in_slices, has_box = lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.box is not None
         e, b = E[e0:e1], B[e0:e1]
         y, lo, hi = Y[i0:i1], LO[i0:i1], HI[i0:i1]
-        viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
-        act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
+        with np.errstate(invalid="ignore"):          # a failed cycle's values are inf
+            viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+            act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
         unenforced = 0.0
         if projection and n_gen:
             unenforced = float(np.linalg.norm(viol[:n_gen]))
@@ -271,16 +415,19 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
                     active[t.name] = n_act
             r = r2**0.5
             task_res[t.name] = r
-            if r > tol:
+            if r > tol and not t.regularizer:
                 sacrificed.append(t.name)
         if has_box:
             n_act = int(np.count_nonzero(act[n_gen:]))
             if n_act:
                 active["joint_limits"] = n_act
+        sat = list(saturated_torques) if len(diags) == sat_level else []
+        if sat:
+            active["torque_saturation"] = len(sat)
         diags.append(LevelDiagnostics(
             index=index, tasks=[t.name for t in tasks], residual=residuals[-1],
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
             sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
-            unenforced_violation=unenforced, qp_status=info.qp_status))
+            unenforced_violation=unenforced, qp_status=info.qp_status, saturated_torques=sat))
     return residuals, task_res, diags

@@ -10,6 +10,7 @@ import shutil
 from pathlib import Path
 
 from .errors import ConfigError
+from .schema import is_file, show
 
 #: the bundled scenario YAMLs, inside the package
 SCENARIOS_DIR = Path(__file__).resolve().parent / "data" / "scenarios"
@@ -26,12 +27,13 @@ def scenario_path(name_or_path: str | Path) -> Path:
     A name without ``.yaml``/``.yml`` that is not an existing file is looked up among the
     bundled scenarios; an unknown one raises :class:`ConfigError` naming the choices."""
     p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") or p.is_file():
+    if p.suffix in (".yaml", ".yml") or is_file(p):
         return p
     candidate = SCENARIOS_DIR / f"{p.name}.yaml"
-    if p.parent == Path(".") and candidate.is_file():
+    if p.parent == Path(".") and is_file(candidate):
         return candidate
-    raise ConfigError(f"{name_or_path}: no such scenario file; bundled scenarios: {', '.join(available_scenarios())}")
+    raise ConfigError(f"{show(str(name_or_path))[1:-1]}: no such scenario file; bundled scenarios: "
+                      f"{', '.join(available_scenarios())}")
 
 
 def copy_examples(dest: str | Path, overwrite: bool = False) -> list[Path]:

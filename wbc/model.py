@@ -25,7 +25,6 @@ v in m/s and rad/s, torques in N and N·m.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,6 +43,8 @@ class ContactSurface:
 
     ``half_length`` (along the frame's x) and ``half_width`` (along y) in m;
     ``mu`` the Coulomb friction coefficient; the contact normal is the frame's +z.
+    ``radius`` (m): a point foot's sphere radius (informative; the frame already is the
+    touching point).
     """
 
     name: str
@@ -52,6 +53,9 @@ class ContactSurface:
     half_length: float = 0.1
     half_width: float = 0.05
     mu: float = 0.7
+    #: a point contact's sphere radius (m): its frame is then the sphere's bottom at the
+    #: default posture (:mod:`wbc.robot_extras`)
+    radius: float = 0.0
 
     @property
     def force_dim(self) -> int:

@@ -8,14 +8,24 @@ path, so the same code works in any virtual environment.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import RobotDefinitionError, RobotNotFound
+from .errors import RobotDefinitionError, RobotNotFound, WbcError, placed
+from .robot_extras import (
+    add_offset_frames,
+    check_robot,
+    level_on_contacts,
+    point_contact_frame,
+    set_base_position,
+    set_joint_value,
+)
+from .robot_schema import N_ROOT, check_document, finite_configuration
+from .schema import is_file, show, suggest
 
 if TYPE_CHECKING:
     from .model import RobotModel
@@ -24,7 +34,7 @@ if TYPE_CHECKING:
 ROBOTS_DIR = Path(__file__).resolve().parent / "data" / "robots"
 
 
-@lru_cache(maxsize=None)
+@cache
 def package_share_dir(package: str) -> Path:
     """Directory ``<prefix>/share`` that holds the data of an installed cmeel package.
 
@@ -53,156 +63,134 @@ def robot_yaml_path(name_or_path: str | Path) -> Path:
     """Resolve a bundled robot name (``"talos"``) or a path to a robot YAML."""
     p = Path(name_or_path)
     if p.suffix in (".yaml", ".yml"):
-        if not p.is_file():
-            raise RobotNotFound(f"robot YAML '{p}' does not exist")
+        if not is_file(p):
+            raise RobotNotFound(f"robot YAML {show(str(p))} does not exist")
         return p.resolve()
     candidate = ROBOTS_DIR / f"{name_or_path}.yaml"
-    if candidate.is_file():
+    if is_file(candidate):
         return candidate
     raise RobotNotFound(
-        f"unknown robot '{name_or_path}': expected one of {available_robots()} "
+        f"unknown robot {show(str(name_or_path))}: expected one of {available_robots()} "
         "or a path to a robot YAML file"
     )
 
 
 # --------------------------------------------------------------------- loading
-_ROOTS = ("free_flyer", "planar", "fixed")
-
-
-def _err(src: Path, key: str, msg: str) -> RobotDefinitionError:
-    return RobotDefinitionError(f"{src}: key '{key}': {msg}")
-
-
 def _resolve_file(src: Path, key: str, spec) -> Path:
-    """A file given as ``{package: NAME, path: REL}`` or as a path relative to the YAML."""
+    """A file given as ``{package: NAME, path: REL}`` or as a path relative to the YAML
+    (``spec`` already checked by :func:`wbc.robot_schema.file_spec`)."""
     if isinstance(spec, dict):
-        if set(spec) - {"package", "path"} or "path" not in spec:
-            raise _err(src, key, "expected {package: <installed package>, path: <relative path>} or a path")
-        base = package_share_dir(spec["package"]) / spec["package"] if "package" in spec else src.parent
+        try:
+            base = package_share_dir(spec["package"]) / spec["package"] if "package" in spec else src.parent
+        except RobotDefinitionError as exc:
+            raise placed(exc, f"{key}.package") from exc
         path = base / spec["path"]
-    elif isinstance(spec, str):
-        path = (src.parent / spec) if not Path(spec).is_absolute() else Path(spec)
     else:
-        raise _err(src, key, f"expected a path or {{package, path}}, got {type(spec).__name__}")
-    if not path.is_file():
-        raise _err(src, key, f"file '{path}' does not exist")
+        path = (src.parent / spec) if not Path(spec).is_absolute() else Path(spec)
+    if not is_file(path):
+        raise RobotDefinitionError(f"file '{path}' does not exist", key=key)
     return path.resolve()
 
 
-def _float_map(src: Path, key: str, value, model) -> dict[int, float]:
-    """{joint_name: float} -> {velocity index: value}, checking joint names."""
-    if value is None:
-        return {}
-    if not isinstance(value, dict):
-        raise _err(src, key, f"expected a mapping joint name -> number, got {type(value).__name__}")
+def _joint(model, name: str, key: str, *, locked: list[str] = (), one_coordinate: bool = False) -> int:
+    """The id of joint ``name`` of ``model``: a joint other than the universe and the root
+    (``model`` built with a root joint has it at id 1), with one coordinate if asked."""
+    names = [n for jid, n in enumerate(model.names) if jid > 0 and not (jid == 1 and n == "root_joint")]
+    if name not in names:
+        if name in locked:
+            why = "is locked (locked_joints)"
+        elif model.existJointName(name):
+            why = "is the root joint, not a joint of the robot"
+        else:
+            why = "is not a joint of the URDF"
+        raise RobotDefinitionError(f"'{name}' {why}; expected one of {show(names)}{suggest(name, names)}", key=key)
+    jid = model.getJointId(name)
+    if one_coordinate and model.joints[jid].nq != 1:
+        raise RobotDefinitionError(f"joint '{name}' has {model.joints[jid].nq} coordinates; only a 1-coordinate "
+                                   "joint (revolute, prismatic) takes a single value", key=key)
+    return jid
+
+
+def _joint_map(model, key: str, values: dict[str, float], locked: list[str]) -> dict[int, float]:
+    """{joint name: value} -> {velocity index: value}, checking the names."""
     out = {}
-    for jname, val in value.items():
-        if not model.existJointName(jname):
-            raise _err(src, f"{key}.{jname}", f"unknown joint; expected one of {list(model.names)[1:]}")
-        if not isinstance(val, (int, float)):
-            raise _err(src, f"{key}.{jname}", f"expected a number, got {val!r}")
-        out[model.idx_vs[model.getJointId(jname)]] = float(val)
+    for jname, val in values.items():
+        jid = _joint(model, jname, f"{key}.{jname}", locked=locked)
+        out[model.idx_vs[jid]] = val
     return out
 
 
-def _level_on_contacts(model, q, contacts) -> np.ndarray:
-    """Make the surface contacts of the default posture lie flat on the ground z = 0.
-
-    A URDF posture with a slightly rolled ankle would otherwise start on a sole
-    edge. Gauss-Newton on the joints (root fixed), least-norm steps, on the error
-    (height, roll, pitch) of every sole relative to the mean sole height; then the
-    root is shifted so the soles touch z = 0.
-    """
+def _parse_urdf(urdf: Path, root: str):
+    """The pinocchio model of ``urdf`` with the root joint of ``root``."""
     import pinocchio as pin
 
-    data = model.createData()
-    surfaces = [c for c in contacts.values() if c.kind == "surface"]
-    if not surfaces:
-        return q
-    q = q.copy()
-    fids = [model.getFrameId(c.frame) for c in surfaces]
-    for _ in range(10):
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        z_mean = np.mean([data.oMf[f].translation[2] for f in fids])
-        err, rows = [], []
-        for f in fids:
-            M = data.oMf[f]
-            J = pin.getFrameJacobian(model, data, f, pin.LOCAL_WORLD_ALIGNED)
-            rpy = pin.rpy.matrixToRpy(M.rotation)
-            err += [M.translation[2] - z_mean, rpy[0], rpy[1]]
-            rows += [J[2], J[3], J[4]]
-        err = np.array(err)
-        if np.abs(err).max() < 1e-10:
-            break
-        A = np.array(rows)[:, 6:]
-        dq = np.zeros(model.nv)
-        dq[6:] = -np.linalg.lstsq(A, err, rcond=None)[0]
-        q = pin.integrate(model, q, dq)
-    pin.framesForwardKinematics(model, data, q)
-    q[2] -= np.mean([data.oMf[f].translation[2] for f in fids])
-    return q
+    root_joint = {"free_flyer": pin.JointModelFreeFlyer(), "planar": pin.JointModelPlanar()}.get(root)
+    try:
+        return pin.buildModelFromUrdf(str(urdf), root_joint) if root_joint else pin.buildModelFromUrdf(str(urdf))
+    except (RuntimeError, ValueError, OSError) as exc:
+        raise RobotDefinitionError(f"pinocchio could not read the URDF '{urdf}': {exc}", key="urdf") from None
 
 
-def load_robot(name_or_path: str | Path) -> "RobotModel":
+def load_robot(name_or_path: str | Path) -> RobotModel:
     """Load a bundled robot (``"talos"``, ``"tiago"``) or a robot YAML file.
 
     Raises :class:`RobotNotFound` for an unknown name and
-    :class:`RobotDefinitionError` naming the file and key for a malformed YAML.
+    :class:`RobotDefinitionError` naming the file, line and key path for a malformed YAML
+    (the schema: :mod:`wbc.robot_schema`).
     """
+    from .yamlio import read_document
+
+    src = robot_yaml_path(name_or_path)
+    doc = read_document(src, RobotDefinitionError)
+    try:
+        return _build(src, check_document(doc.data))
+    except WbcError as exc:
+        raise placed(exc, file=src, line=doc.line(exc.key), cls=RobotDefinitionError) from exc
+
+
+def _build(src: Path, cfg: dict) -> RobotModel:
     import pinocchio as pin
 
     from .model import ContactSurface, RobotModel
-    from .yamlio import read_mapping
 
-    src = robot_yaml_path(name_or_path)
-    cfg = read_mapping(src, RobotDefinitionError)
-    for key in ("name", "urdf", "root"):
-        if key not in cfg:
-            raise _err(src, key, "missing (required)")
     root = cfg["root"]
-    if root not in _ROOTS:
-        raise _err(src, "root", f"expected one of {list(_ROOTS)}, got {root!r}")
-
     urdf = _resolve_file(src, "urdf", cfg["urdf"])
-    package_dirs = sorted({str(package_share_dir(s["package"])) for s in (cfg["urdf"], cfg.get("srdf"))
-                           if isinstance(s, dict) and "package" in s})
-    root_joint = {"free_flyer": pin.JointModelFreeFlyer(), "planar": pin.JointModelPlanar()}.get(root)
-    full = pin.buildModelFromUrdf(str(urdf), root_joint) if root_joint else pin.buildModelFromUrdf(str(urdf))
+    srdf = _resolve_file(src, "srdf", cfg["srdf"]) if cfg["srdf"] is not None else None
+    package_dirs = sorted({str(package_share_dir(s["package"])) for s in (cfg["urdf"], cfg["srdf"])
+                           if isinstance(s, dict) and "package" in s})      # both found above
+    full = _parse_urdf(urdf, root)
 
     q_ref = pin.neutral(full)
-    if "srdf" in cfg:
-        srdf = _resolve_file(src, "srdf", cfg["srdf"])
-        pin.loadReferenceConfigurations(full, str(srdf), False)
-    posture = cfg.get("default_posture")
-    overrides = {}
-    if isinstance(posture, dict) and "srdf" in posture:
-        overrides = dict(posture.get("joints") or {})
-        posture = posture["srdf"]
-    if isinstance(posture, str):
-        if not full.referenceConfigurations.__contains__(posture):
-            names = [k.key() for k in full.referenceConfigurations]
-            raise _err(src, "default_posture", f"no reference configuration '{posture}' in the SRDF; expected one of {names}")
-        q_ref = full.referenceConfigurations[posture].copy()
-    elif isinstance(posture, dict):
-        for jname, val in posture.items():
-            if not full.existJointName(jname):
-                raise _err(src, f"default_posture.{jname}", f"unknown joint; expected one of {list(full.names)[1:]}")
-            q_ref[full.idx_qs[full.getJointId(jname)]] = float(val)
-    elif posture is not None:
-        raise _err(src, "default_posture", "expected an SRDF reference name or a mapping joint -> value")
+    if srdf is not None:
+        try:
+            pin.loadReferenceConfigurations(full, str(srdf), False)
+        except (RuntimeError, ValueError, OSError) as exc:
+            raise RobotDefinitionError(f"pinocchio could not read the SRDF '{srdf}': {exc}", key="srdf") from None
+    reference, overrides, key = cfg["posture"]
+    if reference is not None:
+        names = [k.key() for k in full.referenceConfigurations]
+        if reference not in names:
+            where = "in the SRDF" if cfg["srdf"] is not None else "(no srdf: is given)"
+            raise RobotDefinitionError(f"no reference configuration '{reference}' {where}; expected one of "
+                                       f"{names}{suggest(reference, names)}", key=key)
+        q_ref = full.referenceConfigurations[reference].copy()
+    posture_key = "default_posture.joints" if reference is not None else "default_posture"
     for jname, val in overrides.items():
-        if not full.existJointName(jname):
-            raise _err(src, f"default_posture.joints.{jname}", f"unknown joint; expected one of {list(full.names)[1:]}")
-        q_ref[full.idx_qs[full.getJointId(jname)]] = float(val)
+        jid = _joint(full, jname, f"{posture_key}.{jname}")
+        lo, hi = full.lowerPositionLimit[full.idx_qs[jid]], full.upperPositionLimit[full.idx_qs[jid]]
+        if full.joints[jid].nq == 1 and not lo - 1e-9 <= val <= hi + 1e-9:
+            raise RobotDefinitionError(f"must be inside the joint's limits [{lo:g}, {hi:g}] (rad or m), got {val:g}",
+                                       key=f"{posture_key}.{jname}")
+        try:        # θ (rad) or d (m); a continuous joint's angle θ as (cos θ, sin θ)
+            set_joint_value(full, q_ref, jid, val)
+        except RobotDefinitionError as exc:
+            raise placed(exc, f"{posture_key}.{jname}") from exc
 
-    locked = list(cfg.get("locked_joints") or [])
-    for jname in locked:
-        if not full.existJointName(jname):
-            raise _err(src, "locked_joints", f"unknown joint '{jname}'; expected one of {list(full.names)[1:]}")
+    locked = cfg["locked"]
+    ids = [_joint(full, j, f"locked_joints[{i}]") for i, j in enumerate(locked)]
     model = full
     if locked:
-        model = pin.buildReducedModel(full, [full.getJointId(j) for j in locked], q_ref)
+        model = pin.buildReducedModel(full, ids, q_ref)
         # keep the default posture of the joints that remain
         q_new = pin.neutral(model)
         for jid in range(1, model.njoints):
@@ -211,52 +199,45 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
             q_new[model.idx_qs[jid]: model.idx_qs[jid] + nq_j] = q_ref[full.idx_qs[j_full]: full.idx_qs[j_full] + nq_j]
         q_ref = q_new
 
-    base = cfg.get("base_position")
+    base = cfg["base_position"]
     if base is not None:
-        if root == "fixed" or len(base) not in (2, 3):
-            raise _err(src, "base_position", "expected [x, y] or [x, y, z] for a floating or planar root")
-        q_ref[: len(base)] = base
+        set_base_position(q_ref, root, base)
 
-    frames = cfg.get("frames") or {}
+    frames = add_offset_frames(model, cfg["frames"])      # {link, xyz, rpy} entries become model frames
     for alias, fname in frames.items():
         if not model.existFrame(fname):
-            raise _err(src, f"frames.{alias}", f"URDF has no frame '{fname}'")
+            raise RobotDefinitionError(f"the URDF has no frame '{fname}'{_frame_hint(model, fname)}",
+                                       key=f"frames.{alias}")
 
     contacts = {}
-    for cname, spec in (cfg.get("contacts") or {}).items():
-        spec = dict(spec or {})
+    for cname, spec in cfg["contacts"].items():
+        spec = dict(spec)
         frame = spec.pop("frame", frames.get(cname, cname))
         if not model.existFrame(frame):
-            raise _err(src, f"contacts.{cname}.frame", f"URDF has no frame '{frame}'")
-        kind = spec.get("kind", "surface")
-        if kind not in ("surface", "point"):
-            raise _err(src, f"contacts.{cname}.kind", f"expected 'surface' or 'point', got {kind!r}")
-        try:
-            contacts[cname] = ContactSurface(name=cname, frame=frame, **spec)
-        except TypeError as exc:
-            raise _err(src, f"contacts.{cname}", f"unexpected field ({exc}); expected kind, half_length, half_width, mu") from exc
-        if contacts[cname].mu <= 0 or contacts[cname].half_length <= 0 or contacts[cname].half_width <= 0:
-            raise _err(src, f"contacts.{cname}", "mu, half_length and half_width must be positive")
+            raise RobotDefinitionError(f"the URDF has no frame '{frame}'{_frame_hint(model, frame)}",
+                                       key=f"contacts.{cname}.frame" if "frame" in cfg["contacts"][cname]
+                                       else f"contacts.{cname}")
+        offset = spec.pop("offset", None)
+        if spec.get("kind") == "point":   # the sphere's bottom (radius) and offset: a frame of its own
+            frame = point_contact_frame(model, q_ref, cname, frame, spec.get("radius", 0.0), offset)
+        contacts[cname] = ContactSurface(name=cname, frame=frame, **spec)
         frames.setdefault(cname, frame)
 
-    if root == "free_flyer" and contacts and cfg.get("level_on_contacts", True):
-        q_ref = _level_on_contacts(model, q_ref, contacts)
+    if root == "free_flyer" and contacts and cfg["level_on_contacts"]:
+        q_ref = finite_configuration(level_on_contacts(model, q_ref, contacts), "contacts")
 
-    n_root = {"free_flyer": 6, "planar": 3, "fixed": 0}[root]
-    limits = cfg.get("limits") or {}
+    n_root = N_ROOT[root]
+    limits = cfg["limits"]
     tau_max = model.effortLimit.copy()
     v_max = model.velocityLimit.copy()
-    for idx, val in _float_map(src, "limits.torque", limits.get("torque"), model).items():
+    for idx, val in _joint_map(model, "limits.torque", limits["torque"], locked).items():
         tau_max[idx] = val
-    for idx, val in _float_map(src, "limits.velocity", limits.get("velocity"), model).items():
+    for idx, val in _joint_map(model, "limits.velocity", limits["velocity"], locked).items():
         v_max[idx] = val
     for key, arr in (("root_torque", tau_max), ("root_velocity", v_max)):
         if key in limits:
-            val = limits[key]
-            if not (isinstance(val, list) and len(val) == n_root):
-                raise _err(src, f"limits.{key}", f"expected a list of {n_root} numbers")
-            arr[:n_root] = val
-    if not cfg.get("actuated_root", False):
+            arr[:n_root] = limits[key]
+    if not cfg["actuated_root"]:
         tau_max[:n_root] = np.inf
     tau_max[tau_max > 1e300] = np.inf
     v_max[v_max > 1e300] = np.inf
@@ -265,22 +246,28 @@ def load_robot(name_or_path: str | Path) -> "RobotModel":
     q_min[q_min < -1e300] = -np.inf
     q_max[q_max > 1e300] = np.inf
 
-    return RobotModel(
-        name=str(cfg["name"]),
+    robot = RobotModel(
+        name=cfg["name"],
         model=model,
         root=root,
-        actuated_root=bool(cfg.get("actuated_root", False)),
-        frames=dict(frames),
+        actuated_root=cfg["actuated_root"],
+        frames=frames,
         contacts=contacts,
         q_default=q_ref,
         q_min=q_min,
         q_max=q_max,
         v_max=v_max,
         tau_max=tau_max,
-        differential_drive=bool(cfg.get("differential_drive", False)),
-        default_gains=dict(cfg.get("gains") or {}),
+        differential_drive=cfg["differential_drive"],
+        default_gains=dict(cfg["gains"]),
         urdf_path=urdf,
         package_dirs=package_dirs,
-        locked_joints=locked,
+        locked_joints=list(locked),
         source=src,
     )
+    check_robot(robot)        # RobotWarning: static torque over a limit, posture outside limits, tilted contact
+    return robot
+
+
+def _frame_hint(model, name: str) -> str:
+    return suggest(name, [f.name for f in model.frames])

@@ -38,7 +38,8 @@ class Rows:
 
 @dataclass
 class Layout:
-    """Where each contact's force lives in x, and the force Jacobian J_f (nf × nv).
+    """Where each contact's force lives in x, the force Jacobian J_f (nf × nv), and each
+    contact's surface.
 
     J_fᵀ f is the joint torque the contact forces produce, so the equation of
     motion reads M q̈ + h = Sᵀτ + J_fᵀ f (5.26).
@@ -48,6 +49,9 @@ class Layout:
     contact_slices: dict[str, slice] = field(default_factory=dict)
     #: refilled in place every cycle, never replaced (``nf`` and ``nx`` are set from it once)
     force_jacobian: np.ndarray | None = None
+    #: contact task name -> its :class:`~wbc.model.ContactSurface` (kind and sole half sizes),
+    #: for the tasks whose rows depend on the contact geometry (contact regularisation)
+    surfaces: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         #: number of force variables, and of decision variables x = (q̈, f)

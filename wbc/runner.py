@@ -1,8 +1,16 @@
 """Run a scenario: controller and simulator in closed loop, metrics in SI units.
 
 Per control period: the simulator's measurement (q, v) -> ``Controller.solve`` ->
-torques -> ``Simulator.step``. The controller never reads the simulator's state
-otherwise. Metrics follow DESIGN.md (``violations`` count control cycles).
+torques -> the simulator's ``step``. The simulator is any
+:class:`wbc.sim.backends.PhysicsSimulator` (ours on pinocchio, or MuJoCo); the controller
+never reads its state otherwise. Metrics follow DESIGN.md (``violations`` count control cycles).
+
+Metrics on limits and contacts: ``relaxed_cycles`` (a level's inequalities gave way),
+``saturated_cycles`` (the controller clipped τ at ±τ_max), ``tau_ratio_max`` (the worst
+|τ_i|/τ_max,i sent, ≤ 1) and ``tau_ratio_requested_max`` (asked by the solver, before the
+clipping); per sole contact ``cop_edge_min`` (m), ``cop_inside_1cm`` and
+``normal_force_min`` (N), and for two contacts ``internal_force`` (N), all from the
+simulator's contact forces (:class:`ContactMetrics`).
 
 ``run(..., series=True)`` also records time series (task errors, per-level residual,
 rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
@@ -23,8 +31,10 @@ from scipy.spatial import ConvexHull, QhullError
 from .compile_notice import CompileNotice
 from .controller import Controller
 from .scenario import Scenario
-from .sim.simulator import Simulator
+from .sim.backends import make_simulator
 from .tasks.contact import Contact
+from .tasks.frame import to_se3
+from .trajectories import frame_reference
 
 
 def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
@@ -69,8 +79,8 @@ class SupportPolygon:
 
     def margin(self, idx: list[int], points_xy: np.ndarray, p: np.ndarray) -> float:
         """Signed distance (m) of p to the hull of ``points_xy[idx]`` (> 0 inside)."""
-        if len(idx) < 3:
-            return -np.inf
+        if len(idx) < 3 or not np.all(np.isfinite(points_xy[idx])):
+            return -np.inf                       # no support, or a simulation that diverged
         key = tuple(idx)
         self._age += 1
         if key != self._key or self._age >= self.refresh:
@@ -81,6 +91,84 @@ class SupportPolygon:
                 self._key, self._vertices = None, None
                 return -np.inf
         return polygon_margin(points_xy[self._vertices], p)
+
+
+class ContactMetrics:
+    """Per-contact figures from the simulator's contact forces, accumulated over a run.
+
+    Centre of pressure of a sole (a contact with at least 3 simulated points, its corners):
+    p = Σ f_z,i r_i / Σ f_z,i over its points (world xy, m), and its distance to the sole's
+    edge, the signed margin of p in the polygon of those points (> 0 inside,
+    :func:`polygon_margin`), in every cycle in which the sole carries more than
+    ``loaded`` × m g. Reported per contact: ``cop_edge_min`` (m, the smallest distance
+    over the run), ``cop_inside_1cm`` (the fraction of its loaded cycles with the CoP at
+    least 1 cm inside) and ``normal_force_min`` (N, the least total normal force it carried:
+    a sole near 0 N is about to slip or lift).
+
+    Internal force of two contacts (``internal_force``, N): with F_a, F_b the resultant
+    ground forces on the first and second contact's points and d the horizontal unit
+    vector from b to a, s = (F_a − F_b)·d / 2: the part of the two forces that pulls the
+    contacts towards each other (s < 0: the ground pulls them together, i.e. the legs push
+    the feet apart) or pushes them apart (s > 0), which no motion needs. ``mean`` and
+    ``max_abs`` over the cycles in which both are watched."""
+
+    def __init__(self, contacts, pts_of: dict, p0: np.ndarray, weight: float, loaded: float = 0.02) -> None:
+        self.soles = {}
+        for c in contacts:
+            idx = np.asarray(pts_of[c.name])
+            if len(idx) >= 3:
+                try:
+                    order = idx[ConvexHull(p0[idx, :2]).vertices]    # counter-clockwise corners
+                except QhullError:
+                    continue
+                self.soles[c.name] = (idx, order)
+        self.min_force = loaded * weight
+        self.edge_min = {name: np.inf for name in self.soles}
+        self.inside = {name: 0 for name in self.soles}
+        self.loaded = {name: 0 for name in self.soles}
+        self.fn_min = {name: np.inf for name in self.soles}
+        self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
+        self.internal: list[float] = []
+
+    def record(self, pf: np.ndarray, pts: np.ndarray, watched: set, pts_of: dict) -> None:
+        for name, (idx, order) in self.soles.items():
+            if name not in watched:
+                continue
+            fz = pf[idx, 2]
+            total = float(fz.sum())
+            if total < self.fn_min[name]:
+                self.fn_min[name] = total
+            if total <= self.min_force:
+                continue
+            cop = (fz @ pts[idx, :2]) / total
+            e = polygon_margin(pts[order, :2], cop)
+            self.loaded[name] += 1
+            self.inside[name] += e >= 0.01
+            if e < self.edge_min[name]:
+                self.edge_min[name] = e
+        if self.pair is not None and self.pair[0] in watched and self.pair[1] in watched:
+            a, b = pts_of[self.pair[0]], pts_of[self.pair[1]]
+            d = pts[a, :2].mean(axis=0) - pts[b, :2].mean(axis=0)
+            n = math.hypot(d[0], d[1])
+            if n > 1e-6:
+                fa, fb = pf[a, :2].sum(axis=0), pf[b, :2].sum(axis=0)
+                s = float((fa - fb) @ d) / (2.0 * n)
+                if math.isfinite(s):
+                    self.internal.append(s)
+
+    def summary(self, name: str) -> dict:
+        if name not in self.soles or not np.isfinite(self.fn_min[name]):
+            return {}
+        out = {"normal_force_min": float(self.fn_min[name])}
+        if self.loaded[name]:
+            out.update(cop_edge_min=float(self.edge_min[name]), cop_inside_1cm=self.inside[name] / self.loaded[name])
+        return out
+
+    def internal_force(self) -> dict | None:
+        if not self.internal:
+            return None
+        x = np.asarray(self.internal)
+        return {"mean": float(x.mean()), "max_abs": float(np.abs(x).max())}
 
 
 def _tilt(q: np.ndarray) -> float:
@@ -105,13 +193,15 @@ class Series:
     """
 
     def __init__(self, n: int, dt: float, robot, stack, contacts: list[str], mu: float,
-                 level_every: int = 10) -> None:
+                 level_every: int = 10, lowest: list | None = None) -> None:
         self.dt, self.mu, self.k, self.level_every, self.kl = dt, mu, 0, max(1, level_every), 0
         nd = (n + self.level_every - 1) // self.level_every
-        self.levels = [[t.name for t in lvl] for lvl in stack.levels]
+        # the stack's levels, and the one the controller adds below them (its contact
+        # regularisation), if any
+        self.levels = [[t.name for t in lvl] for lvl in stack.levels] + ([[t.name for t in lowest]] if lowest else [])
         self.level_of = {t.name: k for k, lvl in enumerate(stack.levels) for t in lvl}
         self.error_names: list[str] = []
-        nl = len(stack.levels) + 2          # room for levels added by events
+        nl = len(self.levels) + 2           # room for levels added by events
         self.t = np.zeros(n)
         self.task_errors = None             # allocated on the first record (names known then)
         self.level_t = np.zeros(nd)
@@ -214,12 +304,14 @@ def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
         task = ev["task"]
         robot.update(*sim.measure())
         task.bind(robot)
+        given = ev.get("target")            # the add's own target (world), else the pose when added
         if task.kind == "frame":
             task._target = None
-            start[task.name] = robot.frame_placement(robot.frame_id(task.frame)).copy()
+            here = robot.frame_placement(robot.frame_id(task.frame))
+            start[task.name] = here.copy() if given is None else to_se3(task.name, given, here)
             task.target = start[task.name]
         elif task.kind == "com":
-            start[task.name] = robot.com.copy()
+            start[task.name] = robot.com.copy() if given is None else np.array(given, dtype=float)
             task.target = start[task.name]
         stack.add(task, min(ev["level"], len(stack.levels)))
         if "trajectory" in ev:
@@ -227,11 +319,28 @@ def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
             refs[task.name] = (traj, absolute, t)
 
 
+def _simulated_robot(robot, model_perturbation):
+    """The robot the simulator is built for: ``robot`` itself, or (``model_perturbation``
+    given) a copy of it whose pinocchio model, a copy too, ``model_perturbation`` changed."""
+    if model_perturbation is None:
+        return robot
+    import dataclasses
+
+    model = pin.Model(robot.model)
+    model_perturbation(model)
+    return dataclasses.replace(robot, model=model)
+
+
 def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
-        progress: bool = False, callback=None, series: bool = False) -> dict:
+        progress: bool = False, callback=None, series: bool = False, simulator: str | None = None,
+        model_perturbation=None) -> dict:
     """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
     (after the simulator's step). ``series``: also return the run's time series under
-    ``"series"`` (:class:`Series`, JSON-ready)."""
+    ``"series"`` (:class:`Series`, JSON-ready). ``simulator``: the physics back-end
+    (:data:`wbc.sim.backends.SIMULATORS`; default the scenario's ``simulator``).
+    ``model_perturbation(model)``: changes (in place) a copy of the robot's pinocchio model
+    that the simulator then simulates, the controller keeping the nominal one (model
+    error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`)."""
     robot, stack = sc.robot, sc.stack
     opts = dict(sc.solver)
     solver_name = solver or opts.pop("type", "hqp")
@@ -241,8 +350,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     notice = CompileNotice(enabled=progress)   # a first run compiles the kernels: say so
     notice.start()
     ctrl = Controller(robot, stack, solver=solver_name, dt=sc.dt, **opts)
-    sim = Simulator.for_robot(robot, sc.environment, dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max,
-                              **sc.sensing)
+    sim = make_simulator(simulator or sc.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
+                         dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max, **sc.sensing)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
     duration = sc.duration if duration is None else duration
@@ -289,7 +398,12 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     pending = list(sc.events)
     switched: set[str] = set()
     hull = SupportPolygon()
-    rec = Series(n, sc.dt, robot, stack, [c.name for c in contacts], mu_max) if series else None
+    rec = Series(n, sc.dt, robot, stack, [c.name for c in contacts], mu_max,
+                 lowest=ctrl.lowest_tasks()) if series else None
+    contact_metrics = ContactMetrics(contacts, pts_of, p0, robot.mass * 9.81)
+    relaxed_cycles = saturated_cycles = 0
+    tau_ratio_max = tau_ratio_asked = 0.0
+    inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
     if rec is not None:
         rec.error_names = list(errs)
     q_lo, q_hi = robot.q_min[qi] - 1e-6, robot.q_max[qi] + 1e-6
@@ -305,15 +419,14 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             # what the metrics watch changes only at events
             err_live = [(name, task, name in stack) for name, task in err_tasks]
             watched = [(c.name, np.asarray(pts_of[c.name])) for c in contacts if c.name not in switched]
+            watched_names = {name for name, _ in watched}
         for tname, (traj, absolute, t0) in refs.items():
             x, dx, ddx = traj.sample(t - t0)
             task = stack[tname]
             if task.kind == "com":
                 task.set_reference(x if absolute else start[tname] + x, dx, ddx)
-            else:
-                M0 = start[tname]
-                task.set_reference(pin.SE3(M0.rotation, x if absolute else M0.translation + x),
-                                   np.concatenate([dx, np.zeros(3)]), np.concatenate([ddx, np.zeros(3)]))
+            else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
+                task.set_reference(*frame_reference(traj, absolute, start[tname], t - t0))
         q, v = sim.measure()
         t0 = time.perf_counter()
         sol = ctrl.solve(q, v)
@@ -324,6 +437,10 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             t_wall, k_wall = time.perf_counter(), 1
         if sol.status == "failed":
             failures += 1
+        relaxed_cycles += sol.relaxed
+        saturated_cycles += sol.saturated
+        tau_ratio_asked = max(tau_ratio_asked, sol.tau_ratio)
+        tau_ratio_max = max(tau_ratio_max, float(np.max(np.abs(sol.tau) * inv_tau_max, initial=0.0)))
         for name, task, live in err_live:
             if live:
                 e = task.error(robot)
@@ -358,10 +475,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             slip[name] = max(slip[name], s2)          # squared until the end
             if not lifted[name] and up[idx].any():
                 lifted[name] = True
+        contact_metrics.record(pf, pts, watched_names, pts_of)
         # the controller removes a released contact when its force ramp ends: membership per cycle
         support_idx = [i for c in contacts if c.name in stack for i in pts_of[c.name]]
         if support_idx:
-            robot_com = pin.centerOfMass(m, sim.data, qs)  # true CoM, simulator data
+            robot_com = pin.centerOfMass(sim.model, sim.data, qs)  # true CoM, simulator model and data
             margin = hull.margin(support_idx, pts[:, :2], robot_com[:2])
             margins.append(margin)
         else:
@@ -371,7 +489,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
                        [pf[pts_of[c.name]].sum(axis=0) for c in contacts], margin)
         if robot.differential_drive:
             lateral = max(lateral, abs(vs[1]))
-        if base_z0 is not None and (qs[2] < 0.6 * base_z0 or _tilt(qs) > np.pi / 3):
+        if base_z0 is not None and (qs[2] < 0.6 * base_z0 or _tilt(qs) > np.pi / 3 or not np.all(np.isfinite(qs))):
             fell = True
             break
         if progress and (k % 500 == 0 or k == n - 1):
@@ -385,18 +503,29 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         sys.stderr.write("\n")
     ct = np.array(cycle)
     out = {
-        "scenario": sc.name, "robot": robot.name, "solver": solver_name,
+        "scenario": sc.name, "robot": robot.name, "solver": solver_name, "simulator": simulator or sc.simulator,
         "backend": opts.get("backend", "daqp"), "duration": float(len(ct) * sc.dt), "fell": fell,
         "tasks": {k: _stats(v) for k, v in errs.items() if v},
         "violations": viol,
-        "contacts": {c.contact: {"slip": math.sqrt(slip[c.name]), "lifted": lifted[c.name]}
+        "contacts": {c.contact: {"slip": math.sqrt(slip[c.name]), "lifted": lifted[c.name],
+                                 **contact_metrics.summary(c.name)}
                      for c in contacts if c.name not in switched},
         "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)), "max": float(ct.max())},
         "solver_failures": failures,
+        # cycles with a relaxed level (an inequality that could not hold), cycles whose
+        # torque the controller clipped at ±τ_max, the worst |τ_i|/τ_max,i sent (≤ 1) and
+        # asked for by the solver before the clipping
+        "relaxed_cycles": int(relaxed_cycles),
+        "saturated_cycles": int(saturated_cycles),
+        "tau_ratio_max": tau_ratio_max,
+        "tau_ratio_requested_max": tau_ratio_asked,
         "real_time_factor": float((len(ct) - k_wall) * sc.dt / max(time.perf_counter() - t_wall, 1e-9)),
     }
     if margins:
         out["support_margin_min"] = float(np.min(margins))
+    internal = contact_metrics.internal_force()
+    if internal is not None:
+        out["internal_force"] = internal
     if robot.differential_drive:
         out["base_lateral_velocity_max"] = lateral
     robot.update(sim.q, sim.v)

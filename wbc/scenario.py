@@ -11,31 +11,48 @@
       - [{type: com, kp: 100, trajectory: {type: sinusoid, amplitude: [0, 0.05, 0], frequency: 0.5}}]
     pushes: [{frame: torso, force: [60, 0, 0], start: 2.0, duration: 0.1}]
     sensing: {noise_q: 0.0, noise_v: 0.0, latency_steps: 0}
+    simulator: pinocchio               # or mujoco (wbc.sim.backends; `wbc run --sim` overrides)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
-Errors name the file, the key path and what was expected.
+
+Everything is checked here, while the :class:`Scenario` is built, and nothing later: ``wbc
+validate`` and ``wbc run`` make the same call, so a scenario that validates is one that
+runs. The task constructors check their own parameters; :mod:`wbc.scenario_sections` the
+plain sections and their ranges; :mod:`wbc.scenario_events` the events against the stack
+as it will be when each happens; this module the rest (references between tasks, names,
+the robot). Every error is a :class:`~wbc.errors.ConfigError` naming the file, the line
+where the YAML has it, the key path, what was expected and what was found:
+
+    tasks/talos_balance.yaml:16: stack[1][0].kp: must be a number >= 0 or a list of 3 numbers >= 0 (1/s²), got [1, 2]
 """
 
 from __future__ import annotations
 
+import importlib.util
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .config import build_task, read_yaml
+from . import scenario_sections as sections
+from .config import build_task
+from .errors import ConfigError, WbcError, placed
 from .examples import scenario_path
-from .errors import ConfigError, WbcError
+from .gains import apply_robot_gains
 from .robots import load_robot
-from .sim.environment import Box, ground, incline
+from .scenario_events import build_events
+from .schema import mapping, sequence, text
+from .sim.backends import SIMULATORS
 from .stack import Stack
-from .trajectories import build_trajectory
+from .tasks.contact import Contact
+from .trajectories import build_task_trajectory
+from .yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance", "events"}
-_EVENT_KINDS = ("release", "add", "touchdown", "remove")
-_SOLVER_KEYS = {"type", "backend", "weighting", "level_weight"}
+        "description", "acceptance", "events", "simulator"}
 
 
 @dataclass
@@ -55,144 +72,121 @@ class Scenario:
     acceptance: dict = field(default_factory=dict)
     events: list[dict] = field(default_factory=list)
     source: Path | None = None
+    simulator: str = "pinocchio"      # physics back-end (wbc.sim.backends.SIMULATORS)
 
 
-def _number(src, key, val, positive=True):
-    if not isinstance(val, (int, float)) or (positive and val <= 0):
-        raise ConfigError(f"{src}: {key}: expected a {'positive ' if positive else ''}number, got {val!r}")
-    return float(val)
-
-
-def _environment(src, spec) -> list:
-    if spec is None:
-        return [ground()]
-    if not isinstance(spec, list):
-        raise ConfigError(f"{src}: environment: expected a list of shapes")
-    out = []
-    for i, s in enumerate(spec):
-        where = f"{src}: environment[{i}]"
-        if not isinstance(s, dict) or s.get("type") not in ("ground", "box", "incline"):
-            raise ConfigError(f"{where}.type: expected ground, box or incline")
-        mu = _number(src, f"environment[{i}].mu", s.get("mu", 0.8))
-        if s["type"] == "ground":
-            out.append(ground(float(s.get("height", 0.0)), mu))
-        elif s["type"] == "incline":
-            out.append(incline(float(s.get("angle", 0.0)), mu))
-        else:
-            try:
-                out.append(Box(np.asarray(s["center"], float).reshape(3), np.asarray(s["size"], float).reshape(3), mu,
-                               s.get("name", f"box{i}")))
-            except (KeyError, ValueError) as exc:
-                raise ConfigError(f"{where}: a box needs center: [x, y, z] and size: [sx, sy, sz] (m)") from exc
-    return out
-
-
-def load_config(path: str | Path) -> Scenario:
+def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
     """Read and validate a scenario YAML (see the module docstring): a path, or the name
-    of a bundled scenario (``"talos_balance"``, see :mod:`wbc.examples`)."""
+    of a bundled scenario (``"talos_balance"``, see :mod:`wbc.examples`).
+
+    ``robot_loader`` (default :func:`wbc.robots.load_robot`) turns the ``robot:`` value (a
+    bundled name, or a path resolved against the scenario's folder) into a RobotModel; a
+    caller that loads many scenarios may pass a caching one. Raises :class:`ConfigError`."""
     src = scenario_path(path)
-    cfg = read_yaml(src)
-    for key in cfg:
-        if key not in _TOP:
-            raise ConfigError(f"{src}: {key}: unknown key; expected one of {sorted(_TOP)}")
-    for key in ("robot", "stack"):
-        if key not in cfg:
-            raise ConfigError(f"{src}: {key}: missing (required)")
+    doc = read_document(src, ConfigError)
     try:
-        robot = load_robot(cfg["robot"] if not str(cfg["robot"]).endswith((".yaml", ".yml"))
-                           else (src.parent / cfg["robot"]))
+        return _build(doc.data, src, robot_loader or load_robot)
     except WbcError as exc:
-        raise ConfigError(f"{src}: robot: {exc}") from exc
+        raise placed(exc, file=src, line=doc.line(exc.key), cls=ConfigError) from exc
 
-    solver = dict(cfg.get("solver") or {"type": "hqp"})
-    for key in solver:
-        if key not in _SOLVER_KEYS:
-            raise ConfigError(f"{src}: solver.{key}: unknown key; expected one of {sorted(_SOLVER_KEYS)}")
-    if solver.get("type", "hqp") not in ("hqp", "projection", "weighted"):
-        raise ConfigError(f"{src}: solver.type: expected hqp, projection or weighted, got {solver.get('type')!r}")
-    control = cfg.get("control") or {}
-    dt = _number(src, "control.dt", control.get("dt", 1e-3))
-    substeps = int(_number(src, "control.substeps", control.get("substeps", 1)))
 
-    levels = cfg["stack"]
-    if not isinstance(levels, list) or not levels:
-        raise ConfigError(f"{src}: stack: expected a non-empty list of levels (each a list of tasks)")
-    built, refs, offsets = [], {}, {}
+def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
+    mapping(cfg, None, allowed=_TOP, required=("robot", "stack"))
+    name = text(cfg.get("name", src.stem), "name", what="a scenario name")
+    for key in ("description",):
+        if key in cfg and not isinstance(cfg[key], str):
+            raise ConfigError(f"must be text, got {type(cfg[key]).__name__}", key=key)
+    acceptance = mapping(cfg.get("acceptance"), "acceptance")
+    robot = _robot(cfg["robot"], src, robot_loader)
+    solver = sections.solver_section(cfg.get("solver"))
+    dt, substeps = sections.control_section(cfg.get("control"))
+    duration = sections.duration_value(cfg.get("duration", 5.0), dt)
+    environment = sections.environment_section(cfg.get("environment"))
+    stack, refs, offsets = _stack(cfg["stack"], robot, dt)
+    pushes = sections.pushes_section(cfg.get("pushes"), robot, duration)
+    events = build_events(cfg.get("events"), robot, stack, dt, duration)
+    sensing = sections.sensing_section(cfg.get("sensing"))
+    simulator = text(cfg.get("simulator", "pinocchio"), "simulator", what=f"one of {', '.join(SIMULATORS)}")
+    if simulator not in SIMULATORS:
+        raise ConfigError(f"expected one of {', '.join(SIMULATORS)}, got {simulator!r}", key="simulator")
+    if simulator == "mujoco" and importlib.util.find_spec("mujoco") is None:      # the run would need it
+        raise ConfigError("needs the mujoco package, which is not installed (pip install 'wbc[mujoco]')",
+                          key="simulator")
+    return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
+                    environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
+                    acceptance=dict(acceptance), events=events, source=src, simulator=simulator)
+
+
+def _robot(value: Any, src: Path, robot_loader):
+    name = text(value, "robot", what="a bundled robot name (see `wbc robots`) or a path to a robot YAML")
+    target = (src.parent / name) if name.endswith((".yaml", ".yml")) else name
+    try:
+        return robot_loader(target)
+    except WbcError as exc:
+        raise placed(exc, "robot", cls=ConfigError) from exc
+
+
+def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
+    """The stack's tasks, built, bound to ``robot`` and cross-checked; their trajectories
+    (name -> (trajectory, absolute)) and offsets (name -> [x, y, z], m)."""
+    levels = sequence(levels, "stack", min_len=1, what="a non-empty list of levels (each a list of tasks)")
+    built, refs, offsets, where_of = [], {}, {}, {}
     for k, level in enumerate(levels):
-        if not isinstance(level, list) or not level:
-            raise ConfigError(f"{src}: stack[{k}]: expected a non-empty list of tasks")
+        level = sequence(level, f"stack[{k}]", min_len=1, what="a non-empty list of tasks")
         tasks = []
         for i, spec in enumerate(level):
-            where = f"{src}: stack[{k}][{i}]"
-            spec = dict(spec) if isinstance(spec, dict) else spec
-            traj = spec.pop("trajectory", None) if isinstance(spec, dict) else None
-            offset = spec.pop("offset", None) if isinstance(spec, dict) else None
-            task = build_task(spec, where)
-            if traj is not None or offset is not None:
-                if task.kind not in ("com", "frame"):
-                    raise ConfigError(f"{where}: trajectory/offset apply to com and frame tasks, not '{task.kind}'")
-                if offset is not None:
-                    off = np.asarray(offset, float)
-                    if off.shape != (3,):
-                        raise ConfigError(f"{where}.offset: expected [x, y, z] (m), got {offset!r}")
-                    offsets[task.name] = off
-                if traj is not None:
-                    absolute = bool(traj.get("absolute", False)) if isinstance(traj, dict) else False
-                    refs[task.name] = (build_trajectory(traj, 3, f"{where}.trajectory"), absolute)
+            where = f"stack[{k}][{i}]"
+            spec = mapping(spec, where, required=("type",), what="a task mapping with a 'type' key")
+            params = {key: v for key, v in spec.items() if key not in ("trajectory", "offset")}
+            task = build_task(params, where)
+            try:
+                task.bind(robot)
+                apply_robot_gains(task, spec, robot)     # task kp > robot gains > task default (wbc.gains)
+            except WbcError as exc:
+                raise placed(exc, where, cls=ConfigError) from exc
+            if task.name in where_of:
+                raise ConfigError(f"two tasks are named '{task.name}' ({where_of[task.name]} and {where}); names "
+                                  "must be unique (set name:)", key=f"{where}.name" if "name" in spec else where)
+            where_of[task.name] = where
+            for key in ("offset",):         # trajectories: build_task_trajectory checks the axes
+                if key not in spec:
+                    continue
+                if task.kind not in ("com", "frame") or (task.kind == "frame" and min(task._sel) > 2):
+                    raise ConfigError(f"{key} moves the position of a com or frame task, not of a {task.kind} task"
+                                      f"{' without position axes (mask)' if task.kind == 'frame' else ''}",
+                                      key=f"{where}.{key}")
+            if "trajectory" in spec and "offset" in spec:
+                raise ConfigError("give either a trajectory or an offset (the trajectory would override it)",
+                                  key=f"{where}.offset")
+            if "offset" in spec:
+                offsets[task.name] = sections.offset_value(spec["offset"], f"{where}.offset")
+            if "trajectory" in spec:
+                refs[task.name] = build_task_trajectory(task, spec["trajectory"], f"{where}.trajectory", dt)
             tasks.append(task)
         built.append(tasks)
-    try:
-        stack = Stack(built)
-        for t in stack:
-            t.bind(robot)
-    except WbcError as exc:
-        raise ConfigError(f"{src}: stack: {exc}") from exc
+    stack = Stack(built)          # names are unique (checked above)
+    _check_references(stack, where_of)
+    return stack, refs, offsets
 
-    pushes = []
-    for i, p in enumerate(cfg.get("pushes") or []):
-        where = f"pushes[{i}]"
-        if not isinstance(p, dict) or not {"frame", "force", "start", "duration"} <= set(p):
-            raise ConfigError(f"{src}: {where}: expected frame, force [N, N, N], start (s), duration (s)")
-        try:
-            fid = robot.frame_id(p["frame"])
-        except WbcError as exc:
-            raise ConfigError(f"{src}: {where}.frame: {exc}") from exc
-        force = np.asarray(p["force"], float)
-        if force.shape != (3,):
-            raise ConfigError(f"{src}: {where}.force: expected 3 numbers (N), got {p['force']!r}")
-        pushes.append({"frame": robot.model.frames[fid].name, "force": force,
-                       "start": _number(src, f"{where}.start", p["start"], positive=False),
-                       "duration": _number(src, f"{where}.duration", p["duration"])})
-    events = []
-    for i, ev in enumerate(cfg.get("events") or []):
-        where = f"{src}: events[{i}]"
-        kinds = [k for k in _EVENT_KINDS if isinstance(ev, dict) and k in ev]
-        if len(kinds) != 1 or "time" not in ev:
-            raise ConfigError(f"{where}: expected time (s) and exactly one of {list(_EVENT_KINDS)}")
-        kind = kinds[0]
-        e = {"time": _number(src, f"events[{i}].time", ev["time"], positive=False), "kind": kind,
-             "duration": _number(src, f"events[{i}].duration", ev.get("duration", 0.2))}
-        if kind in ("release", "remove"):
-            e["name"] = str(ev[kind])
-        else:
-            spec = dict(ev[kind]) if isinstance(ev[kind], dict) else ev[kind]
-            if kind == "touchdown" and (not isinstance(spec, dict) or spec.get("type") != "contact"):
-                raise ConfigError(f"{where}.touchdown: expected a contact task mapping (type: contact)")
-            e["task"] = build_task(spec, f"{where}.{kind}")
-            e["task"].bind(robot)
-            e["level"] = int(ev.get("level", 0))
-            if "trajectory" in ev:
-                traj = ev["trajectory"]
-                e["trajectory"] = (build_trajectory(traj, 3, f"{where}.trajectory"),
-                                   bool(traj.get("absolute", False)))
-        events.append(e)
-    events.sort(key=lambda e: e["time"])
-    sensing = dict(cfg.get("sensing") or {})
-    for key in sensing:
-        if key not in ("noise_q", "noise_v", "latency_steps"):
-            raise ConfigError(f"{src}: sensing.{key}: unknown key; expected noise_q, noise_v, latency_steps")
-    return Scenario(
-        name=str(cfg.get("name", src.stem)), robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps,
-        duration=_number(src, "duration", cfg.get("duration", 5.0)),
-        environment=_environment(src, cfg.get("environment")), pushes=pushes, sensing=sensing,
-        references=refs, offsets=offsets, acceptance=dict(cfg.get("acceptance") or {}), events=events, source=src)
+
+def _check_references(stack: Stack, where_of: dict[str, str]) -> None:
+    """Tasks that name other tasks or surfaces: one contact task per surface; a
+    contact_wrench names a contact task of the stack, with a target of its force size."""
+    held: dict[str, str] = {}
+    for t in stack:
+        if isinstance(t, Contact):
+            if t.contact in held:
+                raise ConfigError(f"contact '{t.contact}' is already held by task '{held[t.contact]}' "
+                                  f"({where_of[held[t.contact]]})", key=f"{where_of[t.name]}.contact")
+            held[t.contact] = t.name
+    contacts = {t.name: t for t in stack if isinstance(t, Contact)}
+    for t in stack:
+        if t.kind != "contact_wrench":
+            continue
+        c = contacts.get(t.contact)
+        if c is None:
+            raise ConfigError(f"must name a contact task of the stack, got '{t.contact}'; contact tasks: "
+                              f"{sorted(contacts)}", key=f"{where_of[t.name]}.contact")
+        if t.target is not None and len(t.target) != c.force_dim:
+            raise ConfigError(f"must be {c.force_dim} numbers (the force of contact task '{c.name}'), got "
+                              f"{len(t.target)}", key=f"{where_of[t.name]}.target")

@@ -34,6 +34,9 @@ class LevelDiagnostics:
     #: how the level's QP was answered, if it needed one: the back-end's status, or
     #: ``"certified"`` (its optimum from a guessed active set, see wbc.solvers.active_set)
     qp_status: str = ""
+    #: velocity indices of the joints whose torque the controller clipped at ±τ_max this
+    #: cycle (reported by the level holding the torque limits, else level 0)
+    saturated_torques: list[int] = field(default_factory=list)
 
 
 class Solution:
@@ -43,11 +46,19 @@ class Solution:
     ``tau_full`` (nv, zeros on unactuated rows); ``forces``: contact task name ->
     force (3) or wrench (6) in the contact frame (N, N·m); ``residuals``: one
     float per level; ``task_residuals``: per task name; ``diagnostics``: one
-    :class:`LevelDiagnostics` per level; ``status``: ``"ok"``,
-    ``"relaxed"`` (a level's inequalities could not all hold), ``"degraded"`` (a
-    level's QP failed numerically and that level was held at the feasible point
-    the higher levels left: priorities and limits intact, the level under-served)
-    or ``"failed"`` (no usable solution: the torque falls back to the last good one).
+    :class:`LevelDiagnostics` per level; ``status``, the first that applies of:
+    ``"failed"`` (no usable solution: the torque falls back to the last good one, q̈ = 0),
+    ``"saturated"`` (the solver's torque exceeded ±τ_max on some joint and was clipped:
+    ``tau`` is inside the limits, but on those joints it is not S_a(M q̈ + h − J_fᵀ f) of
+    the returned q̈ and f, which stay the solver's plan), ``"relaxed"`` (a level's
+    inequalities could not all hold), ``"degraded"`` (a level's QP failed numerically and
+    that level was held at the feasible point the higher levels left: priorities and
+    limits intact, the level under-served) or ``"ok"``.
+
+    ``relaxed`` and ``saturated`` (bool) say the same whatever the status;
+    ``tau_ratio``: the worst |τ_i|/τ_max,i the solver asked for, before saturation (≤ 1
+    when nothing was clipped); ``saturated_torques``: velocity indices of the joints held
+    at ±τ_max by the saturation. ``tau`` is always finite and within ±τ_max.
 
     ``residuals``, ``task_residuals`` and ``diagnostics`` are worked out on first
     access, from row values the controller keeps for this cycle (a cycle whose
@@ -56,9 +67,12 @@ class Solution:
 
     def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
                  x: np.ndarray, status: str, message: str, qp_count: int = 0, residuals=None,
-                 task_residuals=None, diagnostics=None, evaluate=None) -> None:
+                 task_residuals=None, diagnostics=None, evaluate=None, relaxed: bool = False,
+                 saturated: bool = False, tau_ratio: float = 0.0, saturated_torques: list | None = None) -> None:
         self.qdd, self.tau, self.tau_full, self.forces, self.x = qdd, tau, tau_full, forces, x
         self.status, self.message, self.qp_count = status, message, qp_count
+        self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(tau_ratio)
+        self.saturated_torques = list(saturated_torques or [])
         self._residuals, self._task_residuals, self._diagnostics = residuals, task_residuals, diagnostics
         self._evaluate = evaluate
 

@@ -9,7 +9,7 @@ each task's equality rows scaled by √weight, so a level minimises
 
 from __future__ import annotations
 
-from typing import Iterable, Iterator
+from collections.abc import Iterable, Iterator
 
 import numba as nb
 import numpy as np
@@ -26,14 +26,14 @@ class TaskGroup:
     def __init__(self, tasks: Iterable[Task]) -> None:
         self.tasks = list(tasks)
 
-    def __add__(self, other) -> "TaskGroup":
+    def __add__(self, other) -> TaskGroup:
         if isinstance(other, Task):
             return TaskGroup(self.tasks + [other])
         if isinstance(other, TaskGroup):
             return TaskGroup(self.tasks + other.tasks)
         return NotImplemented
 
-    def __truediv__(self, other) -> "Stack":
+    def __truediv__(self, other) -> Stack:
         return Stack([self.tasks]) / other
 
 
@@ -73,7 +73,7 @@ class Stack:
         self.version = getattr(self, "version", 0) + 1
 
     # ------------------------------------------------------------- building
-    def __truediv__(self, other) -> "Stack":
+    def __truediv__(self, other) -> Stack:
         return Stack(self.levels + [_as_level(other)])
 
     def __getitem__(self, name: str) -> Task:
@@ -171,20 +171,29 @@ class Stack:
             parts.append((c, slice(k - robot.nv, k - robot.nv + d)))
             jacs.append(c.force_jacobian(robot))
             k += d
-        layout = Layout(nv=robot.nv, contact_slices=slices, force_jacobian=np.vstack(jacs) if jacs else None)
+        layout = Layout(nv=robot.nv, contact_slices=slices, force_jacobian=np.vstack(jacs) if jacs else None,
+                        surfaces={c.name: c.surface(robot) for c in contacts})
         self._layout = (key, layout, parts)
         return layout
 
-    def assemble(self, robot, layout: Layout, extra_level0: Iterable[Task] = ()) -> list[Level]:
+    def assemble(self, robot, layout: Layout, extra_level0: Iterable[Task] = (),
+                 extra_lowest: Iterable[Task] = ()) -> list[Level]:
         """Rows of every level for the robot's current state (``robot.update`` done).
+
+        ``extra_level0``: tasks the controller adds to level 0 (the floating-base dynamics);
+        ``extra_lowest``: tasks it adds as one more level below the stack's own (the default
+        contact regularisation), which is then always the lowest, whatever levels events add.
 
         The levels' arrays are views of one buffer this stack owns and refills every
         cycle (:class:`RowBuffer`; rebuilt only when the stack's structure changes): a
         Level is valid until the next call."""
         extra = list(extra_level0)
+        lowest = list(extra_lowest)
         groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]
+        if lowest:
+            groups.append(lowest)
         rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
-        key = (self.version, layout.nx, tuple(map(id, extra)))
+        key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
         buf = self.__dict__.get("_row_buffer")
         if buf is None or buf.key != key or not buf.fill(groups, rows):
             buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key, adopt=True)
@@ -192,7 +201,7 @@ class Stack:
         return buf.levels
 
     @property
-    def row_buffer(self) -> "RowBuffer | None":
+    def row_buffer(self) -> RowBuffer | None:
         """The buffer behind the levels of the last :meth:`assemble`."""
         return self.__dict__.get("_row_buffer")
 
@@ -317,7 +326,7 @@ class RowBuffer:
         return True
 
 
-def buffered_prefix(levels: list[Level]) -> tuple["RowBuffer | None", int]:
+def buffered_prefix(levels: list[Level]) -> tuple[RowBuffer | None, int]:
     """(the row buffer behind ``levels``, how many leading levels are its own levels in
     order): what a compiled solver run may read straight from the buffer's arrays."""
     buf = getattr(levels[0], "buffer", None) if levels else None

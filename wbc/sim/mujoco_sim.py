@@ -59,7 +59,7 @@ import pinocchio as pin
 
 from ..errors import WbcError
 from .environment import Box, HalfSpace
-from .simulator import Push, Simulator
+from .simulator import Push
 
 if TYPE_CHECKING:
     from ..model import RobotModel

@@ -14,16 +14,24 @@ so that H z + g + C_Wᵀ λ = 0. z is the QP's optimum if, and only if, the rest
 the KKT conditions hold: every row within its bounds (to ``tol``), and every
 multiplier pushing away from the bound it holds (λ_i ≥ 0 at an upper bound, ≤ 0 at
 a lower one). H ≻ 0 makes that optimum unique: a certified z is the point a QP
-back-end converges to, without its set-up. If the guess fails any test (another
-row is crossed, a multiplier has the wrong sign, the rows of W are dependent, H is
-not positive definite) nothing is returned and the caller runs its back-end.
+back-end converges to, without its set-up. When the guess fails a test, the working
+set is changed as a primal-dual active-set method would (the multiplier of the wrong
+sign furthest from zero leaves W; else the row furthest outside its bounds joins it)
+and the closed form is solved again, up to ``MAX_SWAPS`` times. If no working set
+passes (the rows of W are dependent, H is not positive definite, too many changes)
+nothing is returned and the caller runs its back-end. The certificate is the same
+whatever working set produced z.
 
 Why the guess is usually right: in a cascade, a lower level's least-squares step
 pushes on the same one or two limits (a friction-cone face, a torque bound) that
 the level above met, from the same side. Measured on the Talos benchmark
 trajectory (hqp, 2,000 cycles after warm-up): each of the 635 QPs the cascade posed
 was certified, with one or two rows in W; the closed-loop trajectory is the one
-with every QP solved by daqp to 1e-14 relative (over 1,500 cycles).
+with every QP solved by daqp to 1e-14 relative (over 1,500 cycles). Where a CoP or
+friction row of level 0 is at its bound in the solution (``talos_balance``'s sway with
+the contact regularisation: the CoPs on their ``cop_margin`` rectangle at the sway's
+extremes), the first guess often misses a second row: the working-set changes certify
+those QPs too.
 """
 
 from __future__ import annotations
@@ -38,15 +46,43 @@ from .lapack import UPLO_DIAG, dpotrf, dtrtri
 DUAL_TOL = 1e-9
 #: the rows of W are taken as dependent below this pivot of S, relative to its diagonal
 PIVOT_TOL = 1e-12
+#: changes of the working set tried after the first guess before giving up (each adds the
+#: row furthest outside its bounds or drops the multiplier of the wrong sign furthest from 0)
+MAX_SWAPS = 6
 
 
 @nb.njit(cache=True)
 def certified_active_set(H, g, C, lo, hi, tol):
     """(certified, z) of min ½zᵀHz + gᵀz s.t. lo ≤ C z ≤ hi (module docstring); z is
     empty when not certified. H must be symmetric (its upper triangle is read)."""
-    k = H.shape[0]
+    return _certified(H, g, C, lo, hi, tol, np.zeros(0, dtype=np.int64))
+
+
+@nb.njit(cache=True)
+def certified_from(H, g, C, lo, hi, tol, z_guess, act_tol):
+    """:func:`certified_active_set` starting from the working set of ``z_guess`` (an
+    approximate optimum, e.g. an interior-point or proximal back-end's answer): the rows
+    within ``act_tol`` of a bound there. Certified, z is the QP's exact optimum (to
+    rounding), which an answer to the back-end's tolerance only approaches: the same
+    problem then gives the same z whatever the back-end's iterations started from."""
     m = C.shape[0]
-    none = np.empty(0)
+    side = np.zeros(m, dtype=np.int64)
+    y = C @ z_guess
+    for i in range(m):
+        if hi[i] - lo[i] <= act_tol:
+            side[i] = 1 if y[i] >= 0.5 * (lo[i] + hi[i]) else -1
+        elif y[i] >= hi[i] - act_tol:
+            side[i] = 1
+        elif y[i] <= lo[i] + act_tol:
+            side[i] = -1
+    return _certified(H, g, C, lo, hi, tol, side)
+
+
+@nb.njit(cache=True)
+def inverse_factor(H):
+    """(ok, U⁻¹) with H = UᵀU (Cholesky, LAPACK), so H⁻¹ = U⁻¹U⁻ᵀ; ok False when H is not
+    positive definite. H's upper triangle is read."""
+    k = H.shape[0]
     U = np.empty((k, k)).T                        # Fortran order: H = UᵀU, then U⁻¹
     for j in range(k):
         for i in range(j + 1):
@@ -56,57 +92,108 @@ def certified_active_set(H, g, C, lo, hi, tol):
     ki = np.array([k, k, 0], dtype=np.int32)      # n, lda, info
     dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] != 0:
-        return False, none
+        return False, np.empty((0, 0))
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] != 0:
-        return False, none
-    Ui = np.ascontiguousarray(U)                  # H⁻¹ = U⁻¹U⁻ᵀ
+        return False, np.empty((0, 0))
+    return True, np.ascontiguousarray(U)
+
+
+@nb.njit(cache=True)
+def _certified(H, g, C, lo, hi, tol, side0):
+    """The method of the module docstring from the working set ``side0`` (+1 a row held at
+    its upper bound, −1 at its lower one, 0 free; empty: the rows z₀ violates)."""
+    ok, Ui = inverse_factor(H)
+    if not ok:
+        return False, np.empty(0)
+    return certified_factored(Ui, g, C, lo, hi, tol, side0)
+
+
+@nb.njit(cache=True)
+def certified_factored(Ui, g, C, lo, hi, tol, side0):
+    """:func:`_certified` with H given by ``Ui`` = U⁻¹ of :func:`inverse_factor` (a caller
+    that solves several QPs with the same H factors it once)."""
+    k = Ui.shape[0]
+    m = C.shape[0]
+    none = np.empty(0)
     z0 = -(Ui @ (Ui.T @ g))
     if not np.all(np.isfinite(z0)):
         return False, none
-    y = C @ z0
+    y0 = C @ z0
     side = np.zeros(m, dtype=np.int64)
     nw = 0
     for i in range(m):
-        if y[i] > hi[i] + tol:
+        if y0[i] != y0[i]:                          # NaN
+            return False, none
+        if side0.shape[0]:
+            side[i] = side0[i]
+            nw += side0[i] != 0
+        elif y0[i] > hi[i] + tol:
             side[i] = 1
             nw += 1
-        elif y[i] < lo[i] - tol:
+        elif y0[i] < lo[i] - tol:
             side[i] = -1
             nw += 1
-        elif y[i] != y[i]:                          # NaN
-            return False, none
-    if nw == 0:
+    if nw == 0 and not side0.shape[0]:
         return True, z0
-    if nw > k:
-        return False, none
-    W = np.empty(nw, dtype=np.int64)
-    e = np.empty(nw)
-    Cw = np.empty((nw, k))
-    j = 0
-    for i in range(m):
-        if side[i] != 0:
-            W[j] = i
-            e[j] = y[i] - (hi[i] if side[i] > 0 else lo[i])
-            Cw[j] = C[i]
-            j += 1
-    B = Ui.T @ Cw.T                               # U⁻ᵀC_Wᵀ, so S = BᵀB
-    S = B.T @ B
-    lam = _cholesky_solve(S, e)
-    if lam.shape[0] == 0:
-        return False, none
-    z = z0 - Ui @ (B @ lam)
-    big = 0.0
-    for j in range(nw):
-        big = max(big, abs(lam[j]))
-    for j in range(nw):
-        if lam[j] * side[W[j]] < -DUAL_TOL * big:
+    z = z0
+    for _ in range(MAX_SWAPS + 1):
+        if nw > k:
             return False, none
-    y = C @ z
-    for i in range(m):
-        if not (lo[i] - tol <= y[i] <= hi[i] + tol):     # NaN fails too
-            return False, none
-    return True, z
+        W = np.empty(nw, dtype=np.int64)
+        j = 0
+        for i in range(m):
+            if side[i] != 0:
+                W[j] = i
+                j += 1
+        z = z0
+        if nw:
+            e = np.empty(nw)
+            Cw = np.empty((nw, k))
+            for j in range(nw):
+                i = W[j]
+                e[j] = y0[i] - (hi[i] if side[i] > 0 else lo[i])
+                Cw[j] = C[i]
+            B = Ui.T @ Cw.T                       # U⁻ᵀC_Wᵀ, so S = BᵀB
+            lam = _cholesky_solve(B.T @ B, e)
+            if lam.shape[0] == 0:
+                return False, none
+            # the multiplier of the wrong sign furthest from zero leaves W (a row with
+            # lo = hi holds either way)
+            big = 0.0
+            for j in range(nw):
+                big = max(big, abs(lam[j]))
+            worst, jd = -DUAL_TOL * big, -1
+            for j in range(nw):
+                i = W[j]
+                v = lam[j] * side[i]
+                if v < worst and hi[i] - lo[i] > tol:
+                    worst, jd = v, j
+            if jd >= 0:
+                side[W[jd]] = 0
+                nw -= 1
+                continue
+            z = z0 - Ui @ (B @ lam)
+        # the row furthest outside its bounds joins W
+        y = C @ z
+        worst, ip, sp = tol, -1, 0
+        for i in range(m):
+            if y[i] != y[i]:
+                return False, none
+            if side[i] != 0:
+                continue
+            if y[i] - hi[i] > worst:
+                worst, ip, sp = y[i] - hi[i], i, 1
+            elif lo[i] - y[i] > worst:
+                worst, ip, sp = lo[i] - y[i], i, -1
+        if ip < 0:
+            for i in range(m):                    # the certificate: every row holds
+                if not (lo[i] - tol <= y[i] <= hi[i] + tol):
+                    return False, none
+            return True, z
+        side[ip] = sp
+        nw += 1
+    return False, none
 
 
 @nb.njit(cache=True)

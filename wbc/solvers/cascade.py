@@ -76,7 +76,7 @@ class Step:
 
     @classmethod
     def unpacked(cls, packed: np.ndarray, Z_next, rank: int, sigma_min: float, sigma_max: float, damping: float,
-                 A, b, x, Z, dof: int, ok: bool = True, route: int = 0) -> "Step":
+                 A, b, x, Z, dof: int, ok: bool = True, route: int = 0) -> Step:
         """The step from :func:`~wbc.solvers.level_kernel.level_step`'s ``packed`` array
         (z over ``dof`` free directions, x̂ + Z z, then R row by row if any); ``Z`` None
         while the basis is the identity."""

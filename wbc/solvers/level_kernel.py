@@ -33,7 +33,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .active_set import certified_active_set
+from .active_set import certified_active_set, certified_factored, certified_from, inverse_factor
 from .lapack import (
     SIDE_TRANS,
     UPLO_DIAG,
@@ -427,7 +427,8 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
     if it does not, and ``certify``, the level's QP (the solver's: the objective of
     :func:`least_squares_objective` with ``regularization``, the rows of
     :func:`higher_rows` with ``margin``) is solved by :func:`certified_active_set` where
-    its certificate holds. The point is kept if it then meets the level's own rows too;
+    its certificate holds (no margin at the last level, L − 1: as the Python loop). The
+    point is kept if it then meets the level's own rows too;
     the first level where any of this fails is where the caller takes over, with the
     state before it and the step it took there.
     It starts at level ``k0`` from x̂ = ``x0`` and Z = ``Z0`` (``identity0``: Z is the
@@ -463,6 +464,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
         i0 = i_end[k - 1] if k else 0
         m = e_end[k] - e0
         dof = n if identity else Z.shape[1]
+        mk = margin if k < L - 1 else 0.0
         _start_level(ints, floats, k, m, dof)
         x_next = x
         if m and dof:
@@ -482,8 +484,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
                 if not certify:
                     return k, x, Z, identity, ints, floats, packed, Z_next
                 H, g = least_squares_objective(AZ, rk, regularization)
-                Cz, lz, hz = higher_rows(C[:i0], lo[:i0], hi[:i0], x, Z, identity, margin)
-                ok, z = certified_active_set(H, g, Cz, lz, hz, tol)
+                ok, z = certified_higher(H, g, C[:i0], lo[:i0], hi[:i0], x, Z, identity, mk, tol)
                 if not ok:
                     return k, x, Z, identity, ints, floats, packed, Z_next
                 x_next = x + (z if identity else Z @ z)
@@ -494,10 +495,9 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
             ok = False
             if certify:
                 stepped = m > 0 and dof > 0
-                Cq, lq, hq = nearest_feasible_rows(C[i0:i_end[k]], lo[i0:i_end[k]], hi[i0:i_end[k]], C[:i0],
+                ok, z = certified_nearest_feasible(C[i0:i_end[k]], lo[i0:i_end[k]], hi[i0:i_end[k]], C[:i0],
                                                    lo[:i0], hi[:i0], x_next, Z_next if stepped else Z,
-                                                   identity and not stepped, margin, True)
-                ok, z = certified_active_set(np.eye(Cq.shape[1]), np.zeros(Cq.shape[1]), Cq, lq, hq, tol)
+                                                   identity and not stepped, mk, True, tol)
             if not ok:
                 ints[LEVEL_INTS * k + 5] = 0       # the caller solves the whole level
                 if m and dof:
@@ -727,6 +727,106 @@ def higher_rows(Ca, la, ha, x, Z, identity, margin):
 
 
 @nb.njit(cache=True)
+def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
+    """min ½zᵀHz + gᵀz s.t. dlo ≤ (C Z) z ≤ dhi, certified (:func:`certified_active_set`)
+    without forming C Z for every row: the QP is solved on candidate rows only (those its
+    current answer violates, starting from the unconstrained minimiser), every row checked
+    at the answer through C (Z z), and the rows it violates added, up to 4 times. The answer
+    of the candidates' QP that meets every row is the whole QP's optimum: its feasible set
+    contains the whole QP's, and it is in the whole QP's. (m rows over n variables, k free
+    directions: C Z costs m n k, the check m n; the rows a cascade's QP holds are 1 to 3 of
+    ~100.) Returns (certified, z)."""
+    m = C.shape[0]
+    k = H.shape[0]
+    none = np.empty(0)
+    cand = np.zeros(m, dtype=np.bool_)
+    nc = 0
+    ok, Ui = inverse_factor(H)                   # H factored once for every candidate set
+    if not ok:
+        return False, none
+    z = -(Ui @ (Ui.T @ g))
+    no_side = np.zeros(0, dtype=np.int64)
+    for _ in range(5):
+        dx = z if identity else Z @ z
+        dy = C @ dx
+        added = 0
+        for i in range(m):
+            if not cand[i] and (dy[i] > dhi[i] + tol or dy[i] < dlo[i] - tol):
+                cand[i] = True
+                added += 1
+            elif dy[i] != dy[i]:
+                return False, none
+        if added == 0:
+            return True, z
+        nc += added
+        if nc > k:
+            return False, none
+        idx = np.empty(nc, dtype=np.int64)
+        j = 0
+        for i in range(m):
+            if cand[i]:
+                idx[j] = i
+                j += 1
+        Cc = np.empty((nc, C.shape[1]))
+        for j in range(nc):
+            Cc[j] = C[idx[j]]
+        CcZ = Cc if identity else Cc @ Z
+        ok, z = certified_factored(Ui, g, CcZ, dlo[idx], dhi[idx], tol, no_side)
+        if not ok:
+            return False, none
+    return False, none
+
+
+@nb.njit(cache=True)
+def _higher_bounds(Ca, la, ha, x, margin):
+    """The bounds of :func:`higher_rows` on the change of every row, C_a(x + Z z) − C_a x
+    (a row at, or a hair past, its bound may not move further; one with room keeps
+    ``margin`` of it)."""
+    ya = Ca @ x
+    m = ya.shape[0]
+    dlo = np.empty(m)
+    dhi = np.empty(m)
+    for i in range(m):
+        d = min(margin, 0.25 * (ha[i] - la[i]))
+        dlo[i] = min(la[i] - ya[i] + d, 0.0)
+        dhi[i] = max(ha[i] - ya[i] - d, 0.0)
+    return dlo, dhi
+
+
+@nb.njit(cache=True)
+def certified_higher(H, g, Ca, la, ha, x, Z, identity, margin, tol):
+    """(certified, z) of the equality sub-level's QP, min ½zᵀHz + gᵀz under the higher rows
+    as :func:`higher_rows` gives them (the same QP, the same optimum), by
+    :func:`_certified_on_candidates`."""
+    dlo, dhi = _higher_bounds(Ca, la, ha, x, margin)
+    return _certified_on_candidates(H, g, Ca, dlo, dhi, Z, identity, tol)
+
+
+@nb.njit(cache=True)
+def certified_nearest_feasible(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, margin, tighten, tol):
+    """(certified, z) of the inequality sub-level's QP of :func:`nearest_feasible_rows`,
+    min ½‖z‖² under the level's own rows (tightened by ``margin`` when ``tighten``) and the
+    higher ones, by :func:`_certified_on_candidates`."""
+    mo, mh = Co.shape[0], Ch.shape[0]
+    n = x.shape[0]
+    C = np.empty((mo + mh, n))
+    C[:mo] = Co
+    C[mo:] = Ch
+    y = Co @ x
+    dlo = np.empty(mo + mh)
+    dhi = np.empty(mo + mh)
+    for i in range(mo):
+        d = min(margin, 0.25 * (hi_o[i] - lo_o[i])) if tighten else 0.0
+        dlo[i] = lo_o[i] - y[i] + d
+        dhi[i] = hi_o[i] - y[i] - d
+    hl, hh = _higher_bounds(Ch, lo_h, hi_h, x, margin)
+    dlo[mo:] = hl
+    dhi[mo:] = hh
+    k = n if identity else Z.shape[1]
+    return _certified_on_candidates(np.eye(k), np.zeros(k), C, dlo, dhi, Z, identity, tol)
+
+
+@nb.njit(cache=True)
 def least_squares_objective(AZ, r, regularization):
     """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
     k = AZ.shape[1]
@@ -872,5 +972,10 @@ def prepare() -> None:
     nearest_feasible_rows(A, -b, b, A, -b, b, x, Z, False, 1.0, True)
     least_squares_objective(A, b, 1e-6)
     certified_active_set(np.eye(n), np.ones(n), A, -b, b, 1e-7)
+    certified_from(np.eye(n), np.ones(n), A, -b, b, 1e-7, x, 1e-5)
+    certified_higher(np.eye(3), np.ones(3), A, -b, b, x, Z, False, 1.0, 1e-7)
+    certified_higher(np.eye(n), np.ones(n), A, -b, b, x, np.empty((0, 0)), True, 1.0, 1e-7)
+    certified_nearest_feasible(A, -b, b, A, -b, b, x, Z, False, 1.0, True, 1e-7)
+    certified_nearest_feasible(A, -b, b, A, -b, b, x, np.empty((0, 0)), True, 1.0, True, 1e-7)
     damping_lambda2(1e-4, 1e-3, 1e-2)
     _PREPARED[0] = True

@@ -25,11 +25,21 @@ acceleration constraint, so the unactuated rows of the dynamics,
 S_u J_fᵀ f = S_u (M q̈ + h), are solvable in f. Force distribution
 (:meth:`RecursiveProjection.distribute_forces`) picks f inside the
 friction/CoP cones (a force the ground cannot give is never commanded), meeting
-the unactuated rows in least squares, then any ContactWrench targets. Then τ = S_a (M q̈ + h − J_fᵀ f).
+the unactuated rows in least squares, then any ContactWrench targets, then the contact
+regularisation (:class:`~wbc.tasks.ContactRegularization`: the internal forces and CoPs
+the dynamics leave free). Then τ = S_a (M q̈ + h − J_fᵀ f).
 When q̈ asks more than the cones allow, the unactuated rows are not met: the
 status is "relaxed" and the robot will not follow q̈ exactly (this solver chooses
-q̈ blind to the cones; the HQP does not have that weakness). Torque limits are
-not enforced by this solver; their violation is reported.
+q̈ blind to the cones; the HQP does not have that weakness).
+
+Torque limits are not enforced by this solver: their rows' violation by the plan is
+reported (``LevelDiagnostics.unenforced_violation``) and the controller's final step
+saturates τ at ±τ_max, with the status ``"saturated"`` and the clipped joints in the
+diagnostics (:class:`~wbc.Controller`).
+
+Every cycle is a function of the state only: the cascade starts from the box-clamped
+q̈ = 0, the force distribution's NNLS from the last support only when the KKT test
+certifies it as the (unique in f) optimum.
 """
 
 from __future__ import annotations
@@ -71,6 +81,9 @@ class RecursiveProjection:
         # contact's normal force comes first of all (10 × the dynamics)
         self.dynamics_weight = 1e3
         self.wrench_weight = 1e-2
+        #: the factor on the force rows of each lower level with force tasks (the contact
+        #: regularisation below a ContactWrench target), a soft priority among them
+        self.force_level_decay = 1e-2
         self.ramp_weight = 1e4
         self.force_regularization = 1e-6
         #: the NNLS warm start's KKT test: how far above its own rounding a generator's
@@ -251,8 +264,9 @@ class RecursiveProjection:
         ``nnls``, unless the last cycle's support still passes the KKT test:
         :func:`~wbc.solvers.level_kernel.nnls_on_support`) on, in decreasing weight: a ramping contact's normal force
         (×``ramp_weight``), the unactuated dynamics rows S_u J_fᵀ f = S_u (M q̈ + h)
-        (×``dynamics_weight``), ContactWrench targets (×``wrench_weight``), and a small
-        least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
+        (×``dynamics_weight``), ContactWrench targets (×``wrench_weight``, ×``force_level_decay``
+        per level of force tasks above), the contact regularisation (the same rule: it is the
+        lowest), and a small least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return CascadeResult(np.zeros(0), [])
@@ -269,8 +283,8 @@ class RecursiveProjection:
             # the unactuated dynamics rows, the only rows that change with the state
             dynamics_rows(layout.force_jacobian, plan.G, plan.f0, robot.M, robot.h, qdd, plan.u,
                           self.dynamics_weight, AG, rhs)
-        for rows, lvl_index, esl in plan.wrench:
-            d[rows] += self.wrench_weight * levels[lvl_index].b[esl]
+        for rows, lvl_index, esl, weight in plan.wrench:
+            d[rows] += weight * levels[lvl_index].b[esl]
         for c, row in plan.ramps:
             d[row] += self.ramp_weight * c.fmax
         np.dot(plan.Qt, d, out=rhs[n_dyn:])
@@ -317,15 +331,24 @@ class _ForcePlan:
         self.contacts = contacts
         self.params = self._params()
         rows, self.wrench, self.wrench_A, self.ramps, k = [], [], [], [], 0
+        # force tasks of lower levels weigh less: × force_level_decay per level with force
+        # tasks above theirs; a regularisation (the contact regularisation, lowest) at least
+        # once: it only decides what the dynamics leave free, and kept at 1e-2 of a wrench
+        # target it held the root dynamics to ~1e-8 relative only (~1e-11 with the decay)
+        above = 0
         for lvl in levels:
+            level_has = False
             for t in lvl.tasks:
                 esl = lvl.eq_slices.get(t.name)
                 if esl is not None and t.on_forces:
+                    level_has = True
+                    weight = solver.wrench_weight * solver.force_level_decay ** max(above, int(t.regularizer))
                     Aw = lvl.A[esl, nv:].copy()
                     self.wrench_A.append((lvl.index, esl, Aw, t.layout_only_A))
-                    rows.append(solver.wrench_weight * Aw)
-                    self.wrench.append((slice(k, k + len(Aw)), lvl.index, esl))
+                    rows.append(weight * Aw)
+                    self.wrench.append((slice(k, k + len(Aw)), lvl.index, esl, weight))
                     k += len(Aw)
+            above += level_has
         for c in contacts:      # a contact being made or released: its normal force follows the ramp
             if np.isfinite(c.fmax) and not c.bilateral:
                 r = np.zeros((1, nf))
@@ -348,7 +371,7 @@ class _ForcePlan:
         self.const_rhs = const @ f0
 
     def _params(self) -> tuple:
-        return tuple((c.mu, c.fmin, c.bilateral, c.fmax != np.inf) for c in self.contacts)
+        return tuple((c.mu, c.fmin, c.bilateral, c.cop_margin, c.fmax != np.inf) for c in self.contacts)
 
     def still_valid(self, levels, nv: int) -> bool:
         """The contacts' cone parameters and ramps, and the force rows' A (their targets,

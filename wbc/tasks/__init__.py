@@ -3,6 +3,7 @@
 from .base import MotionTask, Task
 from .com import CoM
 from .contact import Contact, friction_pyramid, wrench_cone, wrench_cone_generators
+from .contact_regularization import ContactRegularization
 from .contact_wrench import ContactWrench
 from .dynamics import DifferentialDrive, FloatingBaseDynamics
 from .frame import Frame
@@ -13,10 +14,10 @@ from .torque_limits import TorqueLimits
 
 #: task types a YAML stack may name, by their ``type:`` key
 TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench,
-                                        NullSpaceImpedance)}
+                                        ContactRegularization, NullSpaceImpedance)}
 
 __all__ = [
-    "Task", "MotionTask", "CoM", "Contact", "ContactWrench", "Frame", "JointLimits", "NullSpaceImpedance", "Posture",
-    "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
+    "Task", "MotionTask", "CoM", "Contact", "ContactRegularization", "ContactWrench", "Frame", "JointLimits",
+    "NullSpaceImpedance", "Posture", "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
     "friction_pyramid", "wrench_cone_generators",
 ]

@@ -18,30 +18,40 @@ import numba as nb
 import numpy as np
 
 from ..checks import finite_vector
-from ..errors import TaskDefinitionError
+from ..errors import TargetError, TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import found, is_number, number, show, vector
 
 if TYPE_CHECKING:
     from ..model import RobotModel
 
 
+_GAIN_UNITS = {"kp": "1/s²", "kd": "1/s", "k_q": "N·m/rad"}
+#: largest task weight: its rows are scaled by √weight, and beyond 10¹² the level's other
+#: tasks vanish below double precision (and the solvers' products overflow near 1e308)
+MAX_WEIGHT = 1e12
+
+
 def gain(task_name: str, key: str, value, dim: int | None = None) -> np.ndarray | float:
-    """A non-negative scalar gain, or a vector of per-axis gains (1/s², 1/s)."""
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim > 1 or (arr.ndim == 1 and dim is not None and arr.shape[0] != dim):
-        raise TaskDefinitionError(
-            f"task '{task_name}': {key} must be a number or a vector of {dim} numbers, got {value!r}"
-        )
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise TaskDefinitionError(f"task '{task_name}': {key} must be finite and >= 0, got {value!r}")
-    return float(arr) if arr.ndim == 0 else arr
+    """A non-negative scalar gain, or a vector of per-axis gains (``dim`` of them if given):
+    kp in 1/s², kd in 1/s. Raises :class:`TaskDefinitionError` with the key and what was found."""
+    owner, unit = f"task '{task_name}'", _GAIN_UNITS.get(key, "")
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if is_number(value):
+        return number(value, key, ge=0, unit=unit, error=TaskDefinitionError, owner=owner)
+    if not isinstance(value, (list, tuple, np.ndarray)) or (dim is not None and len(value) != dim) or not len(value):
+        many = f"a list of {dim} numbers" if dim is not None else "a list of numbers (one per axis)"
+        raise TaskDefinitionError(f"must be a number >= 0 or {many} >= 0 ({unit}), got {found(value)}",
+                                  key=key, owner=owner)
+    return vector(value, key, dim, ge=0, unit=unit, error=TaskDefinitionError, owner=owner)
 
 
 class Task(ABC):
     """Base of every task. Subclasses implement :meth:`rows` (and :meth:`error`).
 
     Parameters: ``name`` (unique in a stack), ``weight`` (relative weight inside
-    its level, dimensionless, > 0).
+    its level, dimensionless, in (0, :data:`MAX_WEIGHT`]).
     """
 
     kind: str = "task"
@@ -49,24 +59,25 @@ class Task(ABC):
     on_forces: bool = False
     #: its rows' A depends on the stack's layout only, never on the state or targets
     layout_only_A: bool = False
+    #: a regularisation: its rows are not meant to be met (never reported as sacrificed)
+    regularizer: bool = False
 
     def __init__(self, name: str, weight: float = 1.0) -> None:
         if not isinstance(name, str) or not name:
-            raise TaskDefinitionError(f"{type(self).__name__}: name must be a non-empty string, got {name!r}")
+            raise TaskDefinitionError(f"must be a non-empty string, got {found(name)}", key="name",
+                                      owner=type(self).__name__)
         self.name = name
-        w = float(weight)
-        if not np.isfinite(w) or w <= 0:
-            raise TaskDefinitionError(f"task '{name}': weight must be > 0, got {weight!r}")
-        self.weight = w
+        self.weight = number(weight, "weight", gt=0, le=MAX_WEIGHT, unit="unitless", error=TaskDefinitionError,
+                             owner=f"task '{name}'")
 
-    def bind(self, robot: "RobotModel") -> None:
+    def bind(self, robot: RobotModel) -> None:  # noqa: B027 (optional hook: most tasks have nothing to resolve)
         """Resolve names (frames, joints, contacts) against ``robot``; raises early."""
 
     @abstractmethod
-    def rows(self, robot: "RobotModel", layout: Layout) -> Rows:
+    def rows(self, robot: RobotModel, layout: Layout) -> Rows:
         """The task's rows for the robot's current (cached) state."""
 
-    def error(self, robot: "RobotModel") -> np.ndarray | None:
+    def error(self, robot: RobotModel) -> np.ndarray | None:
         """Task-space error x_d − x (m, rad or N) for metrics; None for constraints."""
         return None
 
@@ -109,6 +120,15 @@ class MotionTask(Task):
             got = self._gain_vectors = (self.kp, self.kd, kp, kd)
         return got[2], got[3]
 
+    def check_gain_sizes(self, dim: int) -> None:
+        """Once the task's dimension ``dim`` is known (at bind): per-axis gains must have
+        ``dim`` entries (TaskDefinitionError naming the gain otherwise)."""
+        for key, g in (("kp", self.kp), ("kd", self.kd)):
+            if isinstance(g, np.ndarray) and g.shape != (dim,):
+                raise TaskDefinitionError(f"must be a number >= 0 or a list of {dim} numbers >= 0 "
+                                          f"({_GAIN_UNITS[key]}), got {len(g)}: {show(g.tolist())}",
+                                          key=key, owner=f"task '{self.name}'")
+
     def set_gains(self, kp, kd=None) -> None:
         self.kp = gain(self.name, "kp", kp, self._dim)
         self.kd = 2.0 * np.sqrt(self.kp) if kd is None else gain(self.name, "kd", kd, self._dim)
@@ -123,7 +143,13 @@ class MotionTask(Task):
 
 
 def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
-    """A float vector of exactly ``dim`` entries, or a TargetError naming the task."""
+    """A float vector of exactly ``dim`` entries, or a TargetError naming the task. A list
+    (YAML data) is checked item by item first, so that the error names the bad entry."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != dim:
+            raise TargetError(f"must have shape ({dim},), got {len(value)} entries: {show(value)}", key=what,
+                              owner=f"task '{task_name}'")
+        return vector(value, what, dim, error=TargetError, owner=f"task '{task_name}'")
     return finite_vector(f"task '{task_name}'", what, value, dim)
 
 

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import show
 from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _AXES = "xyz"
@@ -16,16 +17,19 @@ class CoM(MotionTask):
 
     ``target`` (m, world frame, 3-vector; default: the CoM at the first cycle),
     ``target_velocity`` (m/s) and ``target_acceleration`` (m/s²) for tracking,
-    ``axes`` a subset of ``"xyz"`` (``"xy"`` leaves the height free).
+    ``axes`` a subset of ``"xyz"`` (``"xy"`` leaves the height free). ``kp`` (1/s²) and
+    ``kd`` (1/s): a number, or one per controlled axis (``len(axes)`` of them).
     """
 
     kind = "com"
 
     def __init__(self, kp: float = 100.0, kd=None, weight: float = 1.0, name: str = "com",
                  target=None, axes: str = "xyz") -> None:
-        super().__init__(name, kp, kd, weight)
-        if not axes or any(a not in _AXES for a in axes) or len(set(axes)) != len(axes):
-            raise TaskDefinitionError(f"task '{name}': axes must be a subset of 'xyz', got {axes!r}")
+        if not isinstance(axes, str) or not axes or any(a not in _AXES for a in axes) or len(set(axes)) != len(axes):
+            raise TaskDefinitionError(f"must be a subset of 'xyz' (e.g. 'xy'), got {show(axes)}", key="axes",
+                                      owner=f"task '{name}'")
+        # per-axis gains: one per controlled axis (the rows use kp[i] on the i-th of ``axes``)
+        super().__init__(name, kp, kd, weight, dim=len(axes))
         self.axes = axes
         self._sel = np.array([_AXES.index(a) for a in axes])
         self._target = None if target is None else as_vector(name, "target", target, 3)

@@ -8,6 +8,7 @@ import pinocchio as pin
 from ..errors import TaskDefinitionError
 from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
 from ..rows import Layout, Rows
+from ..schema import boolean, number, text
 from .base import MotionTask, eq_buffer, motion_rows
 
 
@@ -55,6 +56,11 @@ def friction_pyramid(mu: float) -> np.ndarray:
     return np.array([[-1, 0, -mu], [1, 0, -mu], [0, -1, -mu], [0, 1, -mu], [0, 0, -1.0]])
 
 
+#: default ``cop_margin`` of a sole contact: the fraction of its half sizes kept between the
+#: centre of pressure and the sole's edges (see :class:`Contact`)
+COP_MARGIN = 0.2
+
+
 class Contact(MotionTask):
     """A rigid contact of the robot surface ``contact`` (a name under ``contacts:`` in
     the robot YAML) with the environment.
@@ -70,19 +76,39 @@ class Contact(MotionTask):
     ``mu`` (default: the robot's), and for a surface the centre of pressure inside
     the sole and the yaw-torque bounds (:func:`wrench_cone`). ``bilateral=True``
     drops the inequalities (a gripped handle, a welded foot).
+
+    ``cop_margin`` (dimensionless, [0, 1), default :data:`COP_MARGIN`): the CoP is kept
+    inside the sole rectangle shrunk about its centre by that fraction of each half size,
+    |p_x| ≤ (1 − m) X and |p_y| ≤ (1 − m) Y, i.e. the wrench cone of the smaller
+    rectangle (a subset of the sole's own: every force at its corners is a force inside
+    the sole). On Talos (X = 0.1 m, Y = 0.065 m) the default keeps the CoP 2 cm from the
+    toe and heel and 1.3 cm from the sides. Why not the edge: a CoP on the edge means the
+    sole is about to roll, with no margin left for what the model does not know (soft
+    soles and soft contact models, which load the edge before the rectangle's corners;
+    encoder and calibration errors of a few mm; the next cycle's disturbance). A fifth
+    of the half sizes still leaves 64 % of the sole's area to the CoP. Ignored by point
+    contacts.
     """
 
     kind = "contact"
 
     def __init__(self, contact: str, kp: float = 10.0, kd=None, weight: float = 1.0,
                  name: str | None = None, mu: float | None = None, fmin: float = 0.0,
-                 bilateral: bool = False) -> None:
+                 bilateral: bool = False, cop_margin: float = COP_MARGIN) -> None:
+        text(contact, "contact", what="a contact name (under contacts: in the robot YAML)",
+             error=TaskDefinitionError, owner="task 'contact'")
         super().__init__(name or f"{contact}_contact", kp, kd, weight)
         self.contact = contact
-        if mu is not None and (not np.isfinite(mu) or mu <= 0):
-            raise TaskDefinitionError(f"task '{self.name}': mu must be > 0, got {mu!r}")
-        if fmin < 0:
-            raise TaskDefinitionError(f"task '{self.name}': fmin must be >= 0 N, got {fmin!r}")
+        owner = f"task '{self.name}'"
+        if mu is not None:
+            mu = number(mu, "mu", gt=0, unit="unitless", error=TaskDefinitionError, owner=owner)
+        fmin = number(fmin, "fmin", ge=0, unit="N", error=TaskDefinitionError, owner=owner)
+        bilateral = boolean(bilateral, "bilateral", error=TaskDefinitionError, owner=owner)
+        margin = cop_margin
+        if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not 0.0 <= margin < 1.0:
+            raise TaskDefinitionError(f"task '{self.name}': cop_margin must be in [0, 1) (a fraction of the "
+                                      f"sole's half sizes), got {cop_margin!r}")
+        self.cop_margin = float(margin)
         self.mu = mu
         self.fmin = float(fmin)
         self.bilateral = bool(bilateral)
@@ -97,6 +123,7 @@ class Contact(MotionTask):
 
     def bind(self, robot) -> None:
         self.surface(robot)
+        self.check_gain_sizes(self.force_dim)
 
     def surface(self, robot) -> ContactSurface:
         if self._surface is None:
@@ -159,13 +186,20 @@ class Contact(MotionTask):
             got = self._za = (np.zeros(m), np.arange(m))
         return got
 
+    def cop_rectangle(self) -> tuple[float, float]:
+        """(X, Y) (m): the half sizes of the rectangle the CoP is kept in, the sole's shrunk by
+        ``cop_margin``."""
+        s = self._surface
+        k = 1.0 - self.cop_margin
+        return k * s.half_length, k * s.half_width
+
     def _friction_rows(self, layout: Layout) -> np.ndarray:
         sl = layout.contact_slices[self.name]
-        key = (layout.nx, sl.start)
+        key = (layout.nx, sl.start, self.cop_margin)
         if self._ineq is None or self._ineq[0] != key:
             s = self._surface
             mu = s.mu if self.mu is None else self.mu
-            U = wrench_cone(mu, s.half_length, s.half_width) if s.kind == "surface" else friction_pyramid(mu)[:4]
+            U = wrench_cone(mu, *self.cop_rectangle()) if s.kind == "surface" else friction_pyramid(mu)[:4]
             unilateral = np.zeros((2, s.force_dim))
             unilateral[0, 2] = -1.0          # f_z >= fmin
             unilateral[1, 2] = 1.0           # f_z <= fmax
@@ -184,7 +218,7 @@ class Contact(MotionTask):
         rebuilt only when ``mu``, ``fmin`` or ``bilateral`` change."""
         s = self._surface
         mu = s.mu if self.mu is None else self.mu
-        key = (mu, self.fmin, self.bilateral, s.kind, s.half_length, s.half_width)
+        key = (mu, self.fmin, self.bilateral, s.kind, s.half_length, s.half_width, self.cop_margin)
         if self._gen is not None and self._gen[0] == key:
             return self._gen[1], self._gen[2]
         d = s.force_dim
@@ -194,7 +228,7 @@ class Contact(MotionTask):
         else:
             f0[2] = self.fmin
             if s.kind == "surface":
-                V = wrench_cone_generators(mu, s.half_length, s.half_width)
+                V = wrench_cone_generators(mu, *self.cop_rectangle())
             else:
                 V = np.array([[mu, mu, 1.0], [-mu, mu, 1.0], [mu, -mu, 1.0], [-mu, -mu, 1.0]]).T
         f0.flags.writeable = False
@@ -217,4 +251,6 @@ class Contact(MotionTask):
             p["fmin"] = self.fmin
         if self.bilateral:
             p["bilateral"] = True
+        if self.cop_margin != COP_MARGIN:
+            p["cop_margin"] = self.cop_margin
         return p

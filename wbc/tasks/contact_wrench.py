@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import StackError
+from ..checks import finite_vector
+from ..errors import StackError, TargetError, TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import text, vector
 from .base import Task, as_vector, eq_buffer
 
 
@@ -23,9 +25,15 @@ class ContactWrench(Task):
     layout_only_A = True
 
     def __init__(self, contact: str, target=None, weight: float = 1.0, name: str | None = None) -> None:
+        text(contact, "contact", what="the name of a contact task in the stack (e.g. left_foot_contact)",
+             error=TaskDefinitionError, owner="task 'contact_wrench'")
         super().__init__(name or f"{contact}_wrench", weight)
         self.contact = contact
-        self._target = None if target is None else np.asarray(target, dtype=float).reshape(-1)
+        if target is not None:      # 6 for a surface contact, 3 for a point: checked against the stack's contact
+            target = vector(target, "target", (3, 6), unit="N and N·m", error=TargetError,
+                            owner=f"task '{self.name}'") if isinstance(target, (list, tuple)) \
+                else finite_vector(f"task '{self.name}'", "target", target, np.size(target))
+        self._target = target
 
     @property
     def target(self) -> np.ndarray | None:

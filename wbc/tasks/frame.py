@@ -10,6 +10,7 @@ from ..checks import se3_from
 from ..errors import TargetError, TaskDefinitionError
 from ..model import WORLD_ALIGNED
 from ..rows import Layout, Rows
+from ..schema import found, is_number, matrix, show, suggest, text
 from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _MASKS = {
@@ -24,13 +25,15 @@ def to_se3(task_name: str, value, current: pin.SE3 | None) -> pin.SE3:
     (the YAML form), or a 3-vector position (orientation kept)."""
     if isinstance(value, dict):
         if set(value) - {"position", "rotation"} or "position" not in value:
-            raise TargetError(f"task '{task_name}': a target mapping needs position (and optionally rotation)")
+            raise TargetError("a target mapping needs position (and optionally rotation), got keys "
+                              f"{show(list(value))}", key="target", owner=f"task '{task_name}'")
         T = np.eye(4)
         T[:3, 3] = as_vector(task_name, "target.position", value["position"], 3)
         if "rotation" in value:
-            R = np.asarray(value["rotation"], dtype=float)
+            rot = value["rotation"]
+            R = matrix(rot, "target.rotation", (3, 3), error=TargetError, owner=f"task '{task_name}'")
             if R.shape != (3, 3):
-                raise TargetError(f"task '{task_name}': target.rotation must be a 3x3 matrix")
+                raise TargetError("must be a 3x3 rotation matrix", key="target.rotation", owner=f"task '{task_name}'")
             T[:3, :3] = R
         elif current is not None:
             T[:3, :3] = current.rotation
@@ -52,22 +55,41 @@ class Frame(MotionTask):
 
     def __init__(self, frame: str, kp: float = 50.0, kd=None, weight: float = 1.0,
                  name: str | None = None, target=None, mask="pose") -> None:
+        text(frame, "frame", what="a frame name or alias", error=TaskDefinitionError, owner="task 'frame'")
+        if name is not None:
+            text(name, "name", what="a task name", error=TaskDefinitionError, owner=f"task '{frame}'")
         super().__init__(name or frame, kp, kd, weight, dim=6)
         self.frame = frame
+        owner = f"task '{self.name}'"
+        expected = f"one of {list(_MASKS)} or 6 flags (linear x y z, angular x y z: true/false), at least one set"
         if isinstance(mask, str):
             if mask not in _MASKS:
-                raise TaskDefinitionError(f"task '{self.name}': mask must be one of {list(_MASKS)} or 6 flags, got {mask!r}")
+                raise TaskDefinitionError(f"must be {expected}, got {show(mask)}{suggest(mask, _MASKS)}", key="mask",
+                                          owner=owner)
             flags = _MASKS[mask]
         else:
+            if not isinstance(mask, (list, tuple)) or len(mask) != 6 or \
+                    not all(isinstance(f, bool) or (is_number(f) and f in (0, 1)) for f in mask):
+                raise TaskDefinitionError(f"must be {expected}, got {found(mask)}", key="mask", owner=owner)
             flags = tuple(int(bool(f)) for f in mask)
-            if len(flags) != 6 or sum(flags) == 0:
-                raise TaskDefinitionError(f"task '{self.name}': mask must have 6 flags, at least one set, got {mask!r}")
+            if sum(flags) == 0:
+                raise TaskDefinitionError(f"must be {expected}, got {show(mask)}", key="mask", owner=owner)
         self.mask = mask
         self._sel = np.flatnonzero(flags)
         self._pending = target
         self._target: pin.SE3 | None = None
-        if isinstance(target, (dict, pin.SE3)) or np.shape(target) == (4, 4):
-            self._target = to_se3(self.name, target, None)
+        if target is not None:
+            if isinstance(target, (list, tuple)) and len(target) not in (3, 4):
+                raise TargetError("must be a position [x, y, z] (m), a 4x4 homogeneous matrix or "
+                                  f"{{position: [x, y, z], rotation: 3x3}}, got {show(target)}", key="target",
+                                  owner=owner)
+            if isinstance(target, (list, tuple)) and len(target) == 4:
+                matrix(target, "target", (4, 4), error=TargetError, owner=owner)
+            elif isinstance(target, (list, tuple)):
+                as_vector(self.name, "target", target, 3)
+            checked = to_se3(self.name, target, None)      # a 3-vector keeps the start orientation (later)
+            if isinstance(target, (dict, pin.SE3)) or np.shape(target) == (4, 4):
+                self._target = checked
         self.target_velocity = np.zeros(6)
         self.target_acceleration = np.zeros(6)
         self._fid = None

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import number
 from .base import Task
 
 
@@ -30,12 +31,13 @@ class JointLimits(Task):
     def __init__(self, dt: float = 1e-3, horizon: float = 0.1, max_acceleration: float = 30.0,
                  margin: float = 0.0, name: str = "joint_limits", weight: float = 1.0) -> None:
         super().__init__(name, weight)
-        for key, val in (("dt", dt), ("horizon", horizon), ("max_acceleration", max_acceleration)):
-            if not (np.isfinite(val) and val > 0):
-                raise TaskDefinitionError(f"task '{name}': {key} must be > 0, got {val!r}")
-        if margin < 0:
-            raise TaskDefinitionError(f"task '{name}': margin must be >= 0, got {margin!r}")
-        self.dt, self.horizon, self.max_acceleration, self.margin = float(dt), float(horizon), float(max_acceleration), float(margin)
+        owner = f"task '{self.name}'"
+        # bounded so that the bounds' 1/dt and 2/horizon² stay finite
+        self.dt = number(dt, "dt", ge=1e-6, le=1, unit="s", error=TaskDefinitionError, owner=owner)
+        self.horizon = number(horizon, "horizon", ge=1e-6, le=100, unit="s", error=TaskDefinitionError, owner=owner)
+        self.max_acceleration = number(max_acceleration, "max_acceleration", gt=0, le=1e6, unit="rad/s² or m/s²",
+                                       error=TaskDefinitionError, owner=owner)
+        self.margin = number(margin, "margin", ge=0, le=1, unit="rad or m", error=TaskDefinitionError, owner=owner)
         self._map = None
 
     def _indices(self, robot):

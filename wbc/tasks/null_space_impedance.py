@@ -30,9 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import finite_vector
 from ..control.null_space_impedance import extended_task_space_terms, null_basis_at
-from ..errors import TaskDefinitionError
+from ..errors import TargetError, TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import is_number, matrix, number, text, vector
 from .base import Task, as_vector, eq_buffer, gain
 
 
@@ -46,17 +48,25 @@ class NullSpaceImpedance(Task):
 
     def __init__(self, frame: str, k_q=20.0, B_nu=3.0, weight: float = 1.0, name: str | None = None,
                  target=None) -> None:
+        text(frame, "frame", what="a frame name or alias", error=TaskDefinitionError,
+             owner="task 'null_space_impedance'")
         super().__init__(name or f"{frame}_null_space", weight)
         self.frame = frame
+        owner = f"task '{self.name}'"
         self.k_q = gain(self.name, "k_q", k_q)
-        B = np.asarray(B_nu, dtype=float)
-        if not np.all(np.isfinite(B)) or (B.ndim == 0 and B <= 0):
-            raise TaskDefinitionError(f"task '{self.name}': B_nu must be > 0 (a number or a PD matrix), got {B_nu!r}")
-        if B.ndim == 2 and (not np.allclose(B, B.T) or np.linalg.eigvalsh(B).min() <= 0):
-            raise TaskDefinitionError(f"task '{self.name}': B_nu must be symmetric positive definite")
-        if B.ndim not in (0, 2):
-            raise TaskDefinitionError(f"task '{self.name}': B_nu must be a number or a square matrix")
+        if is_number(B_nu) or (isinstance(B_nu, np.ndarray) and B_nu.ndim == 0):
+            B = np.asarray(number(B_nu, "B_nu", gt=0, unit="N·m·s/rad", error=TaskDefinitionError, owner=owner))
+        else:
+            B = matrix(B_nu, "B_nu", unit="N·m·s/rad", error=TaskDefinitionError, owner=owner)
+            if B.shape[0] != B.shape[1]:
+                raise TaskDefinitionError(f"must be a number or a square matrix, got shape {B.shape}", key="B_nu",
+                                          owner=owner)
+            if not np.allclose(B, B.T) or np.linalg.eigvalsh(B).min() <= 0:
+                raise TaskDefinitionError("B_nu must be symmetric positive definite", owner=owner)
         self.B_nu = B
+        if target is not None:      # its length (nq) is checked against the robot at bind
+            target = vector(target, "target", unit="rad", error=TargetError, owner=owner) \
+                if isinstance(target, (list, tuple)) else finite_vector(owner, "target", target, np.size(target))
         self._pending = target
         self.target: np.ndarray | None = None
         self._fid: int | None = None

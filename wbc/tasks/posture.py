@@ -5,7 +5,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..checks import finite_vector
+from ..errors import TargetError, TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import sequence, show, suggest, text, vector
 from .base import MotionTask, as_vector, eq_buffer
 
 
@@ -22,7 +25,18 @@ class Posture(MotionTask):
     def __init__(self, kp: float = 10.0, kd=None, weight: float = 1.0, name: str = "posture",
                  target=None, joints: list[str] | None = None) -> None:
         super().__init__(name, kp, kd, weight)
-        self._target = None if target is None else np.asarray(target, dtype=float)
+        owner = f"task '{self.name}'"
+        if target is not None:      # its length (nq) is checked against the robot at bind
+            target = vector(target, "target", unit="rad or m", error=TargetError, owner=owner) \
+                if isinstance(target, (list, tuple)) else finite_vector(owner, "target", target, np.size(target))
+        self._target = target
+        if joints is not None:
+            joints = sequence(joints, "joints", min_len=1, what="a list of joint names", error=TaskDefinitionError,
+                              owner=owner)
+            for i, j in enumerate(joints):
+                text(j, f"joints[{i}]", what="a joint name", error=TaskDefinitionError, owner=owner)
+                if j in joints[:i]:
+                    raise TaskDefinitionError(f"joint '{j}' is listed twice", key=f"joints[{i}]", owner=owner)
         self.joints = joints
         self._idx = None
 
@@ -37,7 +51,7 @@ class Posture(MotionTask):
 
     def bind(self, robot) -> None:
         self._idx = None
-        self._indices(robot)
+        self.check_gain_sizes(len(self._indices(robot)))
         if self._target is not None:
             self._target = as_vector(self.name, "target", self._target, robot.nq)
             self._checked = True
@@ -47,12 +61,14 @@ class Posture(MotionTask):
             if self.joints is None:
                 self._idx = robot.joint_idx
             else:
-                from ..errors import TaskDefinitionError
-
                 idx = []
-                for j in self.joints:
-                    if not robot.model.existJointName(j):
-                        raise TaskDefinitionError(f"task '{self.name}': robot '{robot.name}' has no joint '{j}'")
+                names = list(robot.model.names)[1 + (robot.n_root > 0):]     # not the universe, not the root
+                for i, j in enumerate(self.joints):
+                    if j not in names:
+                        what = "is the robot's root (a posture task drives the other joints)" \
+                            if robot.model.existJointName(j) else f"is not a joint of robot '{robot.name}'"
+                        raise TaskDefinitionError(f"'{j}' {what}; expected one of {show(names)}{suggest(j, names)}",
+                                                  key=f"joints[{i}]", owner=f"task '{self.name}'")
                     jid = robot.model.getJointId(j)
                     idx.extend(range(robot.model.idx_vs[jid], robot.model.idx_vs[jid] + robot.model.joints[jid].nv))
                 self._idx = np.array(idx, dtype=int)

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import TaskDefinitionError
 from ..rows import Layout, Rows
+from ..schema import number
 from .base import Task, dynamics_block
 
 _NO_FORCES = np.zeros((0, 0))
@@ -20,9 +21,8 @@ class TorqueLimits(Task):
 
     def __init__(self, scale: float = 1.0, name: str = "torque_limits", weight: float = 1.0) -> None:
         super().__init__(name, weight)
-        if not (0 < scale <= 1):
-            raise TaskDefinitionError(f"task '{name}': scale must be in (0, 1], got {scale!r}")
-        self.scale = float(scale)
+        self.scale = number(scale, "scale", gt=0, le=1, unit="fraction of the URDF limits",
+                            error=TaskDefinitionError, owner=f"task '{self.name}'")
 
     def rows(self, robot, layout: Layout) -> Rows:
         buf = getattr(self, "_buf", None)
