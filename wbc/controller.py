@@ -14,8 +14,9 @@ Three guarantees, whatever the solver and the state:
   contact has a ContactWrench target, or ``contact_regularization=False``): it decides the
   internal forces and the CoPs. What is still free after it (q̈ directions no task
   names) keeps the value of the cascade's reference, a function of the state: the
-  nominal point x₀ = (q̈₀, f₀), q̈₀ the point of level 0's joint-acceleration bounds nearest
-  0 and f₀ the regularisation's distribution of gravity and the velocity terms
+  nominal point x₀ = (q̈₀, f₀), q̈₀ = 0 where level 0's joint-acceleration bounds allow it
+  (else just inside the bound) and f₀ the regularisation's distribution of gravity and the
+  velocity terms
   (:func:`~wbc.tasks.contact_regularization.reference_point`), or 0.
 - **Output inside the limits.** ``Solution.tau`` is finite and inside ±τ_max (the robot's
   actuator limits). A solver's torque beyond them (a relaxed level, the projection
@@ -197,10 +198,10 @@ class Controller:
         return list(self._lowest()[0])
 
     def _reference(self, layout: Layout, weights_of: ContactRegularization, levels: list[Level]) -> np.ndarray | None:
-        """The cascade's reference x₀ = (q̈₀, f₀) (module docstring): q̈₀ the point of the
-        highest level's joint-acceleration bounds nearest 0 (a joint braking towards its
-        limit needs q̈ ≠ 0: from q̈ = 0 level 0 needed a QP in 9 % of the bench's cycles),
-        f₀ the nominal forces; None (x₀ = 0) when both are 0."""
+        """The cascade's reference x₀ = (q̈₀, f₀) (module docstring): q̈₀ = 0 where level 0's
+        joint-acceleration bounds allow it, else inside the bound 0 is beyond (a joint
+        braking towards its limit needs q̈ ≠ 0: from q̈ = 0 level 0 needed a QP in 9 % of the
+        bench's cycles), f₀ the nominal forces; None (x₀ = 0) when both are 0."""
         robot = self.robot
         box = levels[0].box if levels else None
         forces = layout.nf and len(robot.unactuated_idx)

@@ -153,12 +153,18 @@ class ContactRegularization(Task):
 @nb.njit(cache=True)
 def reference_point(x, nv, idx, lo, hi, margin, Jf, h, u, w):
     """The hierarchical solvers' reference x₀ = (q̈₀, f₀), written into ``x`` (nx): q̈₀ = 0
-    moved into the joint-acceleration bounds lo ≤ q̈[idx] ≤ hi, ``margin`` inside them where
-    they leave room (min(margin, ¼ of their range)), f₀ = :func:`nominal_forces` (skipped
-    when there is no force, or no root to carry: ``u`` empty)."""
+    where the joint-acceleration bounds lo ≤ q̈[idx] ≤ hi allow it, else the bound 0 is
+    beyond moved ``margin`` inside (min(margin, ¼ of their range): a point on a bound sends
+    the next level's step across it); f₀ = :func:`nominal_forces` (skipped when there is no
+    force, or no root to carry: ``u`` empty)."""
     for j in range(idx.shape[0]):
         d = min(margin, 0.25 * (hi[j] - lo[j]))
-        x[idx[j]] = min(max(lo[j] + d, 0.0), hi[j] - d)
+        if lo[j] > 0.0:
+            x[idx[j]] = min(lo[j] + d, hi[j])
+        elif hi[j] < 0.0:
+            x[idx[j]] = max(hi[j] - d, lo[j])
+        else:
+            x[idx[j]] = 0.0
     if Jf.shape[0] and u.shape[0]:
         x[nv:] = nominal_forces(Jf, h, u, w)
 
