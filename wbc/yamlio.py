@@ -128,15 +128,39 @@ def _depth(node, limit: int) -> int:
 def _check_depth(text: str, path: Path, error: type[WbcError]) -> None:
     """Refuse nesting deeper than :data:`MAX_DEPTH`, from the parser's events (iterative),
     naming the line where it goes too deep."""
-    depth = 0
+    # one entry per open container: [is_mapping, key or index, a mapping's next node is a key]
+    open_: list[list] = []
+
+    def key_path() -> str:
+        out = ""
+        for is_map, k, _ in open_:
+            out = join_key(out, str(k)) if is_map else f"{out}[{k}]"
+        return out or "(top level)"
+
+    def value_done() -> None:          # a value ended: its mapping awaits a key, its list the next item
+        if open_:
+            if open_[-1][0]:
+                open_[-1][2] = True
+            else:
+                open_[-1][1] += 1
+
     for event in yaml.parse(text, Loader=_SafeBase):
         if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
-            depth += 1
-            if depth > MAX_DEPTH:
+            if open_ and open_[-1][0] and open_[-1][2]:
+                open_[-1][2] = False       # a complex key: treated as the value's place
+            if len(open_) >= MAX_DEPTH:
                 raise error(f"lists and mappings nested more than {MAX_DEPTH} deep: not a wbc document",
-                            file=path, line=event.start_mark.line + 1)
+                            key=key_path(), file=path, line=event.start_mark.line + 1)
+            open_.append([isinstance(event, yaml.MappingStartEvent), "" if isinstance(event, yaml.MappingStartEvent)
+                          else 0, True])
         elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
-            depth -= 1
+            open_.pop()
+            value_done()
+        elif isinstance(event, (yaml.ScalarEvent, yaml.AliasEvent)):
+            if open_ and open_[-1][0] and open_[-1][2]:
+                open_[-1][1], open_[-1][2] = getattr(event, "value", "*"), False
+            else:
+                value_done()
 
 
 def parse(text: str, path: Path, error: type[WbcError] = ConfigError) -> Document:
