@@ -4,6 +4,7 @@ headless, in a scratch directory so that one line's output feeds the next)."""
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shlex
 from pathlib import Path
@@ -49,7 +50,12 @@ def test_readme_shell_lines_run(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     cmds = _commands()
     assert len(cmds) >= 10
+    root = README.parent
     for argv in cmds:
+        if "mujoco" in argv and importlib.util.find_spec("mujoco") is None:
+            continue                                  # the optional [mujoco] extra
+        # files the README names in the repository (benchmarks/...), from the scratch directory
+        argv = [str(root / a) if a.startswith("benchmarks/") else a for a in argv]
         if argv[:1] == ["--help"] or argv[-1:] == ["--help"]:
             with pytest.raises(SystemExit) as exc:
                 main(argv)
