@@ -59,30 +59,13 @@ import pinocchio as pin
 
 from ..errors import WbcError
 from .environment import Box, HalfSpace
-from .simulator import Push
+from .simulator import Push, contact_points
 
 if TYPE_CHECKING:
     from ..model import RobotModel
 
 SOLE_THICKNESS = 0.01   # m, the sole boxes' height
 POINT_RADIUS = 0.005    # m, the point contacts' spheres
-
-
-def _sole_points(robot: RobotModel, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:
-    """Simulator.for_robot's contact points: (joint name, offset in the joint frame (m), kind
-    ("surface" corner or "point"), rotation of the point's frame in the joint frame, contact name)."""
-    m = robot.model
-    pts = []
-    for c in robot.contacts.values():
-        f = m.frames[m.getFrameId(c.frame)]
-        offs = ([np.array([sx * c.half_length, sy * c.half_width, 0.0]) for sx in (-1, 1) for sy in (-1, 1)]
-                if c.kind == "surface" else [np.zeros(3)])
-        pts += [(m.names[f.parentJoint], f.placement.act(o), c.kind, f.placement.rotation, c.name) for o in offs]
-    for fname, off in extra_points:
-        f = m.frames[robot.frame_id(fname)]
-        pts.append((m.names[f.parentJoint], f.placement.act(np.asarray(off, float)), "point",
-                    f.placement.rotation, fname))
-    return pts
 
 
 def _urdf_xml(robot: RobotModel, keep_inertials: bool) -> str:
@@ -122,7 +105,7 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
                 joint_limits: bool = True,
                 inertias: str = "model", tau_max: np.ndarray | None = None) -> mujoco.MjModel:
     """The MuJoCo model of ``robot`` (a :class:`~wbc.model.RobotModel`) in ``environment``
-    (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`_sole_points`. See the
+    (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`contact_points`. See the
     module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
     motors' limits, the robot's by default."""
     if inertias not in ("model", "urdf"):
@@ -224,7 +207,7 @@ class MujocoSimulator:
         self.h = self.dt / self.substeps
         self.actuated = robot.actuated_mask.copy()
         self.differential_drive = bool(robot.differential_drive)
-        pts = _sole_points(robot, extra_points)
+        pts = contact_points(robot, extra_points)
         self.points = [(m.getJointId(p[0]), np.asarray(p[1], float)) for p in pts]
         lim = np.asarray(robot.tau_max if tau_limits is None else tau_limits, float)
         self.tau_limits = lim.copy() if lim.shape[0] == m.nv else np.where(self.actuated, 0.0, np.inf)

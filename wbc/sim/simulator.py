@@ -53,6 +53,26 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
+def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:
+    """The points where ``robot`` (a :class:`~wbc.model.RobotModel`) touches the environment,
+    for every simulator: the four corners of each contact surface (± half_length, ± half_width
+    in the sole frame, m), the origin of each point contact, and ``extra_points`` (frame name,
+    offset in the frame, m). Each as (joint name, offset in the joint frame (m), kind
+    ("surface" or "point"), rotation of the point's frame in the joint frame, contact name)."""
+    m = robot.model
+    pts = []
+    for c in robot.contacts.values():
+        f = m.frames[m.getFrameId(c.frame)]
+        offs = ([np.array([sx * c.half_length, sy * c.half_width, 0.0]) for sx in (-1, 1) for sy in (-1, 1)]
+                if c.kind == "surface" else [np.zeros(3)])
+        pts += [(m.names[f.parentJoint], f.placement.act(o), c.kind, f.placement.rotation, c.name) for o in offs]
+    for fname, off in extra_points:
+        f = m.frames[robot.frame_id(fname)]
+        pts.append((m.names[f.parentJoint], f.placement.act(np.asarray(off, float)), "point",
+                    f.placement.rotation, fname))
+    return pts
+
+
 @dataclass
 class Push:
     """A constant external force (N, world frame) at a frame's origin during [start, start + duration)."""
@@ -134,18 +154,9 @@ class Simulator:
         """A simulator of ``robot`` (a :class:`~wbc.model.RobotModel`): sole corners of its
         contact surfaces and the origins of its point contacts touch the environment;
         ``extra_points``: more ``(frame name, offset in the frame)``."""
-        m = robot.model
-        pts = []
-        for c in robot.contacts.values():
-            f = m.frames[m.getFrameId(c.frame)]
-            offs = ([np.array([sx * c.half_length, sy * c.half_width, 0.0]) for sx in (-1, 1) for sy in (-1, 1)]
-                    if c.kind == "surface" else [np.zeros(3)])
-            pts += [(m.names[f.parentJoint], f.placement.act(o)) for o in offs]
-        for fname, off in extra_points:
-            f = m.frames[robot.frame_id(fname)]
-            pts.append((m.names[f.parentJoint], f.placement.act(np.asarray(off, float))))
+        pts = [(joint, offset) for joint, offset, *_ in contact_points(robot, extra_points)]
         q0 = robot.q_default if q0 is None else q0
-        return cls(m, pts, environment, q0, actuated=robot.actuated_mask,
+        return cls(robot.model, pts, environment, q0, actuated=robot.actuated_mask,
                    differential_drive=robot.differential_drive, **kwargs)
 
     def push(self, frame: str, force, start: float, duration: float) -> None:
