@@ -131,11 +131,11 @@ def _check_depth(text: str, path: Path, error: type[WbcError]) -> None:
     # one entry per open container: [is_mapping, key or index, a mapping's next node is a key]
     open_: list[list] = []
 
-    def key_path() -> str:
+    def key_path() -> str:      # the first 8 steps name the place; the rest is "..."
         out = ""
-        for is_map, k, _ in open_:
+        for is_map, k, _ in open_[:8]:
             out = join_key(out, str(k)) if is_map else f"{out}[{k}]"
-        return out or "(top level)"
+        return (out or "(top level)") + ("..." if len(open_) > 8 else "")
 
     def value_done() -> None:          # a value ended: its mapping awaits a key, its list the next item
         if open_:

@@ -129,7 +129,9 @@ def test_merge_keys_may_be_overridden(tmp_path):
 def test_deep_nesting_and_bad_bytes_are_refused_with_the_line(tmp_path):
     deep = tmp_path / "deep.yaml"
     deep.write_text(BALANCE.read_text().replace("kp: 100.0", "kp: " + "[" * 200 + "1" + "]" * 200))
-    with pytest.raises(wbc.ConfigError, match=r"deep.yaml:15: lists and mappings nested more than 50 deep"):
+    with pytest.raises(wbc.ConfigError,
+                       match=r"deep.yaml:15: stack\[1\]\[0\]\.kp\[0\]\[0\]\[0\]\[0\]\.\.\.: lists and mappings nested "
+                             r"more than 50 deep"):
         wbc.load_config(deep)
     deep.write_text(BALANCE.read_text().replace("kp: 100.0", "kp: " + "[" * 50_000 + "1" + "]" * 50_000))
     with pytest.raises(wbc.ConfigError, match=r"deep.yaml:15: (lists and mappings nested|not valid YAML: exceeded)"):
