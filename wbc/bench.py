@@ -43,6 +43,7 @@ import numpy as np
 import pinocchio as pin
 
 from .controller import Controller
+from .jsonable import plain
 from .model import LOCAL, WORLD_ALIGNED, RobotModel, whole_body_terms
 from .stack import Stack
 from .tasks import CoM, Contact, ContactWrench, Frame, JointLimits, Posture, TorqueLimits
@@ -1153,13 +1154,11 @@ def _cmd_bench(args) -> int:
 
 
 def _json_default(o):
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, (np.floating,)):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
+    """numpy values as plain JSON (:func:`wbc.jsonable.plain`), anything else as its text."""
+    try:
+        return plain(o)
+    except TypeError:
+        return str(o)
 
 
 def add_parser(sub) -> None:

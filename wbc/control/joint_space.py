@@ -83,6 +83,16 @@ class _JointController:
         qd, vd, ad = self.reference(t)
         return self.robot.difference(q, qd), vd - v, ad
 
+    def _slotine_li_setup(self, kd, lam, params) -> int:
+        """Gains K_D (N·m·s/rad) and Λ (1/s) of the Slotine-Li law (5.6) and the parameter
+        estimate π̂ (10 per body, default the model's own); returns the parameter count p."""
+        self.kd = gain_matrix(self.name, "kd", kd, self.n)
+        self.lam = gain_matrix(self.name, "lam", lam, self.n)
+        p = 10 * (self.robot.model.njoints - 1)
+        self.params = (dynamic_parameters(self.robot.model) if params is None
+                       else vector(self.name, "params", params, p)).copy()
+        return p
+
     def gravity(self, q: Vector) -> Vector:
         """g(q) (N·m), pinocchio ``computeGeneralizedGravity``."""
         return pin.computeGeneralizedGravity(self.robot.model, self.data, q).copy()
@@ -193,11 +203,7 @@ class PassivityBased(_JointController):
 
     def __init__(self, robot, reference, kd, lam, params=None, adapt_gain=None) -> None:
         super().__init__(robot, reference)
-        self.kd = gain_matrix(self.name, "kd", kd, self.n)
-        self.lam = gain_matrix(self.name, "lam", lam, self.n)
-        p = 10 * (robot.model.njoints - 1)
-        self.params = (dynamic_parameters(robot.model) if params is None
-                       else vector(self.name, "params", params, p)).copy()
+        p = self._slotine_li_setup(kd, lam, params)
         self.adapt_gain = None if adapt_gain is None else gain_matrix(self.name, "adapt_gain", adapt_gain, p)
         self._t_prev: float | None = None
 

@@ -69,8 +69,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .joint_space import _JointController, dynamic_parameters, slotine_li_regressor
-from .motion_common import ControllerDefinitionError, Vector, check_state, gain_matrix, vector
+from .joint_space import _JointController, slotine_li_regressor
+from .motion_common import ControllerDefinitionError, Vector, check_state
 
 
 def body_parameter_indices(model: pin.Model, joint: int | None = None) -> np.ndarray:
@@ -123,11 +123,7 @@ class RobustPassivityBased(_JointController):
     def __init__(self, robot, reference, kd, lam, rho: float, eps: float, params=None, uncertain=None,
                  scale=None) -> None:
         super().__init__(robot, reference)
-        self.kd = gain_matrix(self.name, "kd", kd, self.n)
-        self.lam = gain_matrix(self.name, "lam", lam, self.n)
-        p = 10 * (robot.model.njoints - 1)
-        self.params = (dynamic_parameters(robot.model) if params is None
-                       else vector(self.name, "params", params, p)).copy()
+        p = self._slotine_li_setup(kd, lam, params)
         if uncertain is None:
             self.uncertain = body_parameter_indices(robot.model)
         elif isinstance(uncertain, str) and uncertain == "all":

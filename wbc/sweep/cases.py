@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..jsonable import plain
 from . import keypath
 from .axes import Axis
 from .perturb import Perturbation, perturbation
@@ -57,18 +58,8 @@ class Case:
 def case_hash(doc: dict, pert: Perturbation, seed: int) -> str:
     """Stable 16-hex-digit hash of a resolved case."""
     blob = json.dumps({"v": CASE_VERSION, "doc": doc, "model": pert.as_dict(), "seed": seed},
-                      sort_keys=True, separators=(",", ":"), allow_nan=True, default=_plain)
+                      sort_keys=True, separators=(",", ":"), allow_nan=True, default=plain)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
-
-
-def _plain(o: Any) -> Any:
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, (np.floating,)):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not plain data: {type(o).__name__}")
 
 
 def make_case(spec: SweepSpec, values: dict[str, Any], seed: int, index: str, group: int | None = None) -> Case:
@@ -85,7 +76,7 @@ def make_case(spec: SweepSpec, values: dict[str, Any], seed: int, index: str, gr
 
 
 def _same(a: Any, b: Any) -> bool:
-    return json.dumps(a, sort_keys=True, default=_plain) == json.dumps(b, sort_keys=True, default=_plain)
+    return json.dumps(a, sort_keys=True, default=plain) == json.dumps(b, sort_keys=True, default=plain)
 
 
 def grid_points(axes: list[Axis]) -> list[dict[str, Any]]:
