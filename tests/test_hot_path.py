@@ -17,10 +17,14 @@ import pinocchio as pin
 import pytest
 
 import wbc
+from wbc.problem.result import singular_values
 from wbc.sim.environment import ground
 from wbc.sim.simulator import Simulator
-from wbc.solvers import cascade, level_kernel
 from wbc.solvers.cascade import Cascade, Damping
+from wbc.solvers.kernels import factorizations as routes
+from wbc.solvers.kernels.forces import nnls_on_support
+from wbc.solvers.kernels.records import hint_table
+from wbc.solvers.kernels.sns_run import projection_prefix
 from wbc.stack import assemble_level
 
 from .stacks import random_state, randomise_targets, talos_stack
@@ -38,7 +42,7 @@ def _cascade_with_free(n: int, k: int, rng, d: Damping) -> Cascade:
 
 def _svd_step(cas: Cascade, A, b, d):
     """The same step by the SVD route."""
-    return cas.route_step(A, b, d, level_kernel.SVD)
+    return cas.route_step(A, b, d, routes.SVD)
 
 
 @pytest.mark.parametrize("m,n", [(18, 50), (12, 29), (8, 9)])
@@ -49,11 +53,11 @@ def test_qr_path_equals_svd_path(m, n):
         cas = _cascade_with_free(n, 4, rng, d)
         A = rng.standard_normal((m, n + 4))
         b = rng.standard_normal(m)
-        q = cas.route_step(A, b, d, level_kernel.QR)
+        q = cas.route_step(A, b, d, routes.QR)
         s = _svd_step(cas, A, b, d)
         assert q is not None and q.rank == s.rank == m
         np.testing.assert_allclose(q.z, s.z, atol=1e-12 * max(1.0, np.linalg.norm(s.z)))
-        smin, smax = cascade.singular_values(q.R)       # worked out on demand from R
+        smin, smax = singular_values(q.R)       # worked out on demand from R
         assert abs(smin - s.sigma_min) <= 1e-12 * s.sigma_max and abs(smax - s.sigma_max) <= 1e-12 * s.sigma_max
         # the same null space (bases differ by a rotation): equal projectors, orthonormal
         np.testing.assert_allclose(q.Z_next @ q.Z_next.T, s.Z_next @ s.Z_next.T, atol=1e-12)
@@ -67,7 +71,7 @@ def test_qr_path_refuses_rank_deficient_and_near_singular_levels():
     V, _ = np.linalg.qr(rng.standard_normal((30, 10)))
     for smin in (0.0, 1e-12, 5e-4):          # singular, rank-deficient, below the damping threshold
         A = U @ np.diag(np.r_[np.ones(9), smin]) @ V.T
-        assert cas.route_step(A, rng.standard_normal(10), Damping(), level_kernel.QR) is None
+        assert cas.route_step(A, rng.standard_normal(10), Damping(), routes.QR) is None
 
 
 @pytest.mark.parametrize("m,n", [(32, 26), (38, 14), (12, 12), (40, 3)])
@@ -84,7 +88,7 @@ def test_gram_path_equals_svd_path(m, n):
         assert g.rank == s.rank == n
         # normal equations lose at most κ² ε ≈ 1e-8 relative at the accepted κ ≤ 1e4
         assert np.linalg.norm(g.z - s.z) <= 1e-8 * max(1.0, np.linalg.norm(s.z))
-        smin, smax = (g.sigma_min, g.sigma_max) if g.R is None else cascade.singular_values(g.R)
+        smin, smax = (g.sigma_min, g.sigma_max) if g.R is None else singular_values(g.R)
         assert abs(smin - s.sigma_min) <= 1e-8 * s.sigma_max
         assert abs(smax - s.sigma_max) <= 1e-10 * s.sigma_max
 
@@ -96,12 +100,12 @@ def test_gram_path_refuses_ill_conditioned_and_rank_deficient_levels():
     V, _ = np.linalg.qr(rng.standard_normal((10, 10)))
     for smin in (1e-5, 1e-12, 0.0):         # κ = 1e5, 1e12, singular
         A = U @ np.diag(np.r_[np.ones(9), smin]) @ V.T
-        assert cas.route_step(A, rng.standard_normal(20), Damping(), level_kernel.GRAM) is None
+        assert cas.route_step(A, rng.standard_normal(20), Damping(), routes.GRAM) is None
         step = cas.ls_step(A, rng.standard_normal(20), Damping())
         assert step.rank == (10 if smin > 1e-9 else 9)      # another route decides the rank
-        assert step.route != level_kernel.GRAM
+        assert step.route != routes.GRAM
     A = U @ np.diag(np.r_[np.ones(9), 1e-3]) @ V.T   # κ = 1e3: accepted
-    assert cas.route_step(A, rng.standard_normal(20), Damping(), level_kernel.GRAM) is not None
+    assert cas.route_step(A, rng.standard_normal(20), Damping(), routes.GRAM) is not None
 
 
 def test_level_buffers_equal_rows_stacked_afresh():
@@ -214,15 +218,15 @@ def test_cod_route_equals_svd_path_on_rank_deficient_levels(m, n, rank):
         cas = _cascade_with_free(n, 3, rng, d)
         A = rng.standard_normal((m, rank)) @ rng.standard_normal((rank, n)) @ cas.Z.T
         b = rng.standard_normal(m)
-        c = cas.route_step(A, b, d, level_kernel.COD)
+        c = cas.route_step(A, b, d, routes.COD)
         s = _svd_step(cas, A, b, d)
         assert c is not None and c.rank == s.rank == rank
-        smin, smax = cascade.singular_values(c.R)       # σ of J̄_k, on demand, from T
+        smin, smax = singular_values(c.R)       # σ of J̄_k, on demand, from T
         assert abs(smin - s.sigma_min) <= 1e-9 * s.sigma_max and abs(smax - s.sigma_max) <= 1e-9 * s.sigma_max
         np.testing.assert_allclose(c.z, s.z, atol=1e-9 * max(1.0, np.linalg.norm(s.z)))
         np.testing.assert_allclose(c.Z_next @ c.Z_next.T, s.Z_next @ s.Z_next.T, atol=1e-9)
         np.testing.assert_allclose(c.Z_next.T @ c.Z_next, np.eye(n - rank), atol=1e-12)
-        assert cas.ls_step(A, b, d).route == level_kernel.COD
+        assert cas.ls_step(A, b, d).route == routes.COD
 
 
 def test_cod_route_refuses_what_it_cannot_prove():
@@ -235,9 +239,9 @@ def test_cod_route_refuses_what_it_cannot_prove():
     for smin in (5e-4, 1e-8):
         A = U @ np.diag(np.r_[np.ones(7), smin, 0.0, 0.0]) @ V.T
         b = rng.standard_normal(20)
-        assert cas.route_step(A, b, Damping(), level_kernel.COD) is None
+        assert cas.route_step(A, b, Damping(), routes.COD) is None
         step = cas.ls_step(A, b, Damping())
-        assert step.route == level_kernel.SVD and step.rank == 8
+        assert step.route == routes.SVD and step.rank == 8
 
 
 def test_compiled_joint_acceleration_bounds_match_the_docstring_formula():
@@ -308,8 +312,8 @@ def test_weighted_solver_does_not_damp_a_level_for_its_small_weight():
     weight 1e-9 has σ ≈ 3e-5, under the singularity threshold. It must be solved, not
     damped away: the weighted solution is the plain weighted least squares. (Damped, the
     torso orientation of talos_reach drifted 0.47 rad and the robot tipped over.)"""
-    from wbc.rows import Level
-    from wbc.solvers.hqp import WeightedQP
+    from wbc.problem.rows import Level
+    from wbc.solvers.weighted import WeightedQP
 
     rng = np.random.default_rng(11)
     n = 8
@@ -340,7 +344,7 @@ def test_nnls_warm_start_is_certified_only_at_the_optimum():
         A = rng.standard_normal((18, 32)) * np.r_[np.full(6, 1e3), np.full(12, 1.0)][:, None]
         b = A @ np.maximum(rng.standard_normal(32), 0.0) + rng.standard_normal(18)
         lam, rnorm = nnls(A, b, maxiter=2000)
-        ok, mine = level_kernel.nnls_on_support(A, b, lam, 10.0, 0.0)
+        ok, mine = nnls_on_support(A, b, lam, 10.0, 0.0)
         assert ok
         assert np.linalg.norm(A @ mine - b) <= rnorm + 1e-9 * np.linalg.norm(b)
         assert np.allclose(A @ mine, A @ lam, rtol=0, atol=1e-9 * np.linalg.norm(b))
@@ -348,7 +352,7 @@ def test_nnls_warm_start_is_certified_only_at_the_optimum():
         for j in (active[:1], inactive[:1]):
             wrong = lam.copy()
             wrong[j] = 0.0 if lam[j] > 0 else 1.0
-            ok, guess = level_kernel.nnls_on_support(A, b, wrong, 10.0, 0.0)
+            ok, guess = nnls_on_support(A, b, wrong, 10.0, 0.0)
             if ok:
                 certified += 1
                 assert np.all(guess >= 0)
@@ -363,7 +367,8 @@ def test_active_set_guess_is_certified_only_at_the_qp_optimum():
     only with its KKT certificate: every certified point is daqp's optimum (unique, H ≻ 0),
     including with two or more rows held; a wrong guess (the optimum holds other rows, or
     fewer) is refused."""
-    from wbc.solvers.active_set import certified_active_set
+    from wbc.solvers.kernels.active_set import certified_active_set
+
     from wbc.solvers.backends import make_backend
 
     daqp = make_backend("daqp")
@@ -404,8 +409,8 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
     joint-acceleration boxes."""
     from types import SimpleNamespace
 
-    from wbc.solvers.cascade import GRAM_MIN_RATIO, NO_DAMPING
-    from wbc.solvers.hqp import LevelInfo, adopt_prefix
+    from wbc.problem.result import LevelInfo
+    from wbc.solvers.cascade import GRAM_MIN_RATIO, NO_DAMPING, adopt_run
     from wbc.solvers.projection import RecursiveProjection
 
     solver = RecursiveProjection()
@@ -425,12 +430,12 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
         hi = lo + rng.uniform(0.5, 2.0, nv)
         x0 = np.clip(np.zeros(nv), lo, hi)
         tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * L).T.copy()
-        hints_c, hints_p = level_kernel.hint_table(), level_kernel.hint_table()
-        out = level_kernel.projection_prefix(A, b, rows, nv, x0, idx, lo, hi, hints_c, tols[0], tols[1], tols[2],
-                                             GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol)
+        hints_c, hints_p = hint_table(), hint_table()
+        out = projection_prefix(A, b, rows, nv, x0, idx, lo, hi, hints_c, tols[0], tols[1], tols[2],
+                                   GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol)
         fast, cas_c = [], Cascade(nv, hints_c)
         levels = [SimpleNamespace(index=k) for k in range(L)]
-        assert adopt_prefix(levels, cas_c, fast, 0, *out)[0] == L
+        assert adopt_run(levels, cas_c, fast, 0, *out)[0] == L
         cas = Cascade(nv, hints_p)
         cas.x = x0.copy()
         for k in range(L):
@@ -444,7 +449,7 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
             saturations += len(info.saturated)
             scaled += info.scale < 1.0
         np.testing.assert_allclose(cas_c.x, cas.x, rtol=0, atol=1e-9 * (1 + np.abs(cas.x).max()))
-        assert cas_c._calls == cas._calls
+        assert cas_c.calls == cas.calls
         np.testing.assert_array_equal(hints_c, hints_p)
     print(f"\n{saturations} saturations, {scaled} scaled levels")
     assert saturations > 1000 and scaled > 40

@@ -20,6 +20,7 @@ from .errors import (
                      TaskDefinitionError,
                      WbcError,
 )
+from .kernel_cache import drop_stale as _drop_stale
 from .model import RobotModel
 from .robots import available_robots, load_robot
 from .scenario import Scenario, load_config
@@ -33,3 +34,6 @@ __all__ = [
     "WbcError", "RobotNotFound", "RobotDefinitionError", "FrameNotFound", "TaskDefinitionError",
     "TargetError", "StackError", "ConfigError", "SolverError",
 ]
+
+# before any kernel is loaded (at its first call): caches of changed kernel files are dropped
+_drop_stale()

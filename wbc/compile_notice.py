@@ -1,6 +1,6 @@
 """A visible notice while numba compiles the numerical kernels on a first run.
 
-The kernels (``wbc/solvers/level_kernel.py``, the task rows) are compiled on their first
+The kernels (``wbc/solvers/kernels/``, the task rows) are compiled on their first
 call and cached on disk; a first run spends ~15 s there with nothing on screen. This
 prints a line when loading takes longer than ``delay`` seconds (a cached load takes well
 under one), and how long it took when it is done.

@@ -37,16 +37,18 @@ import pinocchio as pin
 
 from .errors import SolverError
 from .model import RobotModel
-from .rows import Layout, Level
+from .problem.buffer import row_values, split_values
+from .problem.problem import Problem
+from .problem.result import SolveResult
+from .problem.rows import Layout, Level
 from .solution import LevelDiagnostics, Solution
+from .solvers import SOLVER_CLASSES, SOLVERS
 from .solvers.cascade import Damping
-from .solvers.hqp import CascadeResult, HierarchicalQP, WeightedQP
-from .solvers.projection import RecursiveProjection
-from .stack import Stack, row_values, split_values
+from .stack import Stack
 from .tasks.contact_regularization import ContactRegularization, reference_point
 from .tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
-SOLVERS = ("hqp", "projection", "weighted")
+__all__ = ["SOLVERS", "Controller"]
 
 
 class Controller:
@@ -86,12 +88,8 @@ class Controller:
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol = sacrifice_tol
         self.sacrifice_rel = sacrifice_rel
-        if solver == "projection":
-            self.solver = RecursiveProjection(weighting=weighting, damping=damping, backend=backend)
-        elif solver == "hqp":
-            self.solver = HierarchicalQP(backend=backend, damping=damping)
-        else:
-            self.solver = WeightedQP(backend=backend, damping=damping, level_weight=level_weight)
+        self.solver = SOLVER_CLASSES[solver].create(backend=backend, damping=damping, weighting=weighting,
+                                                    level_weight=level_weight)
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
@@ -167,7 +165,7 @@ class Controller:
 
     def _internal_constraints(self, layout: Layout) -> list:
         extra = []
-        if len(self.robot.unactuated_idx) and (self.solver_name != "projection" or layout.nf == 0):
+        if len(self.robot.unactuated_idx) and (not self.solver.distributes_forces or layout.nf == 0):
             extra.append(self._dynamics)
         if self._diff_drive is not None:
             extra.append(self._diff_drive)
@@ -213,7 +211,7 @@ class Controller:
         idx, lo, hi = box if box is not None else (_NO_INDEX, _NO_BOUNDS, _NO_BOUNDS)
         # inside the bounds by the margin the solver's QPs keep (a point on a bound sends
         # the next level's step across it), in one compiled call with f₀
-        reference_point(x, layout.nv, idx, lo, hi, getattr(self.solver, "margin", 0.0),
+        reference_point(x, layout.nv, idx, lo, hi, self.solver.margin,
                         layout.force_jacobian if forces else _NO_FORCES, robot.h, robot.unactuated_idx,
                         weights_of.force_weights(layout) if forces else _NO_BOUNDS)
         return x
@@ -230,29 +228,18 @@ class Controller:
         levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),
                                      lowest if layout.nf else ())
         self.layout, self.levels = layout, levels
-        nv = layout.nv
-        if self.solver_name == "projection":
-            res = self.solver.solve_accelerations(levels, layout, robot)
-            fres = self.solver.distribute_forces(res.x, levels, layout, robot)
-            x = np.concatenate([res.x, fres.x])
-            ok, message, qp_count = res.ok and fres.ok, res.message or fres.message, fres.qp_count
-            if layout.nf and len(robot.unactuated_idx):
-                gap = fres.dynamics_gap
-                if gap > 1e-6 * max(1.0, fres.dynamics_scale):
-                    res.levels[0].relaxed = True
-                    message = message or (f"q̈ needs contact forces outside the friction/CoP cones "
-                                          f"(root dynamics off by {gap:.3g} N or N·m)")
-        else:
-            scale = None
-            if layout.nf and self.force_scale != 1.0:
-                scale = np.ones(layout.nx)
-                scale[nv:] = self.force_scale
-            x_ref = self._reference(layout, weights_of, levels) if self.warm_start else None
-            res = self.solver.solve_levels(levels, layout.nx, scale=scale, x_ref=x_ref)
-            x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
+        scale = None
+        if layout.nf and self.force_scale != 1.0:
+            scale = np.ones(layout.nx)
+            scale[layout.nv:] = self.force_scale
+        x_ref = None
+        if self.warm_start and self.solver.uses_reference:
+            x_ref = self._reference(layout, weights_of, levels)
+        res = self.solver.solve(Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale))
+        x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
         return self._finish(x, res, levels, layout, ok, message, qp_count)
 
-    def _finish(self, x, res: CascadeResult, levels, layout, ok, message, qp_count) -> Solution:
+    def _finish(self, x, res: SolveResult, levels, layout, ok, message, qp_count) -> Solution:
         robot, nv = self.robot, layout.nv
         qdd, f = x[:nv], x[nv:]
         # τ, and every level's row values this cycle produced (the stack's buffer is refilled
@@ -268,7 +255,7 @@ class Controller:
         status = "ok" if ok else "failed"
         if ok and relaxed:
             status = "relaxed"
-        elif ok and getattr(res, "degraded", False):
+        elif ok and res.degraded:
             status = "degraded"
         if not finite:
             status, message = "failed", "non-finite solution"
@@ -294,7 +281,7 @@ class Controller:
         else:
             at_limit = []
         evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
-                           self.solver_name == "projection", self.sacrifice_tol, self.sacrifice_rel,
+                           not self.solver.enforces_inequality_rows, self.sacrifice_tol, self.sacrifice_rel,
                            saturated_torques=at_limit)
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,

@@ -32,7 +32,7 @@ class LevelDiagnostics:
     #: violation of rows this solver does not enforce (projection: torque limits, cones)
     unenforced_violation: float = 0.0
     #: how the level's QP was answered, if it needed one: the back-end's status, or
-    #: ``"certified"`` (its optimum from a guessed active set, see wbc.solvers.active_set)
+    #: ``"certified"`` (its optimum from a guessed active set, see wbc.solvers.kernels.active_set)
     qp_status: str = ""
     #: velocity indices of the joints whose torque the controller clipped at ±τ_max this
     #: cycle (reported by the level holding the torque limits, else level 0)

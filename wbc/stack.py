@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 
-import numba as nb
 import numpy as np
 
 from .errors import StackError
-from .rows import Layout, Level, Rows
+from .problem.buffer import RowBuffer
+from .problem.rows import Layout, Level
 from .tasks.base import Task
 from .tasks.contact import Contact
 
@@ -204,167 +204,6 @@ class Stack:
     def row_buffer(self) -> RowBuffer | None:
         """The buffer behind the levels of the last :meth:`assemble`."""
         return self.__dict__.get("_row_buffer")
-
-
-class RowBuffer:
-    """Every level's rows in five stack-wide arrays: A, b (equalities, each task's rows
-    scaled by √weight) and C, l, u (inequalities; per level the tasks' general rows, then
-    the box bounds as unit rows, set once). Each level is a block of rows, and its Level
-    holds views of that block, so the solvers see levels while one product per array
-    evaluates every level's rows (:func:`row_values`). Built for one structure (tasks, their
-    row counts, weights and box indices); :meth:`fill` refuses another.
-
-    With ``adopt`` (the stack's own buffer), a task of weight 1 that keeps its rows in
-    :func:`~wbc.tasks.base.eq_buffer` is handed its block of A and b as that buffer:
-    it then writes its rows in place and nothing is copied. A task shared by two stacks
-    moves to whichever assembled last (both stay right; a Level of the other stack is
-    then only valid until this one's next call)."""
-
-    def __init__(self, nx: int, groups: list[list[Task]], rows: list[list[Rows]], first_index: int = 0,
-                 key=None, adopt: bool = False) -> None:
-        self.nx, self.key, self.adopt = nx, key, adopt
-        ne = sum(r.n_eq for rs in rows for r in rs)
-        ni = sum(r.n_in for rs in rows for r in rs)
-        self.A, self.b = np.zeros((ne, nx)), np.zeros(ne)
-        self.C, self.lo, self.hi = np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni)
-        self.plans, self.levels, self.spans = [], [], []
-        e = i = 0
-        for k, (tasks, rs) in enumerate(zip(groups, rows)):
-            e0, i0 = e, i
-            ng = sum(r.C.shape[0] for r in rs if r.C is not None)
-            g, bx = i0, i0 + ng
-            eq_slices, in_slices, plan, box_idx = {}, {}, [], []
-            for t, r in zip(tasks, rs):
-                eqv = inv = boxv = None
-                if r.A is not None:
-                    m = r.A.shape[0]
-                    eq_slices[t.name] = slice(e - e0, e - e0 + m)
-                    eqv = (self.A[e:e + m], self.b[e:e + m], float(np.sqrt(t.weight)))
-                    e += m
-                if r.C is not None and r.C.shape[0]:
-                    m = r.C.shape[0]
-                    in_slices[t.name] = slice(g - i0, g - i0 + m)
-                    inv = (self.C[g:g + m], self.lo[g:g + m], self.hi[g:g + m])
-                    g += m
-                if r.box is not None:
-                    idx = np.asarray(r.box[0], dtype=int)
-                    m = len(idx)
-                    self.C[bx + np.arange(m), idx] = 1.0
-                    boxv = (self.lo[bx:bx + m], self.hi[bx:bx + m], r.box[0], idx.copy())
-                    box_idx.append(idx)
-                    bx += m
-                plan.append((t.weight, eqv, inv, boxv))
-            i = bx
-            box = None
-            if box_idx:
-                box = (np.concatenate(box_idx), self.lo[i0 + ng:i], self.hi[i0 + ng:i])
-            lvl = Level(index=first_index + k, tasks=list(tasks), A=self.A[e0:e], b=self.b[e0:e],
-                        C=self.C[i0:i0 + ng], lo=self.lo[i0:i0 + ng], hi=self.hi[i0:i0 + ng], box=box,
-                        eq_slices=eq_slices, in_slices=in_slices)
-            lvl._ineq = (self.C[i0:i], self.lo[i0:i], self.hi[i0:i])
-            lvl.buffer = self
-            self.plans.append(plan)
-            self.levels.append(lvl)
-            self.spans.append((e0, e, i0, ng, i))
-        #: where each level's equality and inequality rows end in (A, b) and (C, lo, hi)
-        self.eq_end = np.array([sp[1] for sp in self.spans], dtype=np.int64)
-        self.ineq_end = np.array([sp[4] for sp in self.spans], dtype=np.int64)
-
-    def fill(self, groups: list[list[Task]], rows: list[list[Rows]]) -> bool:
-        """Copy this cycle's rows in; False (nothing to trust) if they no longer have
-        the structure the buffer was built for."""
-        if len(rows) != len(self.plans):
-            return False
-        copyto = np.copyto
-        for plan, rs, tasks in zip(self.plans, rows, groups):
-            if len(rs) != len(plan):
-                return False
-            for (w0, eqv, inv, boxv), r, t in zip(plan, rs, tasks):
-                if t.weight != w0:
-                    return False
-                rA = r.A
-                if rA is not None:
-                    if eqv is None:
-                        return False
-                    A, b, w = eqv
-                    if rA is A and r.b is b:
-                        pass                        # written in place (see below)
-                    elif rA.shape != A.shape:
-                        return False
-                    elif w == 1.0:
-                        copyto(A, rA)
-                        copyto(b, r.b)
-                        if self.adopt and _owns_rows(t, r):
-                            # from now on the task writes its rows straight into the
-                            # buffer: eq_buffer hands it these views
-                            t._eq_buf = (A, b)
-                    else:
-                        np.multiply(rA, w, out=A)
-                        np.multiply(r.b, w, out=b)
-                elif eqv is not None:
-                    return False
-                rC = r.C
-                if rC is not None and len(rC):
-                    if inv is None or rC.shape != inv[0].shape:
-                        return False
-                    C, lo, hi = inv
-                    copyto(C, rC)
-                    copyto(lo, r.lo)
-                    copyto(hi, r.hi)
-                elif inv is not None:
-                    return False
-                if r.box is not None:
-                    if boxv is None:
-                        return False
-                    lo, hi, src, idx = boxv
-                    if r.box[0] is not src and not np.array_equal(r.box[0], idx):
-                        return False
-                    copyto(lo, r.box[1])
-                    copyto(hi, r.box[2])
-                elif boxv is not None:
-                    return False
-        return True
-
-
-def buffered_prefix(levels: list[Level]) -> tuple[RowBuffer | None, int]:
-    """(the row buffer behind ``levels``, how many leading levels are its own levels in
-    order): what a compiled solver run may read straight from the buffer's arrays."""
-    buf = getattr(levels[0], "buffer", None) if levels else None
-    n = 0
-    if buf is not None:
-        for lvl, own in zip(levels, buf.levels):
-            if lvl is not own:
-                break
-            n += 1
-    return buf, n
-
-
-def split_values(values: np.ndarray, ne: int, ni: int) -> tuple[np.ndarray, ...]:
-    """(A x − b, C x, l, u, b) as views of :func:`row_values`' array (ne equality rows, ni
-    inequality rows; level k's rows are ``RowBuffer.spans[k]`` of each)."""
-    return (values[:ne], values[ne:ne + ni], values[ne + ni:ne + 2 * ni], values[ne + 2 * ni:ne + 3 * ni],
-            values[ne + 3 * ni:])
-
-
-@nb.njit(cache=True)
-def row_values(A, b, C, lo, hi, x):
-    """[A x − b, C x, l, u, b] over a :class:`RowBuffer`'s arrays in one new array (one
-    allocation, one compiled pass): the rows' values a cycle keeps for its diagnostics,
-    the buffer being refilled next cycle."""
-    ne, ni = b.shape[0], lo.shape[0]
-    out = np.empty(2 * ne + 3 * ni)
-    out[:ne] = A @ x - b if ne else out[:0]
-    out[ne:ne + ni] = C @ x if ni else out[:0]
-    out[ne + ni:ne + 2 * ni] = lo
-    out[ne + 2 * ni:ne + 3 * ni] = hi
-    out[ne + 3 * ni:] = b
-    return out
-
-
-def _owns_rows(t: Task, r: Rows) -> bool:
-    """Whether the task's equality rows are its :func:`~wbc.tasks.base.eq_buffer` arrays."""
-    own = getattr(t, "_eq_buf", None)
-    return own is not None and own[0] is r.A and own[1] is r.b
 
 
 def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:

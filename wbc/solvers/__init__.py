@@ -1,0 +1,13 @@
+"""The solvers, by name. Each takes a :class:`~wbc.problem.Problem` and returns a
+:class:`~wbc.problem.SolveResult` (``solve``); ``create`` builds one from the controller's
+options. Adding a solver is one class here (see ``docs/architecture.md``)."""
+
+from .hqp import HierarchicalQP
+from .projection import RecursiveProjection
+from .weighted import WeightedQP
+
+#: solver name -> class (``Controller(solver=NAME)``, a scenario's ``solver.type``)
+SOLVER_CLASSES = {"hqp": HierarchicalQP, "projection": RecursiveProjection, "weighted": WeightedQP}
+SOLVERS = tuple(SOLVER_CLASSES)
+
+__all__ = ["SOLVERS", "SOLVER_CLASSES", "HierarchicalQP", "RecursiveProjection", "WeightedQP"]

@@ -17,12 +17,12 @@ smallest singular value of A Z kept in its rank,
     λ² = (1 − (σ_min/ε)²) λ_max²             otherwise,
 and the step uses σ/(σ² + λ²) in place of 1/σ. Rank counts σ > ``rank_tol``·max(1, σ_max).
 
-One level is one call of a compiled kernel (:func:`wbc.solvers.level_kernel.level_step`):
+One level is one call of a compiled kernel (:func:`wbc.solvers.kernels.factorizations.level_step`):
 the products, the factorisation and the new basis without the interpreter in between
 (measured on Talos, 5 levels: the cascade's Python and f2py overhead was about half
 of its 0.19 ms; see ``benchmarks/optimisation.md``). The solvers go further on their
 common path: every level that needs no QP (or meets no joint limit) runs in one call
-(:func:`~wbc.solvers.level_kernel.cascade_prefix`), and this class takes over where one
+(:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`), and this class takes over where one
 does, with the same mathematics step for step.
 """
 
@@ -31,9 +31,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import get_lapack_funcs
 
-from . import level_kernel
+from ..problem.result import CERTIFIED, LevelInfo
+from .kernels.factorizations import AUTO, damping_lambda2, level_step
+from .kernels.records import decode, hint_record, hint_route
 
 
 @dataclass
@@ -46,7 +47,7 @@ class Damping:
 
     def lambda2(self, smin: float) -> float:
         """λ² for a smallest singular value ``smin`` (the rule of the module docstring)."""
-        return level_kernel.damping_lambda2(smin, self.threshold, self.max_damping)
+        return damping_lambda2(smin, self.threshold, self.max_damping)
 
 
 NO_DAMPING = Damping(threshold=0.0, max_damping=0.0)
@@ -60,7 +61,7 @@ class Step:
     ``R`` a triangular factor with the singular values of AZ when the route did not
     compute them (see :func:`singular_values`); ``ok`` False when a forced route refused
     the level (:meth:`Cascade.route_step`); ``route`` the factorisation that gave it (a
-    route of :mod:`~wbc.solvers.level_kernel`). ``AZ`` and the residual ``r`` = b − A x̂
+    route of :mod:`~wbc.solvers.kernels.factorizations`). ``AZ`` and the residual ``r`` = b − A x̂
     are worked out on first access (only a QP needs them)."""
 
     __slots__ = ("z", "Z_next", "rank", "sigma_min", "sigma_max", "damping", "R", "x_next", "ok", "route",
@@ -77,7 +78,7 @@ class Step:
     @classmethod
     def unpacked(cls, packed: np.ndarray, Z_next, rank: int, sigma_min: float, sigma_max: float, damping: float,
                  A, b, x, Z, dof: int, ok: bool = True, route: int = 0) -> Step:
-        """The step from :func:`~wbc.solvers.level_kernel.level_step`'s ``packed`` array
+        """The step from :func:`~wbc.solvers.kernels.factorizations.level_step`'s ``packed`` array
         (z over ``dof`` free directions, x̂ + Z z, then R row by row if any); ``Z`` None
         while the basis is the identity."""
         n = len(x)
@@ -101,23 +102,17 @@ class Step:
         return self._r
 
 
-def singular_values(R: np.ndarray) -> tuple[float, float]:
-    """(σ_min, σ_max) of an upper-triangular factor (its lower part ignored)."""
-    s = _gesdd(np.triu(R), compute_uv=0)[1]
-    return float(s[-1]), float(s[0])
-
-
 class Cascade:
     """x = x̂ + Z z over R^n, levels applied one after the other (see module doc).
 
     Hot path: Z starts as the identity and is not multiplied while it is one. A level
     is factorised by the cheapest route its shape and conditioning allow, each fast
     route accepted only when it can prove what the SVD would decide
-    (:mod:`~wbc.solvers.level_kernel`): wide and of full rank, a Householder QR of
+    (:mod:`~wbc.solvers.kernels.factorizations`): wide and of full rank, a Householder QR of
     (AZ)ᵀ; tall and well conditioned, the Cholesky factor of the Gram matrix;
     rank deficient with a clear rank, a complete orthogonal decomposition; otherwise
     (near a singularity, damped) the SVD. ``hints`` (a
-    :func:`~wbc.solvers.level_kernel.hint_table` kept by the solver across cycles)
+    :func:`~wbc.solvers.kernels.records.hint_table` kept by the solver across cycles)
     remembers the route a level needed last time, so it goes straight there; each hint
     is retried every ``HINT_RETRY`` cycles."""
 
@@ -135,6 +130,20 @@ class Cascade:
         return (_NO_BASIS, True) if self._identity else (self.Z, False)
 
     @property
+    def calls(self) -> int:
+        """Least-squares steps taken so far (the index of the next one in the route hints)."""
+        return self._calls
+
+    def adopt(self, x: np.ndarray, Z: np.ndarray, identity: bool, calls: int) -> None:
+        """Take over the state a compiled run left (:func:`adopt_run`): x̂, the basis Z
+        (unless still the identity) and the count of steps."""
+        self.x = x
+        if not identity:
+            self.Z = Z
+            self._identity = False
+        self._calls = calls
+
+    @property
     def dof(self) -> int:
         """Directions still free for lower levels."""
         return self.Z.shape[1]
@@ -149,24 +158,24 @@ class Cascade:
         self._calls += 1
         hints = self._hints
         if hints is None:
-            return self._kernel(A, b, damping, level_kernel.AUTO)
-        path = level_kernel.hint_route(hints, call, m, r_dim)
+            return self._kernel(A, b, damping, AUTO)
+        path = hint_route(hints, call, m, r_dim)
         step = self._kernel(A, b, damping, path)
-        level_kernel.hint_record(hints, call, m, r_dim, path, step.route)
+        hint_record(hints, call, m, r_dim, path, step.route)
         return step
 
     def _kernel(self, A: np.ndarray, b: np.ndarray, damping: Damping, path: int, strict: bool = False) -> Step:
         A = np.ascontiguousarray(A, dtype=float)
         b = np.ascontiguousarray(b, dtype=float)
         identity = self._identity
-        ok, route, rank, smin, smax, lam2, packed, Z_next = level_kernel.level_step(
+        ok, route, rank, smin, smax, lam2, packed, Z_next = level_step(
             A, b, self.x, _NO_BASIS if identity else self.Z, identity, path, strict, damping.rank_tol,
             damping.threshold, damping.max_damping, GRAM_MIN_RATIO)
         return Step.unpacked(packed, Z_next, rank, smin, smax, lam2, A, b, self.x, None if identity else self.Z,
                              self.n if identity else self.Z.shape[1], ok, route)
 
     def route_step(self, A: np.ndarray, b: np.ndarray, damping: Damping, route: int) -> Step | None:
-        """The step by one route of :mod:`~wbc.solvers.level_kernel` only (``SVD``, ``QR``,
+        """The step by one route of :mod:`~wbc.solvers.kernels.factorizations` only (``SVD``, ``QR``,
         ``GRAM``, ``COD``), or None if that route refuses the level: what the tests
         compare the routes with."""
         step = self._kernel(A, b, damping, route, strict=True)
@@ -198,6 +207,34 @@ def _eye(n: int) -> np.ndarray:
     return e
 
 
-_gesdd, = get_lapack_funcs(("gesdd",), (np.zeros((1, 1)),))
 #: smallest proven σ_min²/σ_max² for the Gram (Cholesky) path (κ(AZ) ≤ 1e4)
 GRAM_MIN_RATIO = 1e-8
+
+
+def adopt_run(levels: list, cas: Cascade, infos: list, start: int, stop: int, x, Z, identity: bool,
+              ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
+    """Take over what a compiled run from level ``start`` did
+    (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix` or
+    :func:`~wbc.solvers.kernels.sns_run.projection_prefix`): a LevelInfo per level it solved
+    appended to ``infos``, its point and basis into ``cas``. Returns (the first level
+    left, the step the kernel took there or None, the QPs it solved by certificate)."""
+    decoded, calls = decode(ints, floats, start, stop)
+    qps = 0
+    for lvl, rec in zip(levels[start:stop], decoded):
+        info = LevelInfo(lvl.index, dof_before=rec.dof)
+        if rec.certified:
+            info.used_qp, info.qp_status = True, CERTIFIED
+            qps += rec.certified
+        if rec.saturated:
+            info.saturated = rec.saturated
+        info.scale = rec.scale
+        if rec.call >= 0:
+            info.rank, info.sigma_min, info.damping, info.R = rec.rank, rec.sigma_min, rec.lambda2, rec.R
+        infos.append(info)
+    step = None
+    if len(packed):
+        rec = decoded[stop - start]
+        step = Step.unpacked(packed, Z_next, rec.rank, rec.sigma_min, rec.sigma_max, rec.lambda2, levels[stop].A,
+                             levels[stop].b, x, None if identity else Z, rec.dof, True, rec.route)
+    cas.adopt(x, Z, identity, calls)
+    return stop, step, qps

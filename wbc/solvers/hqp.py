@@ -18,9 +18,9 @@ x = x̂ + Z z. A level is first solved by least squares alone; only if that poin
 violates an inequality (its own or a higher level's) is a QP solved. In the
 common case, no limit active, a whole cycle needs no QP at all. A QP is first
 answered from the active set its unconstrained minimiser suggests, kept only with
-its KKT certificate (:mod:`wbc.solvers.active_set`: then it is the QP's unique
+its KKT certificate (:mod:`wbc.solvers.kernels.active_set`: then it is the QP's unique
 optimum), posed on the rows that answer violates and checked on all of them
-(:func:`~wbc.solvers.level_kernel.certified_higher`: the higher rows are never all
+(:func:`~wbc.solvers.kernels.qp_rows.certified_higher`: the higher rows are never all
 projected on the free directions); the back-end solves the QPs where that fails.
 
 Every cycle is a function of its state and stack: the least-norm choices start from a
@@ -31,72 +31,26 @@ answer is computed, not the answer (the fallback back-end is not warm-started).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from ..rows import Level
-from ..stack import buffered_prefix
-from . import level_kernel
-from .active_set import certified_active_set, certified_from
+from ..problem.buffer import buffered_prefix
+from ..problem.problem import Problem
+from ..problem.result import CERTIFIED, LevelInfo, SolveResult
+from ..problem.rows import Level
 from .backends import Backend, QPResult, make_backend
-from .cascade import GRAM_MIN_RATIO, Cascade, Damping, Step, singular_values
-from .level_kernel import (
-    LEVEL_FLOATS,
-    LEVEL_INTS,
-    cascade_prefix,
+from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
+from .kernels import prepare
+from .kernels.active_set import certified_active_set, certified_from
+from .kernels.cascade_run import cascade_prefix
+from .kernels.qp_rows import (
     certified_higher,
     certified_nearest_feasible,
     higher_rows,
-    hint_table,
     least_squares_objective,
     max_violation,
     nearest_feasible_rows,
 )
-
-#: ``LevelInfo.qp_status`` of a level whose QP was solved by its KKT certificate
-#: (:mod:`wbc.solvers.active_set`) instead of a back-end
-CERTIFIED = "certified"
-
-
-@dataclass(slots=True)
-class LevelInfo:
-    """What a solver reports for one level (feeds ``Solution.diagnostics``)."""
-
-    index: int
-    rank: int = 0
-    sigma_min: float = np.inf
-    damping: float = 0.0
-    dof_before: int = 0
-    used_qp: bool = False
-    qp_status: str = ""
-    relaxed: bool = False
-    saturated: list = field(default_factory=list)
-    scale: float = 1.0
-    #: triangular factor of J̄_k when the solver did not compute its singular values
-    #: (see :func:`wbc.solvers.cascade.singular_values`); ``sigma()`` works them out
-    R: np.ndarray | None = None
-
-    def sigma(self) -> float:
-        """σ_min of J̄_k (computed on demand from ``R`` if the solver took the QR path)."""
-        if self.R is not None:
-            self.sigma_min = singular_values(self.R)[0]
-            self.R = None
-        return self.sigma_min
-
-
-@dataclass
-class CascadeResult:
-    x: np.ndarray
-    levels: list[LevelInfo]
-    ok: bool = True
-    qp_count: int = 0
-    message: str = ""
-    degraded: bool = False
-    #: projection's force distribution: how far the root dynamics are from holding, and
-    #: their scale (N, N·m)
-    dynamics_gap: float = 0.0
-    dynamics_scale: float = 0.0
+from .kernels.records import hint_table
 
 
 class HierarchicalQP:
@@ -105,10 +59,22 @@ class HierarchicalQP:
     from a limit where it can, so later levels rarely need one (none at the lowest level:
     no level comes after it, and a margin that appears as a row reaches its limit is a
     jump of up to ``margin`` in that row, 1 N·m of torque on Talos's legs). ``certify``: try each QP's
-    optimum from a guessed active set first (:mod:`wbc.solvers.active_set`), the back-end
+    optimum from a guessed active set first (:mod:`wbc.solvers.kernels.active_set`), the back-end
     only where its KKT certificate fails (False: every QP goes to the back-end)."""
 
     name = "hqp"
+    #: starts its least-norm choices from the problem's ``x_ref``
+    uses_reference = True
+    #: x holds the contact forces too, decided in the cascade with the rest (the controller
+    #: adds the floating-base dynamics rows)
+    distributes_forces = False
+    #: meets inequality rows at every level (else they are reported as not enforced)
+    enforces_inequality_rows = True
+
+    @classmethod
+    def create(cls, backend: str = "daqp", damping: Damping | None = None, **_options) -> HierarchicalQP:
+        """The solver from the controller's options (those it has no use for ignored)."""
+        return cls(backend=backend, damping=damping)
 
     def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
                  regularization: float = 1e-6, slack_regularization: float = 1e-6,
@@ -126,11 +92,21 @@ class HierarchicalQP:
         #: for every level, the reference the tests compare it with)
         self.compiled = True
         self._hints = hint_table()
-        level_kernel.prepare()
+        #: the fallback back-end (:meth:`_fallback`), made when first needed
+        self._fb: Backend | None = None
+        #: (row buffer, damping key, level ends, tolerances) of the last compiled prefix
+        self._prefix_plan: tuple | None = None
+        prepare()
+
+    def solve(self, problem: Problem) -> SolveResult:
+        """The problem's levels by the strict cascade (:meth:`solve_levels`)."""
+        return self.solve_levels(problem.levels, problem.layout.nx, scale=problem.scale, x_ref=problem.x_ref)
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:
-        """Solve the cascade. ``scale``: per-variable scale D, x = D x̃; the cascade's
+                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None,
+                     dampings: dict | None = None) -> SolveResult:
+        """Solve the cascade. ``dampings``: level index -> :class:`Damping` for the levels
+        that do not use the solver's own (the weighted QP's folded level). ``scale``: per-variable scale D, x = D x̃; the cascade's
         least-norm choices are then made in x̃ (see :class:`~wbc.controller.Controller`).
 
         ``x_ref``: the reference of the least-norm choices (default 0). Every level's
@@ -141,12 +117,12 @@ class HierarchicalQP:
         inside its friction cones, where from 0 the least-norm point carries the weight on
         q̈ and needs a QP every cycle). x_ref must be a function of the state, not of the
         previous cycle: the point each level picks among its optima, and so the margins
-        of the lower levels' QPs (:func:`~wbc.solvers.level_kernel.higher_rows`), depend
+        of the lower levels' QPs (:func:`~wbc.solvers.kernels.qp_rows.higher_rows`), depend
         on it; a previous solution as x_ref let the directions no task decides (the
         internal contact forces) drift from cycle to cycle."""
         if scale is not None:
-            levels = [_scaled(lvl, scale) for lvl in levels]
-            res = self.solve_levels(levels, nx, key, x_ref=None if x_ref is None else x_ref / scale)
+            levels = [scaled_level(lvl, scale) for lvl in levels]
+            res = self.solve_levels(levels, nx, key, x_ref=None if x_ref is None else x_ref / scale, dampings=dampings)
             res.x = scale * res.x
             return res
         cas = Cascade(nx, self._hints)
@@ -158,7 +134,7 @@ class HierarchicalQP:
         infos, ok, qp_count, msg = [], True, 0, ""
         degraded: list[str] = []
         tol = self.tol
-        dampings = getattr(self, "_dampings", None) or {}
+        dampings = dampings or {}
         k, n_levels, pending = 0, len(levels), None
         resume = self.compiled
         while k < n_levels:
@@ -230,14 +206,14 @@ class HierarchicalQP:
             infos.append(info)
             # the compiled prefix checks the rows' own bounds: not once a level is relaxed
             resume = resume and not info.relaxed and ok
-        res = CascadeResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
+        res = SolveResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
         res.degraded = bool(degraded)
         return res
 
     def _compiled_prefix(self, levels: list[Level], cas: Cascade, dampings: dict, infos: list,
                          start: int = 0) -> tuple:
         """The leading levels that come straight from the stack's row buffer, in one call of
-        :func:`~wbc.solvers.level_kernel.cascade_prefix` for as long as none needs a QP
+        :func:`~wbc.solvers.kernels.cascade_run.cascade_prefix` for as long as none needs a QP
         (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
         fills ``infos`` and ``cas``; returns (the index of the first level left, the step
         taken there or None, the QPs it solved by certificate)."""
@@ -251,16 +227,16 @@ class HierarchicalQP:
         d0 = self.damping
         key = (n, d0.rank_tol, d0.threshold, d0.max_damping) if not dampings else \
             (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
-        got = buf.__dict__.get("_prefix")
-        if got is None or got[0] != key:
+        got = self._prefix_plan
+        if got is None or got[0] is not buf or got[1] != key:
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
-            got = buf._prefix = (key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
-        _, e_end, i_end, tols = got
+            got = self._prefix_plan = (buf, key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
+        _, _, e_end, i_end, tols = got
         Z, identity = cas.kernel_basis()
         out = cascade_prefix(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, cas.x, Z, identity, start,
-                             cas._calls, self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.tol,
+                             cas.calls, self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.tol,
                              self.certify, self.regularization, self.margin)
-        return adopt_prefix(levels, cas, infos, start, *out)
+        return adopt_run(levels, cas, infos, start, *out)
 
     def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key, margin: float | None = None):
         """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
@@ -300,7 +276,7 @@ class HierarchicalQP:
     def _fallback(self) -> Backend:
         """The other first-class back-end, for a QP the first one failed. Without warm start
         (proxqp): its answer must not depend on the QPs it solved in earlier cycles."""
-        if getattr(self, "_fb", None) is None:
+        if self._fb is None:
             self._fb = make_backend("proxqp" if self.backend.name == "daqp" else "daqp", warm_start=False)
         return self._fb
 
@@ -375,7 +351,7 @@ class HierarchicalQP:
         to report "optimal" for a point 10 units outside its rows. An answer of a back-end
         that is not an active-set method (proxqp: to its ``eps_abs``, from a start that
         depends on the QPs before) is replaced by the exact optimum on its active set when
-        that passes the KKT certificate (:func:`~wbc.solvers.active_set.certified_from`):
+        that passes the KKT certificate (:func:`~wbc.solvers.kernels.active_set.certified_from`):
         an error of 1e-6 at level 0 reached the levels below amplified (1e-5 to 1e-4 of
         their residuals, from one solve of the same stack to the next)."""
         res = backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
@@ -414,48 +390,6 @@ class HierarchicalQP:
         return res.z[:r], res.z[r:], res.status
 
 
-def adopt_prefix(levels: list[Level], cas: Cascade, infos: list, start: int, stop: int, x, Z, identity: bool,
-                 ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
-    """Take over what a compiled run of the cascade from level ``start`` did
-    (:func:`~wbc.solvers.level_kernel.cascade_prefix` or ``projection_prefix``): a
-    LevelInfo per level it solved appended to ``infos``, its point and basis into ``cas``.
-    Returns (the first level left, the step the kernel took there or None, the QPs it
-    solved by certificate)."""
-    n = int(ints[-1])
-    head = LEVEL_INTS * n
-    iv, fv = ints[:head + n + 2].tolist(), floats[:LEVEL_FLOATS * n].tolist()
-    qps, sat_at = 0, head + n + 2
-    for k in range(start, min(stop, n)):
-        call, _, dof, _, rank, certified, saturated = iv[LEVEL_INTS * k: LEVEL_INTS * k + LEVEL_INTS]
-        info = LevelInfo(levels[k].index, dof_before=dof)
-        if certified:
-            info.used_qp, info.qp_status = True, CERTIFIED
-            qps += certified
-        if saturated:
-            info.saturated = ints[sat_at:sat_at + saturated].tolist()
-            sat_at += saturated
-        info.scale = fv[LEVEL_FLOATS * k + 3]
-        if call >= 0:
-            info.rank, info.sigma_min, info.damping = rank, fv[LEVEL_FLOATS * k], fv[LEVEL_FLOATS * k + 2]
-            a, b = iv[head + k], iv[head + k + 1]
-            if b > a:
-                mr = round((b - a) ** 0.5)
-                info.R = floats[a:b].reshape(mr, mr)
-        infos.append(info)
-    step = None
-    if len(packed):
-        f = LEVEL_FLOATS * stop
-        step = Step.unpacked(packed, Z_next, iv[LEVEL_INTS * stop + 4], fv[f], fv[f + 1], fv[f + 2],
-                             levels[stop].A, levels[stop].b, x, None if identity else Z, iv[LEVEL_INTS * stop + 2],
-                             True, iv[LEVEL_INTS * stop + 3])
-    cas.x = x
-    if not identity:
-        cas.Z = Z
-        cas._identity = False
-    cas._calls = iv[head + n + 1]
-    return stop, step, qps
-
-
 def _stacked(acc_C, acc_lo, acc_hi, nx: int) -> tuple:
     """The higher levels' inequality blocks as one (C, lo, hi), C contiguous."""
     if not acc_C:
@@ -474,95 +408,7 @@ def _violated(Cs, los, his, x, tol: float) -> bool:
     return False
 
 
-def _scaled(lvl: Level, d: np.ndarray) -> Level:
+def scaled_level(lvl: Level, d: np.ndarray) -> Level:
     """The level's rows in the variable x̃ with x = diag(d) x̃ (box bounds become rows)."""
     C, lo, hi = lvl.inequalities(len(d))
     return Level(lvl.index, lvl.tasks, lvl.A * d, lvl.b, C * d, lo, hi, None, lvl.eq_slices, lvl.in_slices)
-
-
-class WeightedQP(HierarchicalQP):
-    """One weighted QP: level 0 kept hard, every lower level k folded into one
-    objective with weight ``level_weight``^(k−1) (a soft hierarchy, as in TSID).
-
-    A lowest level of regularisation tasks only (``Task.regularizer``: the contact
-    regularisation) is not folded: it stays a strict level below the folded one, deciding
-    only what the others leave free. Folded, its rows (N, hundreds of them for a
-    humanoid's weight) traded against the motion tasks' (m/s², rad/s²) despite its weight:
-    on Talos at rest, 0.29 rad/s² of posture error at weight 1e-9."""
-
-    name = "weighted"
-
-    def __init__(self, *args, level_weight: float = 1e-3, **kwargs) -> None:
-        super().__init__(*args, **kwargs)
-        self.level_weight = level_weight
-
-    def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None) -> CascadeResult:
-        if scale is not None:
-            res = self.solve_levels([_scaled(lvl, scale) for lvl in levels], nx, key,
-                                    x_ref=None if x_ref is None else x_ref / scale)
-            res.x = scale * res.x
-            return res
-        tail = []
-        if len(levels) > 2 and levels[-1].tasks and all(t.regularizer for t in levels[-1].tasks):
-            levels, tail = levels[:-1], levels[-1:]
-        if len(levels) <= 2:
-            return super().solve_levels(levels + tail, nx, key, x_ref=x_ref)
-        rest = levels[1:]
-        w = [np.sqrt(self.level_weight ** k) for k in range(len(rest))]
-        merged = self._merge(rest, w)
-        # The singularity damping acts on σ of the merged rows, which the weights scale:
-        # a folded level of weight w has σ ~ √w however well conditioned it is, and an
-        # unscaled threshold damped the lower levels away (Talos' torso orientation at
-        # weight 1e-6 drifted 0.47 rad in talos_reach and the robot tipped over). The
-        # threshold and the damping are scaled by the smallest √w, so only a real
-        # singularity of the folded rows is damped.
-        d, wmin = self.damping, w[-1]
-        self._dampings = {1: Damping(threshold=d.threshold * wmin, max_damping=d.max_damping * wmin,
-                                     rank_tol=d.rank_tol)}
-        try:
-            res = super().solve_levels([levels[0], merged] + tail, nx, key, x_ref=x_ref)
-        finally:
-            self._dampings = None
-        # report the merged level's info for every folded level
-        res.levels = res.levels[:1] + [res.levels[1]] * len(rest) + res.levels[2:]
-        return res
-
-    def _merge(self, rest: list[Level], w: list[float]) -> Level:
-        """Levels 1.. folded into one, row blocks scaled by √weight. The folded level's
-        arrays are kept and refilled while the levels are the same objects (the stack
-        reuses its Levels while its structure is unchanged; the plan holds them)."""
-        plan = getattr(self, "_merge_plan", None)
-        if plan is not None and len(plan[0]) == len(rest) and all(a is b for a, b in zip(plan[0], rest)):
-            merged, parts = plan[1], plan[2]
-            for (A, b, C, lo, hi), l, wk in zip(parts, rest, w):
-                np.multiply(l.A, wk, out=A)
-                np.multiply(l.b, wk, out=b)
-                if C is not None:
-                    np.copyto(C, l.C)
-                    np.copyto(lo, l.lo)
-                    np.copyto(hi, l.hi)
-            return merged
-        boxes = [l.box for l in rest if l.box is not None]
-        merged = Level(
-            index=1,
-            tasks=[t for l in rest for t in l.tasks],
-            A=np.vstack([wk * l.A for wk, l in zip(w, rest)]),
-            b=np.concatenate([wk * l.b for wk, l in zip(w, rest)]),
-            C=np.vstack([l.C for l in rest]),
-            lo=np.concatenate([l.lo for l in rest]),
-            hi=np.concatenate([l.hi for l in rest]),
-            box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
-            eq_slices={}, in_slices={},
-        )
-        if boxes:                       # box bounds are refilled by the levels only: no plan
-            self._merge_plan = None
-            return merged
-        parts, e, i = [], 0, 0
-        for l in rest:
-            me, mi = l.A.shape[0], l.C.shape[0]
-            parts.append((merged.A[e:e + me], merged.b[e:e + me],
-                          merged.C[i:i + mi] if mi else None, merged.lo[i:i + mi], merged.hi[i:i + mi]))
-            e, i = e + me, i + mi
-        self._merge_plan = (list(rest), merged, parts)
-        return merged

@@ -49,25 +49,53 @@ from scipy.linalg import cho_factor, solve_triangular
 from scipy.optimize import nnls
 
 from ..errors import SolverError
-from ..rows import Layout, Level
-from ..stack import buffered_prefix
-from . import level_kernel
-from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping
-from .hqp import CascadeResult, LevelInfo, adopt_prefix
-from .level_kernel import (
-    box_excess_max,
-    dynamics_rows,
-    forces_from,
-    hint_table,
-    nnls_on_support,
-    projection_prefix,
-)
+from ..problem.buffer import buffered_prefix
+from ..problem.problem import Problem
+from ..problem.result import LevelInfo, SolveResult
+from ..problem.rows import Layout, Level
+from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping, adopt_run
+from .kernels import prepare
+from .kernels.forces import dynamics_rows, forces_from, nnls_on_support
+from .kernels.qp_rows import box_excess_max
+from .kernels.records import hint_table
+from .kernels.sns_run import projection_prefix
 
 
 class RecursiveProjection:
     """``weighting``: ``"identity"`` or ``"inertia"`` (W = M); ``damping`` as :class:`Damping`."""
 
     name = "projection"
+    #: q̈ from the levels' motion rows alone: no reference point
+    uses_reference = False
+    #: the contact forces come after q̈, from the floating-base dynamics (:meth:`distribute_forces`)
+    distributes_forces = True
+    #: general inequality rows (torque limits, friction cones) are not met in the cascade
+    enforces_inequality_rows = False
+    #: room kept from a limit (none: saturation puts a joint on its bound)
+    margin = 0.0
+
+    @classmethod
+    def create(cls, backend: str = "daqp", damping: Damping | None = None, weighting: str = "identity",
+               **_options) -> RecursiveProjection:
+        """The solver from the controller's options (those it has no use for ignored)."""
+        return cls(weighting=weighting, damping=damping, backend=backend)
+
+    def solve(self, problem: Problem) -> SolveResult:
+        """q̈ by recursive projection with SNS (:meth:`solve_accelerations`), then the contact
+        forces for it (:meth:`distribute_forces`); x = (q̈, f). When q̈ needs forces outside
+        the cones, level 0 is reported relaxed with how far the root dynamics are off."""
+        levels, layout = problem.levels, problem.layout
+        res = self.solve_accelerations(levels, layout, problem)
+        fres = self.distribute_forces(res.x, levels, layout, problem)
+        message = res.message or fres.message
+        if layout.nf and len(problem.unactuated_idx):
+            gap = fres.dynamics_gap
+            if gap > 1e-6 * max(1.0, fres.dynamics_scale):
+                res.levels[0].relaxed = True
+                message = message or (f"q̈ needs contact forces outside the friction/CoP cones "
+                                      f"(root dynamics off by {gap:.3g} N or N·m)")
+        return SolveResult(np.concatenate([res.x, fres.x]), res.levels, res.ok and fres.ok, fres.qp_count, message,
+                           res.degraded, fres.dynamics_gap, fres.dynamics_scale)
 
     def __init__(self, weighting: str = "identity", damping: Damping | None = None,
                  backend: str = "daqp", box_tol: float = 1e-9) -> None:
@@ -90,7 +118,7 @@ class RecursiveProjection:
         #: gradient may be before the last support is taken as no longer optimal
         self.nnls_kkt_factor = 10.0
         self._hints = hint_table()
-        level_kernel.prepare()
+        prepare()
         self._rows_cache: dict = {}
         self._force_plan: _ForcePlan | None = None
         self._prefix = None
@@ -99,11 +127,12 @@ class RecursiveProjection:
         self.compiled = True
 
     # ----------------------------------------------------------------- q̈
-    def solve_accelerations(self, levels: list[Level], layout: Layout, robot) -> CascadeResult:
+    def solve_accelerations(self, levels: list[Level], layout: Layout, dynamics) -> SolveResult:
+        """q̈ of the levels' motion rows; ``dynamics`` has M (the inertia weighting's)."""
         nv = layout.nv
         T = None
         if self.weighting == "inertia":
-            c, lower = cho_factor(robot.M, lower=True, check_finite=False)
+            c, lower = cho_factor(dynamics.M, lower=True, check_finite=False)
             L = np.tril(c) if lower else np.triu(c).T
             T = solve_triangular(L.T, np.eye(nv), lower=False)  # L⁻ᵀ: q̈ = T y
         boxes = [l.box for l in levels if l.box is not None]
@@ -139,12 +168,12 @@ class RecursiveProjection:
             step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
             info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
             infos.append(info)
-        return CascadeResult(cas.x if T is None else T @ cas.x, infos)
+        return SolveResult(cas.x if T is None else T @ cas.x, infos)
 
     def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> int:
         """The leading levels that come straight from the stack's row buffer, joint-limit
         saturations included, in one call of
-        :func:`~wbc.solvers.level_kernel.projection_prefix` (the loop of
+        :func:`~wbc.solvers.kernels.sns_run.projection_prefix` (the loop of
         :meth:`solve_accelerations` without the interpreter); fills ``infos`` and ``cas``;
         returns the index of the first level left."""
         buf, n = buffered_prefix(levels)
@@ -169,7 +198,7 @@ class RecursiveProjection:
         b_idx, b_lo, b_hi = box
         out = projection_prefix(buf.A, buf.b, rows, nv, cas.x, b_idx, b_lo, b_hi, self._hints, tols[0], tols[1],
                                 tols[2], GRAM_MIN_RATIO, self.box_tol, NO_DAMPING.rank_tol)
-        return adopt_prefix(levels, cas, infos, 0, *out)[0]
+        return adopt_run(levels, cas, infos, 0, *out)[0]
 
     def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
         """One level with Saturation in the Null Space, then task scaling if needed.
@@ -179,7 +208,7 @@ class RecursiveProjection:
         when no saturation helps any more, the level's step is scaled by the largest
         s ∈ [0, 1] that keeps it (Flacco et al.'s task scaling). Level 0 is never
         scaled: its equalities (contacts) come first, as in the HQP. (Compiled, for the
-        identity weighting: :func:`~wbc.solvers.level_kernel.projection_prefix`.)
+        identity weighting: :func:`~wbc.solvers.kernels.sns_run.projection_prefix`.)
         """
         b_idx, b_lo, b_hi = box
         tol = self.box_tol
@@ -257,31 +286,31 @@ class RecursiveProjection:
         return rows
 
     # ----------------------------------------------------------- forces
-    def distribute_forces(self, qdd: np.ndarray, levels: list[Level], layout: Layout, robot) -> CascadeResult:
+    def distribute_forces(self, qdd: np.ndarray, levels: list[Level], layout: Layout, dynamics) -> SolveResult:
         """Contact forces for q̈: each contact's force is f₀ + V λ, λ ≥ 0, V the generators
         of its friction/CoP cone (:meth:`~wbc.tasks.Contact.generators`), so every
         candidate is admissible by construction. Non-negative least squares (scipy
         ``nnls``, unless the last cycle's support still passes the KKT test:
-        :func:`~wbc.solvers.level_kernel.nnls_on_support`) on, in decreasing weight: a ramping contact's normal force
+        :func:`~wbc.solvers.kernels.forces.nnls_on_support`) on, in decreasing weight: a ramping contact's normal force
         (×``ramp_weight``), the unactuated dynamics rows S_u J_fᵀ f = S_u (M q̈ + h)
         (×``dynamics_weight``), ContactWrench targets (×``wrench_weight``, ×``force_level_decay``
         per level of force tasks above), the contact regularisation (the same rule: it is the
         lowest), and a small least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
         nf, nv = layout.nf, layout.nv
         if nf == 0:
-            return CascadeResult(np.zeros(0), [])
+            return SolveResult(np.zeros(0), [])
         # the stack hands out the same layout and level list while its structure is
         # unchanged; the plan holds both, so their ids cannot be reused meanwhile
         key = (id(layout), id(levels), len(levels), layout.nx)
         plan = self._force_plan
         if plan is None or plan.key != key or not plan.still_valid(levels, nv):
             contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-            plan = self._force_plan = _ForcePlan(key, levels, layout, contacts, robot, self)
+            plan = self._force_plan = _ForcePlan(key, levels, layout, contacts, dynamics, self)
         AG, rhs, n_dyn, d = plan.AG, plan.rhs, plan.n_dyn, plan.d
         np.negative(plan.const_rhs, out=d)
         if n_dyn:
             # the unactuated dynamics rows, the only rows that change with the state
-            dynamics_rows(layout.force_jacobian, plan.G, plan.f0, robot.M, robot.h, qdd, plan.u,
+            dynamics_rows(layout.force_jacobian, plan.G, plan.f0, dynamics.M, dynamics.h, qdd, plan.u,
                           self.dynamics_weight, AG, rhs)
         for rows, lvl_index, esl, weight in plan.wrench:
             d[rows] += weight * levels[lvl_index].b[esl]
@@ -297,7 +326,7 @@ class RecursiveProjection:
         # f, and how far the root dynamics are from holding, S_u(J_fᵀ f − M q̈ − h)
         # (N, N·m), with their scale |S_u(M q̈ + h − J_fᵀ f₀)|
         f, gap, scale = forces_from(plan.f0, plan.G, lam, AG, rhs, n_dyn, self.dynamics_weight)
-        res = CascadeResult(f, [LevelInfo(0)])
+        res = SolveResult(f, [LevelInfo(0)])
         res.dynamics_gap, res.dynamics_scale = gap, scale
         return res
 
@@ -309,7 +338,7 @@ class _ForcePlan:
     targets' A, a ramping contact's normal force, the regularisation), already
     multiplied by G. Only the unactuated dynamics rows are refilled each cycle."""
 
-    def __init__(self, key, levels, layout: Layout, contacts, robot, solver: RecursiveProjection) -> None:
+    def __init__(self, key, levels, layout: Layout, contacts, dynamics, solver: RecursiveProjection) -> None:
         nf, nv = layout.nf, layout.nv
         self.key = key
         self.refs = (layout, levels)
@@ -326,7 +355,7 @@ class _ForcePlan:
             G[start: start + V.shape[0], k: k + V.shape[1]] = V
             k += V.shape[1]
         self.f0, self.G = f0, G
-        self.u = np.asarray(robot.unactuated_idx, dtype=np.int64)
+        self.u = np.asarray(dynamics.unactuated_idx, dtype=np.int64)
         self.n_dyn = n_dyn = len(self.u)
         self.contacts = contacts
         self.params = self._params()

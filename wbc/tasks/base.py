@@ -19,7 +19,7 @@ import numpy as np
 
 from ..checks import finite_vector
 from ..errors import TargetError, TaskDefinitionError
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import found, is_number, number, show, vector
 
 if TYPE_CHECKING:
@@ -61,6 +61,10 @@ class Task(ABC):
     layout_only_A: bool = False
     #: a regularisation: its rows are not meant to be met (never reported as sacrificed)
     regularizer: bool = False
+    #: (A, b) arrays the task writes its equality rows into (:func:`eq_buffer`): its own,
+    #: or its block of the stack's row buffer once the stack hands it over
+    #: (:meth:`adopt_row_storage`), so nothing is copied
+    row_storage: tuple[np.ndarray, np.ndarray] | None = None
 
     def __init__(self, name: str, weight: float = 1.0) -> None:
         if not isinstance(name, str) or not name:
@@ -69,6 +73,10 @@ class Task(ABC):
         self.name = name
         self.weight = number(weight, "weight", gt=0, le=MAX_WEIGHT, unit="unitless", error=TaskDefinitionError,
                              owner=f"task '{name}'")
+
+    def adopt_row_storage(self, A: np.ndarray, b: np.ndarray) -> None:
+        """Write the equality rows into (A, b) from now on (views of a stack's row buffer)."""
+        self.row_storage = (A, b)
 
     def bind(self, robot: RobotModel) -> None:  # noqa: B027 (optional hook: most tasks have nothing to resolve)
         """Resolve names (frames, joints, contacts) against ``robot``; raises early."""
@@ -155,10 +163,9 @@ def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
 
 def eq_buffer(task: Task, m: int, nx: int) -> tuple[np.ndarray, np.ndarray]:
     """Zeroed (m × nx, m) buffers owned by the task, reallocated only when nx changes."""
-    buf = getattr(task, "_eq_buf", None)
+    buf = task.row_storage
     if buf is None or buf[0].shape != (m, nx):
-        buf = (np.zeros((m, nx)), np.zeros(m))
-        task._eq_buf = buf
+        buf = task.row_storage = (np.zeros((m, nx)), np.zeros(m))
     return buf
 
 

@@ -7,7 +7,7 @@ import pinocchio as pin
 
 from ..errors import TaskDefinitionError
 from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import boolean, number, text
 from .base import MotionTask, eq_buffer, motion_rows
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..checks import finite_vector
 from ..errors import StackError, TargetError, TaskDefinitionError
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import text, vector
 from .base import Task, as_vector, eq_buffer
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from .base import Task, dynamics_block, eq_buffer
 
 _NO_FORCES = np.zeros((0, 0))

@@ -9,7 +9,7 @@ import pinocchio as pin
 from ..checks import se3_from
 from ..errors import TargetError, TaskDefinitionError
 from ..model import WORLD_ALIGNED
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import found, is_number, matrix, show, suggest, text
 from .base import MotionTask, as_vector, eq_buffer, motion_rows
 

@@ -6,7 +6,7 @@ import numba as nb
 import numpy as np
 
 from ..errors import TaskDefinitionError
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import number
 from .base import Task
 

@@ -33,7 +33,7 @@ import numpy as np
 from ..checks import finite_vector
 from ..control.null_space_impedance import extended_task_space_terms, null_basis_at
 from ..errors import TargetError, TaskDefinitionError
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import is_number, matrix, number, text, vector
 from .base import Task, as_vector, eq_buffer, gain
 

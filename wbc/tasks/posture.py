@@ -7,7 +7,7 @@ import numpy as np
 
 from ..checks import finite_vector
 from ..errors import TargetError, TaskDefinitionError
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import sequence, show, suggest, text, vector
 from .base import MotionTask, as_vector, eq_buffer
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import TaskDefinitionError
-from ..rows import Layout, Rows
+from ..problem.rows import Layout, Rows
 from ..schema import number
 from .base import Task, dynamics_block
 

@@ -39,7 +39,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .lapack import UPLO_DIAG, dpotrf, dtrtri
+from ..lapack import UPLO_DIAG, dpotrf, dtrtri
 
 #: a multiplier of the wrong sign smaller than this, relative to the largest, is taken
 #: as zero (a row that holds its bound with no force: either side is optimal)

@@ -57,14 +57,12 @@ class Layout:
         #: number of force variables, and of decision variables x = (q̈, f)
         self.nf = 0 if self.force_jacobian is None else self.force_jacobian.shape[0]
         self.nx = self.nv + self.nf
+        self._key = (self.nx, tuple((n, s.start) for n, s in self.contact_slices.items()))
 
     def structure_key(self) -> tuple:
         """(nx, each contact's name and force offset): equal for layouts whose x means the
-        same thing (computed once per Layout)."""
-        key = self.__dict__.get("_key")
-        if key is None:
-            key = self._key = (self.nx, tuple((n, s.start) for n, s in self.contact_slices.items()))
-        return key
+        same thing."""
+        return self._key
 
 
 @dataclass
@@ -81,6 +79,10 @@ class Level:
     box: tuple[np.ndarray, np.ndarray, np.ndarray] | None
     eq_slices: dict[str, slice]
     in_slices: dict[str, slice]
+    #: the :class:`~wbc.problem.buffer.RowBuffer` whose views these arrays are, if any
+    buffer: object | None = None
+    #: all inequality rows (general, then box bounds as unit rows), when built
+    ineq: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def n_eq(self) -> int:
@@ -95,11 +97,11 @@ class Level:
         Built once per level and cycle (the solver and the diagnostics both read it)."""
         if self.box is None:
             return self.C, self.lo, self.hi
-        cached = getattr(self, "_ineq", None)
+        cached = self.ineq
         if cached is not None and cached[0].shape[1] == nx:
             return cached
         idx, blo, bhi = self.box
         B = np.zeros((len(idx), nx))
         B[np.arange(len(idx)), idx] = 1.0
-        self._ineq = (np.vstack([self.C, B]), np.concatenate([self.lo, blo]), np.concatenate([self.hi, bhi]))
-        return self._ineq
+        self.ineq = (np.vstack([self.C, B]), np.concatenate([self.lo, blo]), np.concatenate([self.hi, bhi]))
+        return self.ineq

@@ -1,0 +1,17 @@
+"""The boundary between the stack and the solvers: plain data only.
+
+- :mod:`.rows`: what a task contributes (:class:`Rows`), a level of rows (:class:`Level`),
+  where the forces live in x (:class:`Layout`);
+- :mod:`.buffer`: every level's rows in five stack-wide arrays (:class:`RowBuffer`);
+- :mod:`.problem`: one cycle's :class:`Problem` handed to ``solver.solve``;
+- :mod:`.result`: what every solver returns, :class:`SolveResult` with a
+  :class:`LevelInfo` per level.
+
+The solvers import this package, their kernels and :mod:`wbc.errors`, nothing else of wbc.
+"""
+
+from .problem import Problem
+from .result import CERTIFIED, LevelInfo, SolveResult
+from .rows import Layout, Level, Rows
+
+__all__ = ["CERTIFIED", "Layout", "Level", "LevelInfo", "Problem", "Rows", "SolveResult"]

@@ -1,0 +1,75 @@
+"""What a solver hands back: x = (q̈, f) and a record per level (boundary type).
+
+Every solver returns a :class:`SolveResult` from ``solve(problem)``; the controller turns
+it into torques and a :class:`~wbc.solution.Solution` without knowing which solver ran.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import get_lapack_funcs
+
+#: ``LevelInfo.qp_status`` of a level whose QP was solved by its KKT certificate
+#: (:mod:`wbc.solvers.kernels.active_set`) instead of a back-end
+CERTIFIED = "certified"
+
+_gesdd, = get_lapack_funcs(("gesdd",), (np.zeros((1, 1)),))
+
+
+def singular_values(R: np.ndarray) -> tuple[float, float]:
+    """(σ_min, σ_max) of an upper-triangular factor (its lower part ignored)."""
+    s = _gesdd(np.triu(R), compute_uv=0)[1]
+    return float(s[-1]), float(s[0])
+
+
+@dataclass(slots=True)
+class LevelInfo:
+    """What a solver reports for one level (feeds ``Solution.diagnostics``): the rank of
+    J̄_k = J_k N_{k−1} (5.38) and its σ_min, the damping λ² used, the free directions before
+    it, whether a QP was solved and how, whether its inequalities were relaxed, the joints
+    saturated in its null space (SNS) and its task scale s ∈ [0, 1]."""
+
+    index: int
+    rank: int = 0
+    sigma_min: float = np.inf
+    damping: float = 0.0
+    dof_before: int = 0
+    used_qp: bool = False
+    qp_status: str = ""
+    relaxed: bool = False
+    saturated: list = field(default_factory=list)
+    scale: float = 1.0
+    #: triangular factor of J̄_k when the solver did not compute its singular values;
+    #: ``sigma()`` works them out
+    R: np.ndarray | None = None
+
+    def sigma(self) -> float:
+        """σ_min of J̄_k (computed on demand from ``R`` if the solver took the QR path)."""
+        if self.R is not None:
+            self.sigma_min = singular_values(self.R)[0]
+            self.R = None
+        return self.sigma_min
+
+
+@dataclass
+class SolveResult:
+    """x = (q̈, f) (m/s², rad/s², N, N·m), a :class:`LevelInfo` per level, ``ok`` (False: a
+    QP failed and x is not to be used as is), the QPs solved, a message, ``degraded`` (a
+    level was held at a feasible point after its QP failed). The projection's force
+    distribution also gives ``dynamics_gap``, how far the root dynamics are from holding,
+    and their scale (N, N·m)."""
+
+    x: np.ndarray
+    levels: list[LevelInfo]
+    ok: bool = True
+    qp_count: int = 0
+    message: str = ""
+    degraded: bool = False
+    dynamics_gap: float = 0.0
+    dynamics_scale: float = 0.0
+
+
+#: the name the solvers used before the boundary types moved here
+CascadeResult = SolveResult

@@ -1,0 +1,130 @@
+"""The hierarchical QP's cascade over the levels that need no back-end QP, compiled.
+
+One call runs level after level (the least-squares step of :mod:`.factorizations`, the
+higher levels' inequalities checked, a QP solved by KKT certificate where one is needed,
+:mod:`.qp_rows`) until a level needs what only Python does (a back-end QP); the solver
+(:class:`~wbc.solvers.hqp.HierarchicalQP`) takes over there from the state the run hands
+over (decoded by :func:`.records.decode`).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .factorizations import step_from
+from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
+from .records import (
+    CERTIFIED,
+    LEVEL_FLOATS,
+    add_to_field,
+    end_r_factors,
+    hint_record,
+    hint_route,
+    new_outputs,
+    record_level,
+    set_calls,
+    set_field,
+    start_level,
+)
+
+
+@nb.njit(cache=True)
+def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
+                   max_damping, gram_min_ratio, tol, certify, regularization, margin):
+    """The strict cascade's levels, one after the other, for as long as none needs a QP:
+    the hierarchical QP's common case in one call (its per-level Python is the same
+    mathematics, step for step, see :meth:`~wbc.solvers.hqp.HierarchicalQP.solve_levels`).
+
+    Level k's equalities are rows [e_end[k−1], e_end[k]) of (A, b) and its inequalities
+    (general and box rows) rows [i_end[k−1], i_end[k]) of (C, lo, hi), so the rows of
+    every level above k are one block. Level k's least-squares step (:func:`level_step`)
+    is taken if the candidate point meets every higher level's inequalities to ``tol``;
+    if it does not, and ``certify``, the level's QP (the solver's: the objective of
+    :func:`least_squares_objective` with ``regularization``, the rows of
+    :func:`higher_rows` with ``margin``) is solved by :func:`certified_active_set` where
+    its certificate holds (no margin at the last level, L − 1: as the Python loop). The
+    point is kept if it then meets the level's own rows too;
+    the first level where any of this fails is where the caller takes over, with the
+    state before it and the step it took there.
+    It starts at level ``k0`` from x̂ = ``x0`` and Z = ``Z0`` (``identity0``: Z is the
+    identity, ``Z0`` then empty) after ``calls0`` steps (the caller resumes it after a
+    level it solved itself). ``hints``: the solver's :func:`hint_table`, read and updated
+    as the Python cascade does.
+
+    Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
+    ints, floats, the stop level's step as :func:`level_step` packs it and its next basis
+    (both empty if it took none)); (ints, floats) in the format of :mod:`.records`, read
+    with :func:`.records.decode`."""
+    L = e_end.shape[0]
+    n = x0.shape[0]
+    x = x0.copy()
+    Z = Z0
+    identity = identity0
+    r_size = 0
+    e0 = e_end[k0 - 1] if k0 else 0
+    for k in range(k0, L):
+        m = e_end[k] - e0
+        r_size += m * m
+        e0 = e_end[k]
+    ints, floats = new_outputs(L, r_size, k0, 0)
+    r_at = LEVEL_FLOATS * L   # the R factors follow the levels' floats
+    calls = calls0
+    set_calls(ints, L, calls)
+    e0 = e_end[k0 - 1] if k0 else 0
+    for k in range(k0, L):
+        i0 = i_end[k - 1] if k else 0
+        m = e_end[k] - e0
+        dof = n if identity else Z.shape[1]
+        mk = margin if k < L - 1 else 0.0
+        start_level(ints, floats, k, m, dof)
+        x_next = x
+        if m and dof:
+            Ak = A[e0:e_end[k]]
+            AZ = Ak if identity else Ak @ Z
+            rk = b[e0:e_end[k]] - Ak @ x
+            path = hint_route(hints, calls, m, dof)
+            _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
+                AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
+            x_next = packed[dof:dof + n]
+            hint_record(hints, calls, m, dof, path, route)
+            r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
+            end_r_factors(ints, L, k, r_at)
+            calls += 1
+            set_calls(ints, L, calls)
+            if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
+                if not certify:
+                    return k, x, Z, identity, ints, floats, packed, Z_next
+                H, g = least_squares_objective(AZ, rk, regularization)
+                ok, z = certified_higher(H, g, C[:i0], lo[:i0], hi[:i0], x, Z, identity, mk, tol)
+                if not ok:
+                    return k, x, Z, identity, ints, floats, packed, Z_next
+                x_next = x + (z if identity else Z @ z)
+                set_field(ints, k, CERTIFIED, 1)
+        else:
+            end_r_factors(ints, L, k, r_at)
+        if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
+            ok = False
+            if certify:
+                stepped = m > 0 and dof > 0
+                ok, z = certified_nearest_feasible(C[i0:i_end[k]], lo[i0:i_end[k]], hi[i0:i_end[k]], C[:i0],
+                                                   lo[:i0], hi[:i0], x_next, Z_next if stepped else Z,
+                                                   identity and not stepped, mk, True, tol)
+            if not ok:
+                set_field(ints, k, CERTIFIED, 0)       # the caller solves the whole level
+                if m and dof:
+                    return k, x, Z, identity, ints, floats, packed, Z_next
+                return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+            if not (m and dof):
+                Z_next = Z
+            x_next = x_next + (z if identity and not (m and dof) else Z_next @ z)
+            add_to_field(ints, k, CERTIFIED, 1)
+        if m and dof:
+            x = x_next
+            Z = Z_next
+            identity = False
+        else:
+            x = x_next
+        e0 = e_end[k]
+    set_calls(ints, L, calls)
+    return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))

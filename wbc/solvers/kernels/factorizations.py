@@ -1,0 +1,328 @@
+"""Factorisations of one cascade level, compiled (numba): x = x̂ + Z z, one call.
+Same mathematics as described in :mod:`wbc.solvers.cascade`; this module only
+removes the Python interpreter from it. A level used to cost ~25 µs of numpy and
+f2py call overhead on top of its LAPACK work (products A Z and A x̂, a
+factorisation, the step, the new basis, the candidate point); compiled, the
+LAPACK work is what remains. The factorisations are LAPACK's, called directly:
+``geqrf``/``orgqr``/``ormqr``/``geqp3``/``potrf``/``trtri`` through scipy's ``cython_lapack``
+table (:mod:`wbc.solvers.lapack`), ``gesdd`` through numba's own ``np.linalg`` binding.
+
+Given A (m × n), b (m), x̂ (n) and the basis Z (n × k, or the identity), with
+AZ = A Z and r = b − A x̂, :func:`level_step` returns the damped least-squares step
+
+    z = Σ σ_i/(σ_i² + λ²) v_i u_iᵀ r      (σ_i > rank_tol · max(1, σ_max)),
+
+λ² = (1 − (σ_min/ε)²) λ_max² when σ_min < ε (``threshold`` ε, ``max_damping``
+λ_max), else 0; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
+
+- ``GRAM`` (m ≥ k): normal equations (Cholesky, or eigen-decomposition when the
+  Cholesky bounds are inconclusive), accepted only if κ(AZ)² ≤ 1/``gram_min_ratio``
+  (full rank, nothing left free);
+- ``QR`` (m < k): Householder QR of (AZ)ᵀ, accepted only if the bound
+  1/‖R⁻¹‖_F ≤ σ_min proves full row rank above the damping threshold
+  (σ_max ≤ ‖AZ‖_F bounds the rank tolerance);
+- ``COD`` (either shape, when the first route refuses): a complete orthogonal
+  decomposition from a column-pivoted QR, for rank-deficient levels whose rank
+  it can prove (a posture level has no say on the internal contact forces);
+- ``SVD`` otherwise (near a singularity, damped, or rank not proven).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..lapack import (
+    SIDE_TRANS,
+    UPLO_DIAG,
+    dgeqp3,
+    dgeqrf,
+    dorgqr,
+    dormqr,
+    dpotrf,
+    dtrtri,
+)
+
+AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
+
+
+@nb.njit(cache=True)
+def apply_reflectors(a, tau, k, v, transpose):
+    """v ← Qᵀv (``transpose``) or Qv in place, Q = H₁⋯H_k the Householder reflectors a
+    LAPACK QR (xGEQRF, xGEQP3) left below the diagonal of ``a`` with factors ``tau``."""
+    m = v.shape[0]
+    for step in range(k):
+        c = step if transpose else k - 1 - step
+        t = v[c]
+        for i in range(c + 1, m):
+            t += a[i, c] * v[i]
+        t *= tau[c]
+        v[c] -= t
+        for i in range(c + 1, m):
+            v[i] -= t * a[i, c]
+
+
+@nb.njit(cache=True)
+def damping_lambda2(smin: float, threshold: float, max_damping: float) -> float:
+    """λ² of the Chiaverini/Maciejewski rule (see :class:`~wbc.solvers.cascade.Damping`)."""
+    if threshold <= 0.0 or smin >= threshold:
+        return 0.0
+    t = smin / threshold
+    return (1.0 - t * t) * max_damping * max_damping
+
+
+@nb.njit(cache=True)
+def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
+    """Tall level, normal equations on G = (AZ)ᵀAZ, accepted only if κ(AZ)² ≤
+    1/``gram_min_ratio`` (they then lose at most ~1e-8 of relative accuracy) and AZ has
+    full rank. First by Cholesky G = UᵀU (U has the singular values of AZ), when the
+    bounds 1/‖U⁻¹‖_F ≤ σ_min and σ_max ≤ ‖AZ‖_F prove the conditioning and that no
+    damping is needed: z = U⁻¹U⁻ᵀ(AZ)ᵀr. Otherwise by the eigen-decomposition
+    G = V Σ² Vᵀ, exact σ, damped if σ_min < ε. Returns (ok, z, U or empty, σ_min,
+    σ_max, λ²); σ are NaN on the Cholesky branch (they come from U on demand)."""
+    k = AZ.shape[1]
+    G = AZ.T @ AZ
+    U = np.empty((k, k)).T                       # Fortran order
+    for j in range(k):
+        for i in range(j + 1):
+            U[i, j] = 0.5 * (G[i, j] + G[j, i])
+        for i in range(j + 1, k):
+            U[i, j] = 0.0
+    ki = np.array([k, k, 0], dtype=np.int32)     # n, lda, info
+    dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
+    if ki[2] == 0:
+        Uinv = U.copy().T.copy().T               # Fortran-order copy
+        dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
+               ki[2:].ctypes)
+        if ki[2] == 0:
+            ub2 = np.sum(AZ * AZ)                # ≥ σ_max²
+            lb2 = 1.0 / np.sum(Uinv * Uinv)      # ≤ σ_min²
+            if lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol * max(1.0, np.sqrt(ub2)), threshold):
+                z = Uinv @ (Uinv.T @ (AZ.T @ r))
+                return True, z, np.ascontiguousarray(U), np.nan, np.nan, 0.0
+    w, V = np.linalg.eigh(0.5 * (G + G.T))
+    if not w[k - 1] > 0.0 or w[0] < gram_min_ratio * w[k - 1]:
+        return False, np.empty(0), np.empty((0, 0)), 0.0, 0.0, 0.0
+    smin, smax = np.sqrt(w[0]), np.sqrt(w[k - 1])
+    lam2 = damping_lambda2(smin, threshold, max_damping)
+    z = V @ ((V.T @ (AZ.T @ r)) / (w + lam2))
+    return True, z, np.empty((0, 0)), smin, smax, lam2
+
+
+@nb.njit(cache=True)
+def _qr(AZ, r, rank_tol, threshold):
+    m, k = AZ.shape
+    Q = np.empty((k, k)).T                       # Fortran order, k × k
+    Q[:, :m] = AZ.T
+    tau = np.empty(m)
+    lwork = 64 * k
+    work = np.empty(lwork)
+    iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
+    dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
+           iw[3:].ctypes, iw[4:].ctypes)
+    R = np.zeros((m, m))
+    Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
+    if iw[4] != 0:
+        return False, np.empty(0), np.empty((0, 0)), R
+    for j in range(m):
+        for i in range(j + 1):
+            R[i, j] = Q[i, j]
+            Rinv[i, j] = Q[i, j]
+    mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
+    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
+           mi[2:].ctypes)
+    if mi[2] != 0:
+        return False, np.empty(0), np.empty((0, 0)), R
+    ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
+    lb_min = 1.0 / np.sqrt(np.sum(Rinv * Rinv))  # ≤ σ_min
+    if not lb_min > max(rank_tol * max(1.0, ub_max), threshold):
+        return False, np.empty(0), np.empty((0, 0)), R
+    # null(AZ) = Q[0; I], the last k − m columns of Q, without forming Q: as (Eᵀ Qᵀ)ᵀ with
+    # E = [0; I], by LAPACK's dormqr from the right on Eᵀ, whose Fortran layout is null's C
+    # layout
+    nm = k - m
+    null = np.zeros((k, nm))
+    for j in range(nm):
+        null[m + j, j] = 1.0
+    io = np.array([nm, k, m, k, nm, lwork, 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
+    dormqr(SIDE_TRANS[0:].ctypes, SIDE_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
+           Q.ctypes, io[3:].ctypes, tau.ctypes, null.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
+           io[6:].ctypes)
+    if io[6] != 0:
+        return False, np.empty(0), np.empty((0, 0)), R
+    z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
+    z[:m] = Rinv.T @ r
+    apply_reflectors(Q, tau, m, z, False)
+    return True, z, null, R
+
+
+@nb.njit(cache=True)
+def _cod(AZ, r, rank_tol, threshold):
+    """Complete orthogonal decomposition (LAPACK's xGELSY route) of a rank-deficient level:
+    AZ P = Q₁ [R₁₁ R₁₂; 0 R₂₂] (QR with column pivoting), rank ρ from |R_ii|, then
+    [R₁₁ R₁₂]ᵀ = Q₂ T. With E the dropped R₂₂ block, AZ = Q₁ Tᵀ Q₂ᵀ Pᵀ + E and
+    z = P Q₂ T⁻ᵀ Q₁ᵀ r, null(AZ) ≈ P Q₂[:, ρ:]. Accepted only when the decision is
+    certain: σ_{ρ+1} ≤ ‖E‖_F ≤ rank_tol·max(1, max column norm) (so below the SVD's
+    rank tolerance) and σ_ρ ≥ 1/‖T⁻¹‖_F − ‖E‖_F above both that tolerance and the
+    damping threshold (Weyl's inequalities)."""
+    m, k = AZ.shape
+    a = np.empty((k, m)).T                       # Fortran order, m × k
+    a[:, :] = AZ
+    jpvt = np.zeros(k, dtype=np.int32)
+    mn = min(m, k)
+    tau = np.empty(mn)
+    lwork = 64 * (m + k)
+    work = np.empty(lwork)
+    iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
+    fail = (False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0)))
+    dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
+           iw[3:].ctypes, iw[4:].ctypes)
+    if iw[4] != 0:
+        return fail
+    colmax = 0.0
+    for j in range(k):
+        c = np.sqrt(np.sum(AZ[:, j] * AZ[:, j]))
+        colmax = max(colmax, c)
+    tol = rank_tol * max(1.0, colmax)
+    rho = 0
+    while rho < mn and abs(a[rho, rho]) > tol:
+        rho += 1
+    if rho == 0:
+        return fail
+    e2 = 0.0                                      # ‖R₂₂‖_F²
+    for j in range(rho, k):
+        for i in range(rho, min(j + 1, m)):
+            e2 += a[i, j] * a[i, j]
+    e = np.sqrt(e2)
+    if e > tol:
+        return fail
+    W = np.empty((k, k)).T                        # Fortran order, k × k; [R₁₁ R₁₂]ᵀ first
+    W[:, :] = 0.0
+    for j in range(k):
+        for i in range(min(j + 1, rho)):
+            W[j, i] = a[i, j]
+    tau2 = np.empty(rho)
+    iw2 = np.array([k, rho, k, lwork, 0, k], dtype=np.int32)
+    dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
+           iw2[3:].ctypes, iw2[4:].ctypes)
+    if iw2[4] != 0:
+        return fail
+    Tinv = np.zeros((rho, rho)).T
+    T = np.zeros((rho, rho))
+    for j in range(rho):
+        for i in range(j + 1):
+            Tinv[i, j] = W[i, j]
+            T[i, j] = W[i, j]
+    ti = np.array([rho, rho, 0], dtype=np.int32)
+    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
+           ti[2:].ctypes)
+    if ti[2] != 0:
+        return fail
+    lb = 1.0 / np.sqrt(np.sum(Tinv * Tinv)) - e
+    if not lb > max(rank_tol * max(1.0, np.sqrt(np.sum(AZ * AZ))), threshold):
+        return fail
+    # Q₁ᵀ r through the first ρ reflectors of the pivoted QR (Q₁ is never formed)
+    c = r.copy()
+    apply_reflectors(a, tau, rho, c, True)
+    dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
+           work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
+    if iw2[4] != 0:
+        return fail
+    y = Tinv.T @ c[:rho]
+    z = np.zeros(k)
+    for j in range(rho):
+        z += y[j] * W[:, j]
+    zp = np.empty(k)
+    null = np.empty((k, k - rho))
+    for i in range(k):
+        zp[jpvt[i] - 1] = z[i]
+        null[jpvt[i] - 1, :] = W[i, rho:]
+    return True, zp, null, rho, T
+
+
+@nb.njit(cache=True)
+def _svd(AZ, r, rank_tol, threshold, max_damping):
+    m, k = AZ.shape
+    U, s, Vt = np.linalg.svd(AZ, full_matrices=m < k)
+    smax = s[0]
+    tol = rank_tol * max(1.0, smax)
+    rank = 0
+    for i in range(s.shape[0]):
+        if s[i] > tol:
+            rank += 1
+    smin = s[rank - 1] if rank else 0.0
+    lam2 = damping_lambda2(smin, threshold, max_damping) if rank else 0.0
+    z = np.zeros(k)
+    for j in range(rank):                         # Σ σ_j/(σ_j² + λ²) v_j u_jᵀ r
+        z += (s[j] / (s[j] * s[j] + lam2) * np.sum(U[:, j] * r)) * Vt[j, :]
+    return z, np.ascontiguousarray(Vt[rank:].T), rank, smin, smax, lam2
+
+
+@nb.njit(cache=True)
+def _pack(z, x_new, R):
+    out = np.empty(z.shape[0] + x_new.shape[0] + R.size)
+    out[:z.shape[0]] = z
+    out[z.shape[0]:z.shape[0] + x_new.shape[0]] = x_new
+    k = z.shape[0] + x_new.shape[0]
+    for i in range(R.shape[0]):
+        for j in range(R.shape[1]):
+            out[k] = R[i, j]
+            k += 1
+    return out
+
+
+@nb.njit(cache=True)
+def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damping, gram_min_ratio):
+    """(ok, route, rank, σ_min, σ_max, λ², packed, Z_next) of one level (module doc), with
+    ``packed`` = (z, x̂ + Z z, R row by row) in one array: each array numba hands back to
+    Python costs a dtype unpickling, so there are two.
+
+    Routes are tried from ``path`` along GRAM or QR → COD → SVD (``AUTO``: GRAM for a
+    tall level, QR for a wide one); ``route`` is the one that gave the step; with
+    ``strict`` a refusal of ``path`` itself returns ok = False. ``R`` is a triangular
+    factor with the singular values of AZ: the QR route's R, the GRAM route's Cholesky
+    factor, the COD route's T (to within the dropped block's ‖E‖_F ≤ rank_tol); σ_min
+    and σ_max are then NaN and come from R on demand. Empty for the SVD route and the
+    GRAM route's eigen branch (σ given). Non-finite rows give a NaN step, never an
+    exception: the controller reports the cycle as failed."""
+    return step_from(A if identity else A @ Z, b - A @ x, x, Z, identity, path, strict, rank_tol, threshold,
+                     max_damping, gram_min_ratio)
+
+
+@nb.njit(cache=True)
+def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damping, gram_min_ratio):
+    """:func:`level_step` from AZ and r = b − A x̂ already formed."""
+    n = x.shape[0]
+    m, k = AZ.shape
+    R = np.empty((0, 0))
+    none = np.empty((n, 0))
+    if not (np.all(np.isfinite(AZ)) and np.all(np.isfinite(r))):
+        return True, path, 0, np.nan, np.nan, 0.0, _pack(np.full(k, np.nan), np.full(n, np.nan), R), none
+    route = path
+    if route == AUTO:
+        route = GRAM if m >= k else QR
+    if route == GRAM:
+        ok, z, U, smin, smax, lam2 = _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio)
+        if ok:
+            return True, GRAM, k, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), U), none
+        if strict:
+            return False, GRAM, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
+        route = COD
+    elif route == QR:
+        ok, z, null, Rq = _qr(AZ, r, rank_tol, threshold)
+        if ok:
+            Z_next = null if identity else Z @ null
+            return True, QR, m, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), Rq), Z_next
+        if strict:
+            return False, QR, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
+        route = COD
+    if route == COD:
+        ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
+        if ok:
+            Z_next = null if identity else Z @ null
+            return True, COD, rank, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), T), Z_next
+        if strict:
+            return False, COD, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
+    z, null, rank, smin, smax, lam2 = _svd(AZ, r, rank_tol, threshold, max_damping)
+    Z_next = null if identity else Z @ null
+    return True, SVD, rank, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), R), Z_next

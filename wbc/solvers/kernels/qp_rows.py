@@ -1,0 +1,212 @@
+"""QP rows and objectives of the hierarchical QP in the free directions z of x = x̂ + Z z,
+compiled: the higher levels' inequalities (with the margin a QP keeps from a limit), the
+nearest-feasible sub-level, the least-squares objective, violation measures, and the QPs
+answered by a KKT certificate on those rows (:mod:`.active_set`).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .active_set import certified_factored, inverse_factor
+
+
+@nb.njit(cache=True)
+def nearest_feasible_rows(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, margin, tighten):
+    """The rows, in z, of the hierarchical solver's inequality sub-level
+    min ½‖z‖² s.t. l ≤ C_o(x + Z z) ≤ u (the level's own rows, each tightened by
+    min(``margin``, ¼ of its range) when ``tighten``) and the higher rows (C_h, as
+    :func:`higher_rows` gives them): (C, lo, hi) stacked, own rows first."""
+    Cl = Co if identity else Co @ Z
+    y = Co @ x
+    k = Cl.shape[1]
+    Cr, lr, hr = higher_rows(Ch, lo_h, hi_h, x, Z, identity, margin)
+    mo, mh = Cl.shape[0], Cr.shape[0]
+    Cq = np.empty((mo + mh, k))
+    lq = np.empty(mo + mh)
+    hq = np.empty(mo + mh)
+    Cq[:mo] = Cl
+    Cq[mo:] = Cr
+    for i in range(mo):
+        d = min(margin, 0.25 * (hi_o[i] - lo_o[i])) if tighten else 0.0
+        lq[i] = lo_o[i] - y[i] + d
+        hq[i] = hi_o[i] - y[i] - d
+    lq[mo:] = lr
+    hq[mo:] = hr
+    return Cq, lq, hq
+
+
+
+@nb.njit(cache=True)
+def max_violation(C, lo, hi, x) -> float:
+    """max over rows of how far l ≤ C x ≤ u is violated (0 where it holds, −inf for no rows)."""
+    worst = -np.inf
+    if C.shape[0] == 0:
+        return worst
+    y = C @ x
+    for i in range(y.shape[0]):
+        v = max(lo[i] - y[i], y[i] - hi[i])
+        worst = max(worst, v)
+    return worst
+
+
+@nb.njit(cache=True)
+def box_violation(q, lo, hi):
+    """How far q is outside [lo, hi] (0 inside)."""
+    return max(lo - q, 0.0) + max(q - hi, 0.0)
+
+
+@nb.njit(cache=True)
+def box_excess_max(x, x_new, idx, lo, hi) -> float:
+    """max_i of how much more q[idx_i] violates lo_i ≤ q ≤ hi_i at x_new than at x (−inf
+    for no bounds): the projection solver's test that a step keeps every joint limit."""
+    worst = -np.inf
+    for i in range(idx.shape[0]):
+        grow = box_violation(x_new[idx[i]], lo[i], hi[i]) - box_violation(x[idx[i]], lo[i], hi[i])
+        worst = max(worst, grow)
+    return worst
+
+
+
+@nb.njit(cache=True)
+def higher_rows(Ca, la, ha, x, Z, identity, margin):
+    """Higher levels' inequality rows l ≤ C x ≤ u in the free directions z of x = x̂ + Z z:
+    (C Z, lo, hi) over the rows Z has a say on (some |(CZ)_ij| > 1e-12), with bounds
+    relative to x̂ that keep z = 0 feasible (a row at, or a hair past, its bound stays
+    there) and, where a row has room, ``margin`` of it (see ``HierarchicalQP._higher_rows``)."""
+    CaZ = Ca if identity else Ca @ Z
+    ya = Ca @ x
+    m, k = CaZ.shape
+    keep = np.zeros(m, dtype=np.bool_)
+    nk = 0
+    for i in range(m):
+        for j in range(k):
+            if abs(CaZ[i, j]) > 1e-12:
+                keep[i] = True
+                nk += 1
+                break
+    C = np.empty((nk, k))
+    lo = np.empty(nk)
+    hi = np.empty(nk)
+    r = 0
+    for i in range(m):
+        if keep[i]:
+            C[r, :] = CaZ[i, :]
+            d = min(margin, 0.25 * (ha[i] - la[i]))
+            lo[r] = min(la[i] - ya[i] + d, 0.0)
+            hi[r] = max(ha[i] - ya[i] - d, 0.0)
+            r += 1
+    return C, lo, hi
+
+
+@nb.njit(cache=True)
+def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
+    """min ½zᵀHz + gᵀz s.t. dlo ≤ (C Z) z ≤ dhi, certified (:func:`certified_active_set`)
+    without forming C Z for every row: the QP is solved on candidate rows only (those its
+    current answer violates, starting from the unconstrained minimiser), every row checked
+    at the answer through C (Z z), and the rows it violates added, up to 4 times. The answer
+    of the candidates' QP that meets every row is the whole QP's optimum: its feasible set
+    contains the whole QP's, and it is in the whole QP's. (m rows over n variables, k free
+    directions: C Z costs m n k, the check m n; the rows a cascade's QP holds are 1 to 3 of
+    ~100.) Returns (certified, z)."""
+    m = C.shape[0]
+    k = H.shape[0]
+    none = np.empty(0)
+    cand = np.zeros(m, dtype=np.bool_)
+    nc = 0
+    ok, Ui = inverse_factor(H)                   # H factored once for every candidate set
+    if not ok:
+        return False, none
+    z = -(Ui @ (Ui.T @ g))
+    no_side = np.zeros(0, dtype=np.int64)
+    for _ in range(5):
+        dx = z if identity else Z @ z
+        dy = C @ dx
+        added = 0
+        for i in range(m):
+            if not cand[i] and (dy[i] > dhi[i] + tol or dy[i] < dlo[i] - tol):
+                cand[i] = True
+                added += 1
+            elif dy[i] != dy[i]:
+                return False, none
+        if added == 0:
+            return True, z
+        nc += added
+        if nc > k:
+            return False, none
+        idx = np.empty(nc, dtype=np.int64)
+        j = 0
+        for i in range(m):
+            if cand[i]:
+                idx[j] = i
+                j += 1
+        Cc = np.empty((nc, C.shape[1]))
+        for j in range(nc):
+            Cc[j] = C[idx[j]]
+        CcZ = Cc if identity else Cc @ Z
+        ok, z = certified_factored(Ui, g, CcZ, dlo[idx], dhi[idx], tol, no_side)
+        if not ok:
+            return False, none
+    return False, none
+
+
+@nb.njit(cache=True)
+def _higher_bounds(Ca, la, ha, x, margin):
+    """The bounds of :func:`higher_rows` on the change of every row, C_a(x + Z z) − C_a x
+    (a row at, or a hair past, its bound may not move further; one with room keeps
+    ``margin`` of it)."""
+    ya = Ca @ x
+    m = ya.shape[0]
+    dlo = np.empty(m)
+    dhi = np.empty(m)
+    for i in range(m):
+        d = min(margin, 0.25 * (ha[i] - la[i]))
+        dlo[i] = min(la[i] - ya[i] + d, 0.0)
+        dhi[i] = max(ha[i] - ya[i] - d, 0.0)
+    return dlo, dhi
+
+
+@nb.njit(cache=True)
+def certified_higher(H, g, Ca, la, ha, x, Z, identity, margin, tol):
+    """(certified, z) of the equality sub-level's QP, min ½zᵀHz + gᵀz under the higher rows
+    as :func:`higher_rows` gives them (the same QP, the same optimum), by
+    :func:`_certified_on_candidates`."""
+    dlo, dhi = _higher_bounds(Ca, la, ha, x, margin)
+    return _certified_on_candidates(H, g, Ca, dlo, dhi, Z, identity, tol)
+
+
+@nb.njit(cache=True)
+def certified_nearest_feasible(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, margin, tighten, tol):
+    """(certified, z) of the inequality sub-level's QP of :func:`nearest_feasible_rows`,
+    min ½‖z‖² under the level's own rows (tightened by ``margin`` when ``tighten``) and the
+    higher ones, by :func:`_certified_on_candidates`."""
+    mo, mh = Co.shape[0], Ch.shape[0]
+    n = x.shape[0]
+    C = np.empty((mo + mh, n))
+    C[:mo] = Co
+    C[mo:] = Ch
+    y = Co @ x
+    dlo = np.empty(mo + mh)
+    dhi = np.empty(mo + mh)
+    for i in range(mo):
+        d = min(margin, 0.25 * (hi_o[i] - lo_o[i])) if tighten else 0.0
+        dlo[i] = lo_o[i] - y[i] + d
+        dhi[i] = hi_o[i] - y[i] - d
+    hl, hh = _higher_bounds(Ch, lo_h, hi_h, x, margin)
+    dlo[mo:] = hl
+    dhi[mo:] = hh
+    k = n if identity else Z.shape[1]
+    return _certified_on_candidates(np.eye(k), np.zeros(k), C, dlo, dhi, Z, identity, tol)
+
+
+@nb.njit(cache=True)
+def least_squares_objective(AZ, r, regularization):
+    """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
+    k = AZ.shape[1]
+    G = AZ.T @ AZ
+    H = 0.5 * (G + G.T)                 # exactly symmetric, as the QP back-ends assume
+    eps = regularization * max(1.0, np.trace(H) / max(k, 1))
+    for i in range(k):
+        H[i, i] += eps
+    return H, -(AZ.T @ r)

@@ -1,0 +1,201 @@
+"""The output of a compiled cascade run, named, and the route hints a solver keeps.
+
+A run over L levels (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`,
+:func:`~wbc.solvers.kernels.sns_run.projection_prefix`) returns two flat arrays, ints
+and floats, because a numba kernel returns fixed-type arrays cheaply. This module owns
+both sides of that format: the kernels write it through :func:`start_level`,
+:func:`record_level` and :func:`set_calls`, and Python reads it only through
+:func:`decode` (a :class:`RunLevel` per level), so no offset appears anywhere else.
+
+Per level k: ints[LEVEL_INTS·k + field] for the fields ``CALL`` (index of its step among the
+run's steps, −1 for none), ``ROWS``, ``DOF`` (free directions before it), ``ROUTE``,
+``RANK``, ``CERTIFIED`` (QPs solved by certificate) and ``SATURATED`` (joints saturated);
+floats[LEVEL_FLOATS·k + field] for ``SIGMA_MIN``, ``SIGMA_MAX``, ``LAMBDA2`` (λ² of the
+damping) and ``SCALE`` (the step's scale). After the levels' floats, their R factors row
+by row; after the levels' ints, the L + 1 offsets of the R factors in floats, the count of
+steps taken, the saturated joints level by level, and L last.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from .factorizations import AUTO, GRAM, QR
+
+#: entries per level in the ints and floats of a compiled run, and their fields
+LEVEL_INTS = 7
+CALL, ROWS, DOF, ROUTE, RANK, CERTIFIED, SATURATED = range(LEVEL_INTS)
+LEVEL_FLOATS = 4
+SIGMA_MIN, SIGMA_MAX, LAMBDA2, SCALE = range(LEVEL_FLOATS)
+
+
+@nb.njit(cache=True)
+def new_outputs(L, r_size, k0, extra):
+    """(ints, floats) of a compiled run over L levels, room for ``r_size`` entries of R
+    factors and ``extra`` saturated joints."""
+    ints = np.zeros(LEVEL_INTS * L + L + 3 + extra, dtype=np.int64)
+    floats = np.empty(LEVEL_FLOATS * L + r_size)
+    ints[LEVEL_INTS * L + k0] = LEVEL_FLOATS * L
+    ints[-1] = L
+    return ints, floats
+
+
+@nb.njit(cache=True)
+def start_level(ints, floats, k, m, dof):
+    """Level k's entries before it is solved: no step, scale 1."""
+    ints[LEVEL_INTS * k:LEVEL_INTS * k + LEVEL_INTS] = (-1, m, dof, 0, 0, 0, 0)
+    floats[LEVEL_FLOATS * k:LEVEL_FLOATS * k + LEVEL_FLOATS] = (np.inf, 0.0, 0.0, 1.0)
+
+
+@nb.njit(cache=True)
+def record_level(ints, floats, k, call, route, rank, smin, smax, lam2, packed, head, r_at):
+    """Level k's step (its R factor, the part of ``packed`` after z and x̂, at ``r_at``);
+    returns where the next R goes."""
+    ints[LEVEL_INTS * k + CALL] = call
+    ints[LEVEL_INTS * k + ROUTE] = route
+    ints[LEVEL_INTS * k + RANK] = rank
+    floats[LEVEL_FLOATS * k + SIGMA_MIN] = smin
+    floats[LEVEL_FLOATS * k + SIGMA_MAX] = smax
+    floats[LEVEL_FLOATS * k + LAMBDA2] = lam2
+    nr = packed.shape[0] - head
+    floats[r_at:r_at + nr] = packed[head:]
+    return r_at + nr
+
+
+@nb.njit(cache=True)
+def clear_step(ints, floats, k):
+    """Level k took no step after all (SNS: every direction saturated)."""
+    ints[LEVEL_INTS * k + CALL] = -1
+    ints[LEVEL_INTS * k + RANK] = 0
+    floats[LEVEL_FLOATS * k + SIGMA_MIN] = np.inf
+    floats[LEVEL_FLOATS * k + SIGMA_MAX] = 0.0
+    floats[LEVEL_FLOATS * k + LAMBDA2] = 0.0
+
+
+@nb.njit(cache=True)
+def set_field(ints, k, field, value):
+    """Level k's int ``field`` (CERTIFIED, SATURATED, ...) set to ``value``."""
+    ints[LEVEL_INTS * k + field] = value
+
+
+@nb.njit(cache=True)
+def add_to_field(ints, k, field, value):
+    ints[LEVEL_INTS * k + field] += value
+
+
+@nb.njit(cache=True)
+def set_scale(floats, k, s):
+    floats[LEVEL_FLOATS * k + SCALE] = s
+
+
+@nb.njit(cache=True)
+def end_r_factors(ints, L, k, r_at):
+    """Level k's R factor ends at ``r_at`` in floats."""
+    ints[LEVEL_INTS * L + k + 1] = r_at
+
+
+@nb.njit(cache=True)
+def set_calls(ints, L, calls):
+    """The run's step count so far (the caller's cascade continues from it)."""
+    ints[LEVEL_INTS * L + L + 1] = calls
+
+
+@nb.njit(cache=True)
+def saturated_start(L):
+    """Where the saturated joints' list starts in ints."""
+    return LEVEL_INTS * L + L + 2
+
+
+@dataclass(slots=True)
+class RunLevel:
+    """One level of a compiled run, decoded: ``call`` the index of its step among the
+    run's steps (−1: it took none), ``rows`` its equality rows, ``dof`` the free
+    directions before it, ``route`` and ``rank`` of its factorisation, ``certified`` the
+    QPs solved by certificate, ``saturated`` the joints SNS saturated, σ_min, σ_max, λ²
+    of the damping, ``scale`` of its step, ``R`` the triangular factor (σ from it on
+    demand) or None."""
+
+    call: int
+    rows: int
+    dof: int
+    route: int
+    rank: int
+    certified: int
+    saturated: list
+    sigma_min: float
+    sigma_max: float
+    lambda2: float
+    scale: float
+    R: np.ndarray | None
+
+
+def decode(ints: np.ndarray, floats: np.ndarray, start: int, stop: int) -> tuple[list[RunLevel], int]:
+    """The levels ``start`` .. ``stop`` (the level where the run stopped included, if it is
+    a level) of a run's (ints, floats), and the count of steps it took."""
+    L = int(ints[-1])
+    head = LEVEL_INTS * L
+    iv, fv = ints[:head + L + 2].tolist(), floats[:LEVEL_FLOATS * L].tolist()
+    sat_at = head + L + 2
+    out = []
+    for k in range(start, min(stop + 1, L)):
+        i, f = LEVEL_INTS * k, LEVEL_FLOATS * k
+        n_sat = iv[i + SATURATED]
+        saturated = []
+        if n_sat:
+            saturated = ints[sat_at:sat_at + n_sat].tolist()
+            sat_at += n_sat
+        R = None
+        a, b = iv[head + k], iv[head + k + 1]
+        if iv[i + CALL] >= 0 and b > a:
+            mr = round((b - a) ** 0.5)
+            R = floats[a:b].reshape(mr, mr)
+        out.append(RunLevel(iv[i + CALL], iv[i + ROWS], iv[i + DOF], iv[i + ROUTE], iv[i + RANK],
+                            iv[i + CERTIFIED], saturated, fv[f + SIGMA_MIN], fv[f + SIGMA_MAX],
+                            fv[f + LAMBDA2], fv[f + SCALE], R))
+    return out, iv[head + L + 1]
+
+
+#: cycles a level goes straight to the route it last needed before its first route is retried
+HINT_RETRY = 50
+
+
+def hint_table(capacity: int = 32) -> np.ndarray:
+    """An empty route-hint table (rows: call index, rows, free directions, route, cycles
+    left), kept by a solver across cycles (see :func:`hint_route`)."""
+    return np.zeros((capacity, 5), dtype=np.int64)
+
+
+@nb.njit(cache=True)
+def hint_route(table, call, m, dof):
+    """The route to try first for the level that is the cascade's ``call``-th step, with m
+    rows over ``dof`` free directions: the one it needed last time (for ``HINT_RETRY``
+    cycles, counted down here), else ``AUTO``."""
+    for h in range(table.shape[0]):
+        if table[h, 4] > 0 and table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
+            table[h, 4] -= 1
+            return table[h, 3]
+    return AUTO
+
+
+@nb.njit(cache=True)
+def hint_record(table, call, m, dof, path, route):
+    """Remember ``route`` for that level when it is neither the route tried (``path``) nor
+    the one ``AUTO`` tries first (GRAM for m ≥ dof, QR otherwise): the first route refused."""
+    first = GRAM if m >= dof else QR
+    if route == path or route == first:
+        return
+    slot = 0
+    for h in range(table.shape[0]):
+        if table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
+            slot = h
+            break
+        if table[h, 4] < table[slot, 4]:
+            slot = h
+    table[slot, 0] = call
+    table[slot, 1] = m
+    table[slot, 2] = dof
+    table[slot, 3] = route
+    table[slot, 4] = HINT_RETRY

@@ -1,0 +1,150 @@
+"""The projection solver's levels with Saturation in the Null Space, compiled.
+
+J̄_k = J_k N_{k−1} (the chapter's recursive null-space projection, 5.38-5.40), each level's
+step by :mod:`.factorizations`, a joint that would cross its bound saturated by a step of
+its own and the level solved again in what is left (SNS). The solver
+(:class:`~wbc.solvers.projection.RecursiveProjection`) decodes the run with
+:func:`.records.decode`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .factorizations import level_step
+from .qp_rows import box_excess_max, box_violation
+from .records import (
+    LEVEL_FLOATS,
+    SATURATED,
+    add_to_field,
+    clear_step,
+    end_r_factors,
+    hint_record,
+    hint_route,
+    new_outputs,
+    record_level,
+    saturated_start,
+    set_calls,
+    set_scale,
+    start_level,
+)
+
+
+@nb.njit(cache=True)
+def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, threshold, max_damping,
+                      gram_min_ratio, box_tol, saturation_rank_tol):
+    """The projection solver's levels in q̈, one after the other, each with Saturation in
+    the Null Space where a joint limit is in the way (the steps of
+    :meth:`~wbc.solvers.projection.RecursiveProjection._sns_level`, identity weighting).
+
+    Level k's motion rows are rows [rows[k, 0], rows[k, 1]) of (A[:, :nv], b), or none
+    when rows[k, 0] = −1 (a level of force-only tasks: no step); rows[k, 0] = −2 (rows not
+    in one block) stops there. A level's step is kept when no box bound (b_idx, b_lo,
+    b_hi) is violated more than before by ``box_tol``. Otherwise the joint whose
+    violation would grow most is moved to the bound it crosses by a step of its own
+    (a unit row, undamped, rank tolerance ``saturation_rank_tol``), kept if it makes no
+    bound worse, and the level is solved again in what is left; when no joint is left to
+    saturate, the step is scaled by the largest s ∈ [0, 1] that keeps every bound (level 0
+    is never scaled). Returns as :func:`cascade_prefix` (the stop level, if any, with no
+    step taken there)."""
+    L = rows.shape[0]
+    nb = b_idx.shape[0]
+    x = x0.copy()
+    Z = np.empty((0, 0))
+    identity = True
+    r_size = 0
+    for k in range(L):
+        m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
+        r_size += m * m
+    ints, floats = new_outputs(L, r_size, 0, L * nb)
+    r_at = LEVEL_FLOATS * L   # the R factors follow the levels' floats
+    sat_at = saturated_start(L)
+    calls = 0
+    set_calls(ints, L, calls)
+    unit = np.zeros((1, nv))
+    target = np.zeros(1)
+    blocked = np.zeros(nb, dtype=np.bool_)
+    for k in range(L):
+        if rows[k, 0] == -2:
+            return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+        m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
+        dof = nv if identity else Z.shape[1]
+        start_level(ints, floats, k, m, dof)
+        r0 = r_at
+        if m and dof:
+            Ak = np.ascontiguousarray(A[rows[k, 0]:rows[k, 1], :nv])
+            bk = b[rows[k, 0]:rows[k, 1]]
+            blocked[:] = False
+            while True:
+                # the level's step in what is left (after any saturation of this level)
+                dof = nv if identity else Z.shape[1]
+                if dof == 0:                 # nothing left: no step, nothing changes
+                    clear_step(ints, floats, k)
+                    r_at = r0
+                    break
+                path = hint_route(hints, calls, m, dof)
+                _, route, rank, smin, smax, lam2, packed, Z_next = level_step(
+                    Ak, bk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
+                hint_record(hints, calls, m, dof, path, route)
+                x_next = packed[dof:dof + nv]
+                r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r0)
+                calls += 1
+                if not nb or box_excess_max(x, x_next, b_idx, b_lo, b_hi) <= box_tol:
+                    x, Z, identity = x_next, Z_next, False
+                    break
+                # the joint whose violation would grow most, not saturated yet in this level
+                j = -1
+                worst = -np.inf
+                for i in range(nb):
+                    if blocked[i]:
+                        continue
+                    grow = (box_violation(x_next[b_idx[i]], b_lo[i], b_hi[i])
+                            - box_violation(x[b_idx[i]], b_lo[i], b_hi[i]))
+                    if grow > worst:
+                        worst, j = grow, i
+                if j < 0 or worst <= box_tol:
+                    # no saturation left that helps: scale the step (not level 0's)
+                    s = 1.0
+                    if k > 0:
+                        for i in range(nb):
+                            a = x[b_idx[i]]
+                            d = x_next[b_idx[i]] - a
+                            if d > 0:
+                                s = min(s, (max(b_hi[i], a) - a) / d)
+                            elif d < 0:
+                                s = min(s, (min(b_lo[i], a) - a) / d)
+                        s = min(max(s, 0.0), 1.0)
+                        set_scale(floats, k, s)
+                        z = packed[:dof] * s
+                        x = x + (z if identity else Z @ z)
+                    else:
+                        x = x_next
+                    Z, identity = Z_next, False
+                    break
+                blocked[j] = True
+                c = x_next[b_idx[j]]
+                target[0] = b_lo[j] if c < b_lo[j] else b_hi[j]
+                unit[0, :] = 0.0
+                unit[0, b_idx[j]] = 1.0
+                path = hint_route(hints, calls, 1, dof)
+                _, route, rank, _, _, _, sat, Z_sat = level_step(
+                    unit, target, x, Z, identity, path, False, saturation_rank_tol, 0.0, 0.0, gram_min_ratio)
+                hint_record(hints, calls, 1, dof, path, route)
+                calls += 1
+                if rank:
+                    x_sat = sat[dof:dof + nv]
+                    keeps = True
+                    for i in range(nb):
+                        if box_violation(x_sat[b_idx[i]], b_lo[i], b_hi[i]) > \
+                                box_violation(x[b_idx[i]], b_lo[i], b_hi[i]) + box_tol:
+                            keeps = False
+                            break
+                    if keeps:
+                        x, Z, identity = x_sat, Z_sat, False
+                        ints[sat_at] = b_idx[j]
+                        sat_at += 1
+                        add_to_field(ints, k, SATURATED, 1)
+        end_r_factors(ints, L, k, r_at)
+        set_calls(ints, L, calls)
+    return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
