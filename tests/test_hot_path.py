@@ -367,9 +367,8 @@ def test_active_set_guess_is_certified_only_at_the_qp_optimum():
     only with its KKT certificate: every certified point is daqp's optimum (unique, H ≻ 0),
     including with two or more rows held; a wrong guess (the optimum holds other rows, or
     fewer) is refused."""
-    from wbc.solvers.kernels.active_set import certified_active_set
-
     from wbc.solvers.backends import make_backend
+    from wbc.solvers.kernels.active_set import certified_active_set
 
     daqp = make_backend("daqp")
     rng = np.random.default_rng(5)

@@ -235,7 +235,10 @@ class Controller:
         x_ref = None
         if self.warm_start and self.solver.uses_reference:
             x_ref = self._reference(layout, weights_of, levels)
-        res = self.solver.solve(Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale))
+        contacts = []
+        if self.solver.distributes_forces and layout.nf:
+            contacts = [t.contact_data() for lvl in levels for t in lvl.tasks if t.kind == "contact"]
+        res = self.solver.solve(Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale, contacts))
         x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
         return self._finish(x, res, levels, layout, ok, message, qp_count)
 

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numba as nb
 import numpy as np
 
-from .rows import Level, Rows
+from .rows import Level, RowBlock, Rows
 
 if TYPE_CHECKING:
     from ..tasks.base import Task
@@ -45,12 +45,13 @@ class RowBuffer:
             e0, i0 = e, i
             ng = sum(r.C.shape[0] for r in rs if r.C is not None)
             g, bx = i0, i0 + ng
-            eq_slices, in_slices, plan, box_idx = {}, {}, [], []
+            eq_slices, in_slices, plan, box_idx, blocks = {}, {}, [], [], []
             for t, r in zip(tasks, rs):
                 eqv = inv = boxv = None
                 if r.A is not None:
                     m = r.A.shape[0]
                     eq_slices[t.name] = slice(e - e0, e - e0 + m)
+                    blocks.append(RowBlock(t.name, eq_slices[t.name], t.on_forces, t.regularizer, t.layout_only_A))
                     eqv = (self.A[e:e + m], self.b[e:e + m], float(np.sqrt(t.weight)))
                     e += m
                 if r.C is not None and r.C.shape[0]:
@@ -72,7 +73,8 @@ class RowBuffer:
                 box = (np.concatenate(box_idx), self.lo[i0 + ng:i], self.hi[i0 + ng:i])
             lvl = Level(index=first_index + k, tasks=list(tasks), A=self.A[e0:e], b=self.b[e0:e],
                         C=self.C[i0:i0 + ng], lo=self.lo[i0:i0 + ng], hi=self.hi[i0:i0 + ng], box=box,
-                        eq_slices=eq_slices, in_slices=in_slices, buffer=self,
+                        eq_slices=eq_slices, in_slices=in_slices, blocks=blocks,
+                        regularizers_only=bool(tasks) and all(t.regularizer for t in tasks), buffer=self,
                         ineq=(self.C[i0:i], self.lo[i0:i], self.hi[i0:i]))
             self.plans.append(plan)
             self.levels.append(lvl)

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from .rows import Layout, Level
+from .rows import ContactData, Layout, Level
 
 
 @dataclass(slots=True)
@@ -17,7 +17,9 @@ class Problem:
     h(q, q̇) = C q̇ + g (N·m) with the unactuated (root) coordinates, for the solvers that
     need the equation of motion (5.26) outside their rows (the projection's force
     distribution), ``x_ref`` the state's nominal point the least-norm choices start from
-    (None: 0) and ``scale`` a per-variable scale D, x = D x̃ (None: 1)."""
+    (None: 0), ``scale`` a per-variable scale D, x = D x̃ (None: 1), and ``contacts``, each
+    contact's :class:`ContactData` in level order (filled for the solvers that
+    ``distributes_forces``)."""
 
     levels: list[Level]
     layout: Layout
@@ -26,3 +28,4 @@ class Problem:
     unactuated_idx: np.ndarray
     x_ref: np.ndarray | None = None
     scale: np.ndarray | None = None
+    contacts: list[ContactData] = field(default_factory=list)

@@ -7,6 +7,7 @@ and f ∈ R^nf the stacked contact forces/wrenches (N, N·m) in each contact's f
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,6 +66,42 @@ class Layout:
         return self._key
 
 
+@dataclass(frozen=True, slots=True)
+class RowBlock:
+    """One task's equality rows in its level: ``rows`` (a slice of the level's rows),
+    whether they act on the contact forces only (``on_forces``: a wrench target, the
+    contact regularisation), whether the task is a ``regularizer`` (decides only what the
+    others leave free) and whether its A depends on the layout only (``constant_A``: the
+    rows change with the state through b alone)."""
+
+    name: str
+    rows: slice
+    on_forces: bool = False
+    regularizer: bool = False
+    constant_A: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class ContactData:
+    """What a solver may know of one contact this cycle: its name (its force slice is
+    ``Layout.contact_slices[name]``), friction μ (None: the surface's), the normal-force
+    bounds ``fmin`` ≤ f_n ≤ ``fmax`` (N; fmax finite while the contact is being made or
+    released), ``bilateral``, the CoP margin (fraction of the sole) and ``generators()``,
+    (f₀, V) with every admissible force f₀ + V λ, λ ≥ 0 (its friction/CoP cone)."""
+
+    name: str
+    mu: float | None
+    fmin: float
+    fmax: float
+    bilateral: bool
+    cop_margin: float
+    generators: Callable[[], tuple[np.ndarray, np.ndarray]]
+
+    def params(self) -> tuple:
+        """What the cone and the ramp depend on."""
+        return (self.mu, self.fmin, self.bilateral, self.cop_margin, self.fmax != np.inf)
+
+
 @dataclass
 class Level:
     """All rows of one priority level, stacked; equality rows pre-scaled by √weight."""
@@ -79,6 +116,10 @@ class Level:
     box: tuple[np.ndarray, np.ndarray, np.ndarray] | None
     eq_slices: dict[str, slice]
     in_slices: dict[str, slice]
+    #: each task's equality rows, in the order of ``tasks`` (tasks without any left out)
+    blocks: list[RowBlock] = field(default_factory=list)
+    #: every task of the level is a regularizer (the contact regularisation's level)
+    regularizers_only: bool = False
     #: the :class:`~wbc.problem.buffer.RowBuffer` whose views these arrays are, if any
     buffer: object | None = None
     #: all inequality rows (general, then box bounds as unit rows), when built

@@ -411,4 +411,5 @@ def _violated(Cs, los, his, x, tol: float) -> bool:
 def scaled_level(lvl: Level, d: np.ndarray) -> Level:
     """The level's rows in the variable x̃ with x = diag(d) x̃ (box bounds become rows)."""
     C, lo, hi = lvl.inequalities(len(d))
-    return Level(lvl.index, lvl.tasks, lvl.A * d, lvl.b, C * d, lo, hi, None, lvl.eq_slices, lvl.in_slices)
+    return Level(lvl.index, lvl.tasks, lvl.A * d, lvl.b, C * d, lo, hi, None, lvl.eq_slices, lvl.in_slices, lvl.blocks,
+                 lvl.regularizers_only)

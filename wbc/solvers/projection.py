@@ -86,7 +86,7 @@ class RecursiveProjection:
         the cones, level 0 is reported relaxed with how far the root dynamics are off."""
         levels, layout = problem.levels, problem.layout
         res = self.solve_accelerations(levels, layout, problem)
-        fres = self.distribute_forces(res.x, levels, layout, problem)
+        fres = self.distribute_forces(res.x, problem)
         message = res.message or fres.message
         if layout.nf and len(problem.unactuated_idx):
             gap = fres.dynamics_gap
@@ -274,10 +274,9 @@ class RecursiveProjection:
         if got is not None and got[0] == key and got[1] is lvl.eq_slices:
             return got[2]
         idx = []
-        for t in lvl.tasks:
-            sl = lvl.eq_slices.get(t.name)
-            if sl is not None and not t.on_forces:
-                idx.extend(range(sl.start, sl.stop))
+        for blk in lvl.blocks:
+            if not blk.on_forces:
+                idx.extend(range(blk.rows.start, blk.rows.stop))
         if not idx:
             rows = None
         else:
@@ -286,9 +285,9 @@ class RecursiveProjection:
         return rows
 
     # ----------------------------------------------------------- forces
-    def distribute_forces(self, qdd: np.ndarray, levels: list[Level], layout: Layout, dynamics) -> SolveResult:
+    def distribute_forces(self, qdd: np.ndarray, problem: Problem) -> SolveResult:
         """Contact forces for q̈: each contact's force is f₀ + V λ, λ ≥ 0, V the generators
-        of its friction/CoP cone (:meth:`~wbc.tasks.Contact.generators`), so every
+        of its friction/CoP cone (``ContactData.generators``), so every
         candidate is admissible by construction. Non-negative least squares (scipy
         ``nnls``, unless the last cycle's support still passes the KKT test:
         :func:`~wbc.solvers.kernels.forces.nnls_on_support`) on, in decreasing weight: a ramping contact's normal force
@@ -296,6 +295,7 @@ class RecursiveProjection:
         (×``dynamics_weight``), ContactWrench targets (×``wrench_weight``, ×``force_level_decay``
         per level of force tasks above), the contact regularisation (the same rule: it is the
         lowest), and a small least-norm term. Bounds only (λ ≥ 0): never degenerate, never infeasible."""
+        levels, layout, dynamics, contacts = problem.levels, problem.layout, problem, problem.contacts
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return SolveResult(np.zeros(0), [])
@@ -303,8 +303,7 @@ class RecursiveProjection:
         # unchanged; the plan holds both, so their ids cannot be reused meanwhile
         key = (id(layout), id(levels), len(levels), layout.nx)
         plan = self._force_plan
-        if plan is None or plan.key != key or not plan.still_valid(levels, nv):
-            contacts = [t for lvl in levels for t in lvl.tasks if t.kind == "contact"]
+        if plan is None or plan.key != key or not plan.still_valid(levels, contacts, nv):
             plan = self._force_plan = _ForcePlan(key, levels, layout, contacts, dynamics, self)
         AG, rhs, n_dyn, d = plan.AG, plan.rhs, plan.n_dyn, plan.d
         np.negative(plan.const_rhs, out=d)
@@ -314,8 +313,8 @@ class RecursiveProjection:
                           self.dynamics_weight, AG, rhs)
         for rows, lvl_index, esl, weight in plan.wrench:
             d[rows] += weight * levels[lvl_index].b[esl]
-        for c, row in plan.ramps:
-            d[row] += self.ramp_weight * c.fmax
+        for i, row in plan.ramps:
+            d[row] += self.ramp_weight * contacts[i].fmax
         np.dot(plan.Qt, d, out=rhs[n_dyn:])
         # the support of λ rarely changes from one cycle to the next: the least-squares
         # solution on the last one is kept when it passes the KKT test, else scipy's NNLS
@@ -357,8 +356,7 @@ class _ForcePlan:
         self.f0, self.G = f0, G
         self.u = np.asarray(dynamics.unactuated_idx, dtype=np.int64)
         self.n_dyn = n_dyn = len(self.u)
-        self.contacts = contacts
-        self.params = self._params()
+        self.params = tuple(c.params() for c in contacts)
         rows, self.wrench, self.wrench_A, self.ramps, k = [], [], [], [], 0
         # force tasks of lower levels weigh less: × force_level_decay per level with force
         # tasks above theirs; a regularisation (the contact regularisation, lowest) at least
@@ -367,23 +365,23 @@ class _ForcePlan:
         above = 0
         for lvl in levels:
             level_has = False
-            for t in lvl.tasks:
-                esl = lvl.eq_slices.get(t.name)
-                if esl is not None and t.on_forces:
+            for blk in lvl.blocks:
+                esl = blk.rows
+                if blk.on_forces:
                     level_has = True
-                    weight = solver.wrench_weight * solver.force_level_decay ** max(above, int(t.regularizer))
+                    weight = solver.wrench_weight * solver.force_level_decay ** max(above, int(blk.regularizer))
                     Aw = lvl.A[esl, nv:].copy()
-                    self.wrench_A.append((lvl.index, esl, Aw, t.layout_only_A))
+                    self.wrench_A.append((lvl.index, esl, Aw, blk.constant_A))
                     rows.append(weight * Aw)
                     self.wrench.append((slice(k, k + len(Aw)), lvl.index, esl, weight))
                     k += len(Aw)
             above += level_has
-        for c in contacts:      # a contact being made or released: its normal force follows the ramp
+        for i, c in enumerate(contacts):   # a contact being made or released: its normal force follows the ramp
             if np.isfinite(c.fmax) and not c.bilateral:
                 r = np.zeros((1, nf))
                 r[0, layout.contact_slices[c.name].start - nv + 2] = solver.ramp_weight
                 rows.append(r)
-                self.ramps.append((c, k))
+                self.ramps.append((i, k))
                 k += 1
         rows.append(solver.force_regularization * np.eye(nf))
         const = np.vstack(rows)
@@ -399,11 +397,8 @@ class _ForcePlan:
         self.d = np.zeros(len(const))
         self.const_rhs = const @ f0
 
-    def _params(self) -> tuple:
-        return tuple((c.mu, c.fmin, c.bilateral, c.cop_margin, c.fmax != np.inf) for c in self.contacts)
-
-    def still_valid(self, levels, nv: int) -> bool:
+    def still_valid(self, levels, contacts, nv: int) -> bool:
         """The contacts' cone parameters and ramps, and the force rows' A (their targets,
         in b, may change every cycle), are what the plan was built with."""
-        return self.params == self._params() and all(
+        return self.params == tuple(c.params() for c in contacts) and all(
             t_const or np.array_equal(levels[k].A[esl, nv:], Aw) for k, esl, Aw, t_const in self.wrench_A)

@@ -49,7 +49,7 @@ class WeightedQP(HierarchicalQP):
             res.x = scale * res.x
             return res
         tail = []
-        if len(levels) > 2 and levels[-1].tasks and all(t.regularizer for t in levels[-1].tasks):
+        if len(levels) > 2 and levels[-1].regularizers_only:
             levels, tail = levels[:-1], levels[-1:]
         if len(levels) <= 2:
             return super().solve_levels(levels + tail, nx, key, x_ref=x_ref)

@@ -7,7 +7,7 @@ import pinocchio as pin
 
 from ..errors import TaskDefinitionError
 from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
-from ..problem.rows import Layout, Rows
+from ..problem.rows import ContactData, Layout, Rows
 from ..schema import boolean, number, text
 from .base import MotionTask, eq_buffer, motion_rows
 
@@ -211,6 +211,10 @@ class Contact(MotionTask):
             self._hi[-2] = -self.fmin
             self._ineq = (key, C)
         return self._ineq[1]
+
+    def contact_data(self) -> ContactData:
+        """This cycle's contact as a solver sees it (:class:`~wbc.problem.rows.ContactData`)."""
+        return ContactData(self.name, self.mu, self.fmin, self.fmax, self.bilateral, self.cop_margin, self.generators)
 
     def generators(self) -> tuple[np.ndarray, np.ndarray]:
         """(f0, V): every admissible force is f0 + V λ with λ ≥ 0 (f0 carries ``fmin``);
