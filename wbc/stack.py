@@ -57,6 +57,11 @@ class Stack:
 
     def __init__(self, levels: Iterable = ()) -> None:
         self.levels: list[list[Task]] = []
+        #: bumped by every change of structure; the caches below are valid for one version
+        self.version = 0
+        self._contacts: tuple | None = None     # (version, contact tasks)
+        self._layout: tuple | None = None       # (key, Layout, its force-Jacobian blocks)
+        self._row_buffer: RowBuffer | None = None
         for lvl in levels:
             self.levels.append(_as_level(lvl))
         self._check_names()
@@ -70,7 +75,7 @@ class Stack:
                         f"two tasks are named '{t.name}' (levels {seen[t.name]} and {k}); names must be unique"
                     )
                 seen[t.name] = k
-        self.version = getattr(self, "version", 0) + 1
+        self.version += 1
 
     # ------------------------------------------------------------- building
     def __truediv__(self, other) -> Stack:
@@ -131,7 +136,7 @@ class Stack:
         self.add(task, min(level, len(self.levels)))
 
     def contacts(self) -> list[Contact]:
-        got = self.__dict__.get("_contacts")
+        got = self._contacts
         if got is None or got[0] != self.version:
             got = self._contacts = (self.version, [t for t in self if isinstance(t, Contact)])
         return list(got[1])
@@ -156,7 +161,7 @@ class Stack:
         reused (its J_f refilled) while the stack's structure is unchanged: like the
         levels, it is valid until the next call."""
         key = (self.version, id(robot))
-        got = self.__dict__.get("_layout")
+        got = self._layout
         if got is not None and got[0] == key:
             layout, parts = got[1], got[2]
             for c, rows in parts:
@@ -194,7 +199,7 @@ class Stack:
             groups.append(lowest)
         rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
         key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
-        buf = self.__dict__.get("_row_buffer")
+        buf = self._row_buffer
         if buf is None or buf.key != key or not buf.fill(groups, rows):
             buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key, adopt=True)
             buf.fill(groups, rows)
@@ -203,7 +208,7 @@ class Stack:
     @property
     def row_buffer(self) -> RowBuffer | None:
         """The buffer behind the levels of the last :meth:`assemble`."""
-        return self.__dict__.get("_row_buffer")
+        return self._row_buffer
 
 
 def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:

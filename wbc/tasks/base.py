@@ -117,11 +117,13 @@ class MotionTask(Task):
         self.kp = gain(name, "kp", kp, dim)
         self.kd = 2.0 * np.sqrt(self.kp) if kd is None else gain(name, "kd", kd, dim)
         self._kd_default = kd is None
+        #: (kp, kd as given, K_p and K_d as vectors) of :meth:`gain_vectors`
+        self._gain_vectors: tuple | None = None
 
     def gain_vectors(self, dim: int) -> tuple[np.ndarray, np.ndarray]:
         """(K_p, K_d) as ``dim``-vectors (a scalar gain repeated), rebuilt only when the
         gains are replaced."""
-        got = getattr(self, "_gain_vectors", None)
+        got = self._gain_vectors
         if got is None or got[0] is not self.kp or got[1] is not self.kd or len(got[2]) != dim:
             kp = np.broadcast_to(np.asarray(self.kp, dtype=float), (dim,)).copy()
             kd = np.broadcast_to(np.asarray(self.kd, dtype=float), (dim,)).copy()

@@ -98,6 +98,7 @@ class Contact(MotionTask):
         text(contact, "contact", what="a contact name (under contacts: in the robot YAML)",
              error=TaskDefinitionError, owner="task 'contact'")
         super().__init__(name or f"{contact}_contact", kp, kd, weight)
+        self._za: tuple | None = None      # zero axes of :meth:`_zero_axes`
         self.contact = contact
         owner = f"task '{self.name}'"
         if mu is not None:
@@ -181,7 +182,7 @@ class Contact(MotionTask):
         return Rows(A=A, b=b, C=C, lo=self._lo, hi=self._hi)
 
     def _zero_axes(self, m: int) -> tuple[np.ndarray, np.ndarray]:
-        got = getattr(self, "_za", None)
+        got = self._za
         if got is None or len(got[0]) != m:
             got = self._za = (np.zeros(m), np.arange(m))
         return got

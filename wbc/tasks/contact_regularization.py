@@ -95,6 +95,7 @@ class ContactRegularization(Task):
 
     def __init__(self, weight: float = 1.0, normal_weight: float = 2.0, name: str = "contact_regularization") -> None:
         super().__init__(name, weight)
+        self._A_for: tuple | None = None   # (id of A, id of the weights) its rows were written for
         self.normal_weight = number(normal_weight, "normal_weight", ge=1e-6, le=1e6, unit="unitless",
                                     error=TaskDefinitionError,
                                     owner=f"task '{self.name}'")
@@ -130,7 +131,7 @@ class ContactRegularization(Task):
         nf, nv = layout.nf, layout.nv
         A, b = eq_buffer(self, nf, layout.nx)
         w = self.force_weights(layout)
-        if getattr(self, "_A_for", None) != (id(A), id(w)):
+        if self._A_for != (id(A), id(w)):
             A[:] = 0.0
             A[np.arange(nf), nv + np.arange(nf)] = w
             b[:] = 0.0

@@ -28,6 +28,8 @@ class ContactWrench(Task):
         text(contact, "contact", what="the name of a contact task in the stack (e.g. left_foot_contact)",
              error=TaskDefinitionError, owner="task 'contact_wrench'")
         super().__init__(name or f"{contact}_wrench", weight)
+        self._checked_dim: int | None = None   # the target length checked
+        self._A_for: tuple | None = None       # (id of A, force slice) its rows were written for
         self.contact = contact
         if target is not None:      # 6 for a surface contact, 3 for a point: checked against the stack's contact
             target = vector(target, "target", (3, 6), unit="N and N·m", error=TargetError,
@@ -56,7 +58,7 @@ class ContactWrench(Task):
     def _ref(self, dim: int) -> np.ndarray:
         if self._target is None:
             self._target = np.zeros(dim)
-        if getattr(self, "_checked_dim", None) != dim:
+        if self._checked_dim != dim:
             self._target = as_vector(self.name, "target", self._target, dim)
             self._checked_dim = dim
         return self._target
@@ -65,7 +67,7 @@ class ContactWrench(Task):
         sl = self._slice(layout)
         dim = sl.stop - sl.start
         A, b = eq_buffer(self, dim, layout.nx)
-        if getattr(self, "_A_for", None) != (id(A), sl.start, sl.stop):
+        if self._A_for != (id(A), sl.start, sl.stop):
             A[:] = 0.0
             A[:, sl] = np.eye(dim)
             self._A_for = (id(A), sl.start, sl.stop)

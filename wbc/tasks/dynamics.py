@@ -21,9 +21,10 @@ class FloatingBaseDynamics(Task):
 
     def __init__(self, name: str = "dynamics") -> None:
         super().__init__(name)
+        self._u: np.ndarray | None = None  # the unactuated coordinates, from the robot at the first cycle
 
     def rows(self, robot, layout: Layout) -> Rows:
-        u = getattr(self, "_u", None)
+        u = self._u
         if u is None:
             u = self._u = np.asarray(robot.unactuated_idx, dtype=np.int64)
         A, b = eq_buffer(self, len(u), layout.nx)

@@ -25,6 +25,8 @@ class Posture(MotionTask):
     def __init__(self, kp: float = 10.0, kd=None, weight: float = 1.0, name: str = "posture",
                  target=None, joints: list[str] | None = None) -> None:
         super().__init__(name, kp, kd, weight)
+        self._checked = False              # the target's length checked against the robot
+        self._A_ready: int | None = None   # nx its (constant) rows were written for
         owner = f"task '{self.name}'"
         if target is not None:      # its length (nq) is checked against the robot at bind
             target = vector(target, "target", unit="rad or m", error=TargetError, owner=owner) \
@@ -77,7 +79,7 @@ class Posture(MotionTask):
     def _q_ref(self, robot) -> np.ndarray:
         if self._target is None:
             self._target = robot.q_default.copy()
-        if not getattr(self, "_checked", False):
+        if not self._checked:
             self._target = as_vector(self.name, "target", self._target, robot.nq)
             self._checked = True
         return self._target
@@ -88,7 +90,7 @@ class Posture(MotionTask):
     def rows(self, robot, layout: Layout) -> Rows:
         idx = self._idx if self._idx is not None else self._indices(robot)
         A, b = eq_buffer(self, len(idx), layout.nx)
-        if not getattr(self, "_A_ready", None) == layout.nx:
+        if self._A_ready != layout.nx:
             A[:] = 0.0
             A[np.arange(len(idx)), idx] = 1.0
             self._A_ready = layout.nx

@@ -21,11 +21,12 @@ class TorqueLimits(Task):
 
     def __init__(self, scale: float = 1.0, name: str = "torque_limits", weight: float = 1.0) -> None:
         super().__init__(name, weight)
+        self._buf: tuple | None = None     # rows, built for (nx, scale)
         self.scale = number(scale, "scale", gt=0, le=1, unit="fraction of the URDF limits",
                             error=TaskDefinitionError, owner=f"task '{self.name}'")
 
     def rows(self, robot, layout: Layout) -> Rows:
-        buf = getattr(self, "_buf", None)
+        buf = self._buf
         if buf is None or buf[0].shape[1] != layout.nx or buf[3] != self.scale:
             a = robot.actuated_idx
             a = np.asarray(a[np.isfinite(robot.tau_max[a])], dtype=np.int64)
