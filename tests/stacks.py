@@ -1,4 +1,10 @@
-"""Stacks and random states the property tests share."""
+"""Stacks and random states the property tests share.
+
+The stacks are the bench's (``benchmarks/harness/stacks.py``, written once there): Talos
+without the force-regularisation level and with the left hand at weight 0.5 inside its
+level, TIAGo with a torso-orientation level. The bench trajectory is re-exported for the
+tests that follow it (``bench_stack`` is the bench's full Talos stack).
+"""
 
 from __future__ import annotations
 
@@ -6,30 +12,24 @@ import numpy as np
 import pinocchio as pin
 
 import wbc
-from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture, TorqueLimits
+from benchmarks.harness import stacks as shared
+from benchmarks.harness.trajectory import DT, moving_targets
+from wbc.tasks import CoM, Frame, Posture
 
-FMIN = 0.0  # minimum normal force (N) of the test stacks
+__all__ = ["DT", "bench_stack", "moving_targets", "random_state", "randomise_targets", "talos_stack", "tiago_stack"]
+
+bench_stack = shared.talos_stack
 
 
 def talos_stack(bilateral: bool = False, limits: bool = True, torque_limits: bool = True) -> wbc.Stack:
-    level0 = [Contact("left_foot", bilateral=bilateral, fmin=FMIN), Contact("right_foot", bilateral=bilateral, fmin=FMIN)]
-    if limits:
-        level0.insert(0, JointLimits())
-    if torque_limits:
-        level0.insert(1, TorqueLimits())
-    return wbc.Stack([
-        level0,
-        [CoM(kp=100.0)],
-        [Frame("right_hand", kp=50.0), Frame("left_hand", kp=50.0, weight=0.5)],
-        [Posture(kp=10.0)],
-    ])
+    """limits + torque limits + two foot contacts (f_z >= 0) / CoM / hands / posture."""
+    return shared.talos_stack(regularise=False, left_hand_weight=0.5, bilateral=bilateral, limits=limits,
+                              torque_limits=torque_limits)
 
 
 def tiago_stack(limits: bool = True) -> wbc.Stack:
-    level0 = [JointLimits(), TorqueLimits()] if limits else []
-    levels = [[Frame("hand", kp=50.0, mask="position")], [Frame("torso", kp=20.0, mask="orientation")],
-              [Posture(kp=10.0)]]
-    return wbc.Stack(([level0] if level0 else []) + levels)
+    """limits / hand position / torso orientation / posture."""
+    return shared.tiago_stack(torso=True, limits=limits)
 
 
 def random_state(robot: wbc.RobotModel, rng: np.random.Generator, speed: float = 0.2):

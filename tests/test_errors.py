@@ -119,3 +119,37 @@ def test_a_failed_first_cycle_commands_gravity_compensation_not_nan(talos, monke
     again = ctrl.solve(q, np.zeros(talos.nv))
     assert good.status == "ok" and again.status == "failed"
     np.testing.assert_array_equal(again.tau, good.tau)      # the last good torque
+
+
+def _exception_names() -> set[str]:
+    """Exception and warning classes: the builtins' and wbc.errors'."""
+    import builtins
+    import inspect
+
+    import wbc.errors
+
+    out = {n for n, c in vars(builtins).items() if inspect.isclass(c) and issubclass(c, BaseException)}
+    return out | {n for n, c in vars(wbc.errors).items() if inspect.isclass(c) and issubclass(c, BaseException)}
+
+
+def test_every_error_class_lives_in_errors_py_under_one_name():
+    """Read from the source (ast over wbc/): no exception or warning class is defined
+    outside wbc/errors.py, and none gets a second name (``E = RobotDefinitionError``)."""
+    import ast
+    from pathlib import Path
+
+    names = _exception_names()
+    root = Path(wbc.__file__).parent
+    defined, aliases = [], []
+    for f in sorted(root.rglob("*.py")):
+        tree = ast.parse(f.read_text(), str(f))
+        where = f.relative_to(root.parent)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ClassDef) and f.name != "errors.py":
+                if any(ast.unparse(b).rpartition(".")[2] in names for b in node.bases):
+                    defined.append(f"{where}:{node.lineno} class {node.name}")
+            elif isinstance(node, ast.Assign) and isinstance(node.value, (ast.Name, ast.Attribute)):
+                if ast.unparse(node.value).rpartition(".")[2] in names - {"NotImplemented"}:
+                    aliases.append(f"{where}:{node.lineno} {ast.unparse(node)}")
+    assert not defined, f"error classes outside wbc/errors.py: {defined}"
+    assert not aliases, f"second names for error classes: {aliases}"

@@ -13,7 +13,7 @@ from wbc.robots import package_share_dir
 from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture
 
 pytest.importorskip("placo", reason="PlaCo is an optional peer: the [peers] extra, installable with pinocchio 3.8 only")
-from wbc import placo_peer  # noqa: E402  (needs placo)
+from benchmarks.harness import placo_peer  # noqa: E402  (needs placo)
 
 
 @pytest.mark.parametrize("offset", [(0.10, 0.0, 0.10), (0.05, -0.10, -0.05)])

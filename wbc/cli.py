@@ -12,6 +12,7 @@ from pathlib import Path
 
 from .errors import WbcError
 from .sim.backends import SIMULATORS
+from .solver_names import SOLVERS
 
 EPILOG = """examples:
   wbc run talos_balance                                a bundled scenario, live in the browser (URL printed)
@@ -227,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "real-time factor, solver failures)")
     r.add_argument("--duration", type=float, metavar="S",
                    help="simulated duration in s (default: the scenario's `duration`)")
-    r.add_argument("--solver", choices=["hqp", "projection", "weighted"],
+    r.add_argument("--solver", choices=list(SOLVERS),
                    help="priority solver (default: the scenario's `solver.type`, else hqp)")
     r.add_argument("--sim", choices=list(SIMULATORS),
                    help="physics: pinocchio (wbc's own, rigid contacts) or mujoco (MuJoCo's soft contacts, "

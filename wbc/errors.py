@@ -70,6 +70,36 @@ class SolverError(WbcError):
     """A solver that could not produce a finite solution."""
 
 
+class ControllerDefinitionError(WbcError):
+    """A controller of :mod:`wbc.control` built with wrong parameters: a gain that is not
+    positive (semi)definite, of the wrong size, or not finite; an unknown option."""
+
+
+class ObserverError(WbcError):
+    """A momentum observer (:mod:`wbc.estimation`) used wrongly: a bad gain, an update
+    before reset, time not increasing."""
+
+
+class ElasticSimulationError(WbcError):
+    """Bad elastic-joint parameters (sizes, signs) or a step too long for the stiffness
+    (:mod:`wbc.sim.elastic`)."""
+
+
+class PlotError(WbcError):
+    """A metrics file with no usable time series (``wbc plot``)."""
+
+
+class HarnessNotFound(WbcError):
+    """``wbc bench`` without the benchmark harness (``benchmarks/harness/`` of the source
+    tree, which a wheel does not ship)."""
+
+
+class RobotWarning(UserWarning):
+    """A robot YAML that loads but describes a robot that will struggle (a joint whose
+    static torque exceeds its limit, a posture outside the limits, a contact not facing
+    the ground); issued by :func:`wbc.robot_extras.check_robot` at load time."""
+
+
 def join_key(prefix: str | None, key: str | None) -> str | None:
     """The key path ``key`` below ``prefix``: ``join_key("stack[1][0]", "kp")`` is
     ``"stack[1][0].kp"``, ``join_key("stack", "[1]")`` is ``"stack[1]"``."""

@@ -22,11 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import WbcError
-
-
-class PlotError(WbcError):
-    """The metrics file has no usable time series."""
+from .errors import PlotError
 
 
 def _arr(x) -> np.ndarray:

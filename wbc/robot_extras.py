@@ -34,41 +34,35 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from .errors import RobotDefinitionError
+from .errors import RobotDefinitionError, RobotWarning
 from .schema import mapping, number, text, vector
 
-E = RobotDefinitionError
 #: a contact frame's z axis may lean this far from the vertical (rad) without a warning
 CONTACT_TILT_WARN = math.radians(15.0)
-
-
-class RobotWarning(UserWarning):
-    """A robot YAML that loads but describes a robot that will struggle (a joint whose
-    static torque exceeds its limit, a posture outside the limits, a contact not facing
-    the ground)."""
 
 
 # ----------------------------------------------------------------- schema pieces
 def frame_entry(value: Any, key: str) -> str | dict:
     """``frames.<alias>``: a URDF frame name, or ``{link: NAME, xyz: [3] m, rpy: [3] rad}``."""
     if isinstance(value, dict):
-        spec = mapping(value, key, allowed={"link", "xyz", "rpy"}, required=("link",), error=E)
-        return {"link": text(spec["link"], f"{key}.link", what="a URDF link or frame name", error=E),
-                "xyz": vector(spec.get("xyz", [0.0, 0.0, 0.0]), f"{key}.xyz", 3, ge=-10, le=10, unit="m", error=E),
+        spec = mapping(value, key, allowed={"link", "xyz", "rpy"}, required=("link",), error=RobotDefinitionError)
+        return {"link": text(spec["link"], f"{key}.link", what="a URDF link or frame name", error=RobotDefinitionError),
+                "xyz": vector(spec.get("xyz", [0.0, 0.0, 0.0]), f"{key}.xyz", 3, ge=-10, le=10, unit="m",
+                              error=RobotDefinitionError),
                 "rpy": vector(spec.get("rpy", [0.0, 0.0, 0.0]), f"{key}.rpy", 3, ge=-2 * math.pi, le=2 * math.pi,
-                              unit="rad", error=E)}
-    return text(value, key, what="a URDF frame name or {link: NAME, xyz: [x, y, z], rpy: [r, p, y]}", error=E)
+                              unit="rad", error=RobotDefinitionError)}
+    return text(value, key, what="a URDF frame name or {link: NAME, xyz: [x, y, z], rpy: [r, p, y]}", error=RobotDefinitionError)
 
 
 def contact_extras(spec: dict, key: str) -> dict:
     """``radius`` (m, in [0, 0.5]) and ``offset`` ([3] m) of a point contact."""
     out: dict = {}
     if "radius" in spec:
-        out["radius"] = number(spec["radius"], f"{key}.radius", ge=0, le=0.5, unit="m", error=E)
+        out["radius"] = number(spec["radius"], f"{key}.radius", ge=0, le=0.5, unit="m", error=RobotDefinitionError)
     if "offset" in spec:
-        out["offset"] = vector(spec["offset"], f"{key}.offset", 3, ge=-1, le=1, unit="m", error=E)
+        out["offset"] = vector(spec["offset"], f"{key}.offset", 3, ge=-1, le=1, unit="m", error=RobotDefinitionError)
     if out and spec.get("kind", "surface") != "point":
-        raise E("radius and offset are for a point contact (kind: point)", key=f"{key}.{next(iter(out))}")
+        raise RobotDefinitionError("radius and offset are for a point contact (kind: point)", key=f"{key}.{next(iter(out))}")
     return out
 
 
@@ -78,9 +72,10 @@ def add_frame(model: pin.Model, name: str, parent: str, placement: pin.SE3, key:
     if not model.existFrame(parent):
         from .schema import suggest
 
-        raise E(f"the URDF has no link or frame '{parent}'{suggest(parent, [f.name for f in model.frames])}", key=key)
+        raise RobotDefinitionError(f"the URDF has no link or frame '{parent}'{suggest(parent, [f.name for f in model.frames])}",
+                                   key=key)
     if model.existFrame(name):
-        raise E(f"the URDF already has a frame '{name}'; give the offset frame another alias", key=key)
+        raise RobotDefinitionError(f"the URDF already has a frame '{name}'; give the offset frame another alias", key=key)
     pf = model.frames[model.getFrameId(parent)]
     model.addFrame(pin.Frame(name, pf.parentJoint, model.getFrameId(parent), pf.placement * placement,
                              pin.FrameType.OP_FRAME))
@@ -109,7 +104,7 @@ def set_joint_value(model: pin.Model, q: np.ndarray, jid: int, value: float) -> 
     elif nq == 2:
         q[i], q[i + 1] = math.cos(value), math.sin(value)
     else:
-        raise E(f"joint '{model.names[jid]}' has {nq} coordinates; a joint value is for a revolute, prismatic "
+        raise RobotDefinitionError(f"joint '{model.names[jid]}' has {nq} coordinates; a joint value is for a revolute, prismatic "
                 "or continuous joint")
 
 

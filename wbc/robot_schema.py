@@ -46,60 +46,61 @@ LIMIT_KEYS = {"torque", "velocity", "root_torque", "root_velocity"}
 MAX_MU = 10.0
 #: smallest torque or velocity limit (N·m, N, rad/s, m/s): below, 1/limit overflows in the metrics
 MIN_LIMIT = 1e-6
-E = RobotDefinitionError
 
 
 def file_spec(value: Any, key: str) -> Any:
     """``urdf:``/``srdf:``: a path (text) or ``{package: NAME, path: RELATIVE}``."""
     if isinstance(value, dict):
-        mapping(value, key, allowed={"package", "path"}, required=("path",), error=E)
-        text(value["path"], f"{key}.path", what="a path", error=E)
+        mapping(value, key, allowed={"package", "path"}, required=("path",), error=RobotDefinitionError)
+        text(value["path"], f"{key}.path", what="a path", error=RobotDefinitionError)
         if "package" in value:
-            text(value["package"], f"{key}.package", what="an installed package's name", error=E)
+            text(value["package"], f"{key}.package", what="an installed package's name", error=RobotDefinitionError)
         return value
-    return text(value, key, what="a path or {package: <installed package>, path: <relative path>}", error=E)
+    return text(value, key, what="a path or {package: <installed package>, path: <relative path>}", error=RobotDefinitionError)
 
 
 def joint_values(value: Any, key: str, *, ge: float | None = None, allow_inf: bool = False,
                  unit: str = "") -> dict[str, float]:
     """A mapping joint name -> number (names checked later against the model)."""
-    spec = mapping(value, key, what="a mapping joint name -> number", error=E)
-    return {j: number(v, f"{key}.{j}", ge=ge, allow_inf=allow_inf, unit=unit, error=E) for j, v in spec.items()}
+    spec = mapping(value, key, what="a mapping joint name -> number", error=RobotDefinitionError)
+    return {j: number(v, f"{key}.{j}", ge=ge, allow_inf=allow_inf, unit=unit, error=RobotDefinitionError)
+            for j, v in spec.items()}
 
 
 def check_document(cfg: dict) -> dict:
     """The robot YAML's data checked (module docstring) and normalised: numbers as floats,
     vectors as arrays, defaults filled in. Raises :class:`RobotDefinitionError`."""
-    mapping(cfg, None, allowed=KEYS, required=("name", "urdf", "root"), error=E)
-    out: dict = {"name": text(cfg["name"], "name", what="a robot name", error=E),
+    mapping(cfg, None, allowed=KEYS, required=("name", "urdf", "root"), error=RobotDefinitionError)
+    out: dict = {"name": text(cfg["name"], "name", what="a robot name", error=RobotDefinitionError),
                  "urdf": file_spec(cfg["urdf"], "urdf"),
                  "srdf": file_spec(cfg["srdf"], "srdf") if "srdf" in cfg else None,
-                 "root": text(cfg["root"], "root", choices=ROOTS, error=E)}
+                 "root": text(cfg["root"], "root", choices=ROOTS, error=RobotDefinitionError)}
     for key, default in (("actuated_root", False), ("differential_drive", False), ("level_on_contacts", True)):
-        out[key] = boolean(cfg.get(key, default), key, error=E)
+        out[key] = boolean(cfg.get(key, default), key, error=RobotDefinitionError)
     if out["differential_drive"] and out["root"] != "planar":
-        raise E(f"a differential drive needs root: planar, got root: {out['root']}", key="differential_drive")
+        raise RobotDefinitionError(f"a differential drive needs root: planar, got root: {out['root']}", key="differential_drive")
     out["posture"] = _posture(cfg.get("default_posture"))
-    locked = sequence(cfg.get("locked_joints") or [], "locked_joints", what="a list of joint names", error=E)
+    locked = sequence(cfg.get("locked_joints") or [], "locked_joints", what="a list of joint names", error=RobotDefinitionError)
     for i, j in enumerate(locked):
-        text(j, f"locked_joints[{i}]", what="a joint name", error=E)
+        text(j, f"locked_joints[{i}]", what="a joint name", error=RobotDefinitionError)
         if j in locked[:i]:
-            raise E(f"joint '{j}' is listed twice", key=f"locked_joints[{i}]")
+            raise RobotDefinitionError(f"joint '{j}' is listed twice", key=f"locked_joints[{i}]")
     out["locked"] = list(locked)
     out["base_position"] = None
     if cfg.get("base_position") is not None:
         lengths = {"free_flyer": (2, 3), "planar": (2, 3), "fixed": ()}[out["root"]]
         if not lengths:
-            raise E("a fixed root has no base position", key="base_position")
+            raise RobotDefinitionError("a fixed root has no base position", key="base_position")
         out["base_position"] = vector(cfg["base_position"], "base_position", lengths, ge=-1e3, le=1e3, unit="m",
-                                      error=E)
-    frames = mapping(cfg.get("frames"), "frames", what="a mapping alias -> URDF frame name", error=E)
+                                      error=RobotDefinitionError)
+    frames = mapping(cfg.get("frames"), "frames", what="a mapping alias -> URDF frame name", error=RobotDefinitionError)
     out["frames"] = {a: frame_entry(f, f"frames.{a}") for a, f in frames.items()}
-    contacts = mapping(cfg.get("contacts"), "contacts", what="a mapping contact name -> {frame, kind, ...}", error=E)
+    contacts = mapping(cfg.get("contacts"), "contacts", what="a mapping contact name -> {frame, kind, ...}",
+                       error=RobotDefinitionError)
     out["contacts"] = {c: _contact(spec, f"contacts.{c}") for c, spec in contacts.items()}
     out["limits"] = _limits(cfg.get("limits"), N_ROOT[out["root"]])
-    gains = mapping(cfg.get("gains"), "gains", what="a mapping task kind -> default kp (1/s²)", error=E)
-    out["gains"] = {k: number(v, f"gains.{k}", ge=0, unit="1/s²", error=E) for k, v in gains.items()}
+    gains = mapping(cfg.get("gains"), "gains", what="a mapping task kind -> default kp (1/s²)", error=RobotDefinitionError)
+    out["gains"] = {k: number(v, f"gains.{k}", ge=0, unit="1/s²", error=RobotDefinitionError) for k, v in gains.items()}
     return out
 
 
@@ -108,35 +109,36 @@ def _posture(value: Any) -> tuple[str | None, dict[str, float], str]:
     if value is None:
         return None, {}, "default_posture"
     if isinstance(value, str):
-        return text(value, "default_posture", what="an SRDF configuration name", error=E), {}, "default_posture"
+        name = text(value, "default_posture", what="an SRDF configuration name", error=RobotDefinitionError)
+        return name, {}, "default_posture"
     spec = mapping(value, "default_posture", what="an SRDF configuration name or a mapping joint -> value",
-                   error=E)
+                   error=RobotDefinitionError)
     if "srdf" in spec:
-        mapping(spec, "default_posture", allowed={"srdf", "joints"}, error=E)
-        name = text(spec["srdf"], "default_posture.srdf", what="an SRDF configuration name", error=E)
+        mapping(spec, "default_posture", allowed={"srdf", "joints"}, error=RobotDefinitionError)
+        name = text(spec["srdf"], "default_posture.srdf", what="an SRDF configuration name", error=RobotDefinitionError)
         return name, joint_values(spec.get("joints"), "default_posture.joints", unit="rad or m"), "default_posture.srdf"
     return None, joint_values(spec, "default_posture", unit="rad or m"), "default_posture"
 
 
 def _contact(spec: Any, key: str) -> dict:
     spec = mapping(spec, key, allowed=CONTACT_KEYS, what="a contact mapping {frame, kind, half_length, half_width, mu}",
-                   error=E)
+                   error=RobotDefinitionError)
     out: dict = {}
     if "frame" in spec:
-        out["frame"] = text(spec["frame"], f"{key}.frame", what="a URDF frame name", error=E)
+        out["frame"] = text(spec["frame"], f"{key}.frame", what="a URDF frame name", error=RobotDefinitionError)
     if "kind" in spec:
-        out["kind"] = text(spec["kind"], f"{key}.kind", choices=("surface", "point"), error=E)
+        out["kind"] = text(spec["kind"], f"{key}.kind", choices=("surface", "point"), error=RobotDefinitionError)
     for k in ("half_length", "half_width"):
         if k in spec:
-            out[k] = number(spec[k], f"{key}.{k}", gt=0, le=1, unit="m", error=E)
+            out[k] = number(spec[k], f"{key}.{k}", gt=0, le=1, unit="m", error=RobotDefinitionError)
     if "mu" in spec:
-        out["mu"] = number(spec["mu"], f"{key}.mu", gt=0, le=MAX_MU, unit="unitless", error=E)
+        out["mu"] = number(spec["mu"], f"{key}.mu", gt=0, le=MAX_MU, unit="unitless", error=RobotDefinitionError)
     out.update(contact_extras(spec, key))
     return out
 
 
 def _limits(value: Any, n_root: int) -> dict:
-    spec = mapping(value, "limits", allowed=LIMIT_KEYS, error=E)
+    spec = mapping(value, "limits", allowed=LIMIT_KEYS, error=RobotDefinitionError)
     out: dict = {"torque": joint_values(spec.get("torque"), "limits.torque", ge=MIN_LIMIT, allow_inf=True,
                                         unit="N·m or N; .inf for none"),
                  "velocity": joint_values(spec.get("velocity"), "limits.velocity", ge=MIN_LIMIT, allow_inf=True,
@@ -144,15 +146,15 @@ def _limits(value: Any, n_root: int) -> dict:
     for key, unit in (("root_torque", "N and N·m"), ("root_velocity", "m/s and rad/s")):
         if key in spec:
             if n_root == 0:
-                raise E("a fixed root has no root limits", key=f"limits.{key}")
+                raise RobotDefinitionError("a fixed root has no root limits", key=f"limits.{key}")
             out[key] = vector(spec[key], f"limits.{key}", n_root, ge=MIN_LIMIT, allow_inf=True,
-                              unit=f"{unit}; .inf for none", error=E)
+                              unit=f"{unit}; .inf for none", error=RobotDefinitionError)
     return out
 
 
 def finite_configuration(q: np.ndarray, key: str) -> np.ndarray:
     """The default configuration must be finite (a check after leveling the soles)."""
     if not np.all(np.isfinite(q)):
-        raise E("the default configuration is not finite after leveling the contacts on the ground "
+        raise RobotDefinitionError("the default configuration is not finite after leveling the contacts on the ground "
                 "(set level_on_contacts: false, or check the contacts' frames)", key=key)
     return q

@@ -333,14 +333,16 @@ def _simulated_robot(robot, model_perturbation):
 
 def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
         progress: bool = False, callback=None, series: bool = False, simulator: str | None = None,
-        model_perturbation=None) -> dict:
+        model_perturbation=None, wrap_simulator=None) -> dict:
     """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
     (after the simulator's step). ``series``: also return the run's time series under
     ``"series"`` (:class:`Series`, JSON-ready). ``simulator``: the physics back-end
     (:data:`wbc.sim.backends.SIMULATORS`; default the scenario's ``simulator``).
     ``model_perturbation(model)``: changes (in place) a copy of the robot's pinocchio model
     that the simulator then simulates, the controller keeping the nominal one (model
-    error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`)."""
+    error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`).
+    ``wrap_simulator(sim)``: the object the loop drives in place of the simulator, one with
+    the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer)."""
     robot, stack = sc.robot, sc.stack
     opts = dict(sc.solver)
     solver_name = solver or opts.pop("type", "hqp")
@@ -352,6 +354,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     ctrl = Controller(robot, stack, solver=solver_name, dt=sc.dt, **opts)
     sim = make_simulator(simulator or sc.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
                          dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max, **sc.sensing)
+    if wrap_simulator is not None:
+        sim = wrap_simulator(sim)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
     duration = sc.duration if duration is None else duration

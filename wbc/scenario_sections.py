@@ -30,8 +30,8 @@ import numpy as np
 from .errors import ConfigError, SolverError, WbcError, placed
 from .schema import integer, mapping, number, sequence, text, vector
 from .sim.environment import Box, ground, incline
+from .solver_names import SOLVERS
 
-SOLVERS = ("hqp", "projection", "weighted")
 WEIGHTINGS = ("identity", "inertia")
 DT_RANGE = (1e-5, 0.05)
 MAX_SUBSTEPS = 100

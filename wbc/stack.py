@@ -18,23 +18,7 @@ from .problem.buffer import RowBuffer
 from .problem.rows import Layout, Level
 from .tasks.base import Task
 from .tasks.contact import Contact
-
-
-class TaskGroup:
-    """Operator sugar: ``(contacts + limits) / com / hands / posture`` builds a Stack."""
-
-    def __init__(self, tasks: Iterable[Task]) -> None:
-        self.tasks = list(tasks)
-
-    def __add__(self, other) -> TaskGroup:
-        if isinstance(other, Task):
-            return TaskGroup(self.tasks + [other])
-        if isinstance(other, TaskGroup):
-            return TaskGroup(self.tasks + other.tasks)
-        return NotImplemented
-
-    def __truediv__(self, other) -> Stack:
-        return Stack([self.tasks]) / other
+from .tasks.group import TaskGroup, builds
 
 
 def _as_level(obj) -> list[Task]:
@@ -52,8 +36,10 @@ def _as_level(obj) -> list[Task]:
     return tasks
 
 
+@builds
 class Stack:
-    """Ordered priority levels, each a list of tasks; tasks addressable by name."""
+    """Ordered priority levels, each a list of tasks; tasks addressable by name.
+    ``(a + b) / c`` builds one too (:mod:`wbc.tasks.group`)."""
 
     def __init__(self, levels: Iterable = ()) -> None:
         self.levels: list[list[Task]] = []

@@ -22,16 +22,11 @@ from typing import Protocol
 import numpy as np
 
 from ..checks import finite_vector
-from ..errors import TargetError, WbcError
+from ..errors import ControllerDefinitionError, TargetError
 
 Vector = np.ndarray
 Matrix = np.ndarray
 Sample = tuple[np.ndarray, np.ndarray, np.ndarray]
-
-
-class ControllerDefinitionError(WbcError):
-    """A controller built with wrong parameters: a gain that is not positive
-    (semi)definite, of the wrong size, or not finite; an unknown option."""
 
 
 class MotionController(Protocol):

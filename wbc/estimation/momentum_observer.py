@@ -60,13 +60,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import TargetError, WbcError
+from ..errors import ObserverError, TargetError
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-
-class ObserverError(WbcError):
-    """A momentum observer used wrongly: a bad gain, an update before reset, time not increasing."""
 
 
 class MomentumObserver:

@@ -33,7 +33,7 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg
 
-from ..errors import WbcError
+from ..errors import ElasticSimulationError
 
 #: Default joint stiffness (N·m/rad) and reflected motor inertia (kg·m²) for the Panda:
 #: the order of magnitude of lightweight torque-controlled arms (harmonic drives,
@@ -42,10 +42,6 @@ PANDA_STIFFNESS = np.array([5000.0] * 4 + [2000.0] * 3)
 PANDA_MOTOR_INERTIA = np.array([0.4] * 4 + [0.1] * 3)
 
 MAX_H_OMEGA = 0.2
-
-
-class ElasticSimulationError(WbcError):
-    """Bad elastic-joint parameters (sizes, signs) or a step too long for the stiffness."""
 
 
 @dataclass(frozen=True)

@@ -71,7 +71,7 @@ def _one_blas_thread() -> None:
     global _blas_set
     if not _blas_set:
         try:
-            from ..bench import set_blas_threads
+            from ..blas import set_blas_threads
 
             set_blas_threads(1)
         except Exception:        # no OpenBLAS found: nothing to set

@@ -21,6 +21,7 @@ from ..checks import finite_vector
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows
 from ..schema import found, is_number, number, show, vector
+from .group import TaskGroup
 
 if TYPE_CHECKING:
     from ..model import RobotModel
@@ -93,15 +94,20 @@ class Task(ABC):
         """Constructor arguments, for YAML round trips and ``wbc tasks``."""
         return {"name": self.name, "weight": self.weight}
 
-    # Sugar: (a + b) groups tasks in one level, a / b stacks levels.
+    # Sugar (wbc/tasks/group.py): (a + b) groups tasks in one level, a / b stacks levels.
     def __add__(self, other):
-        from ..stack import TaskGroup
+        if isinstance(other, Task):
+            return TaskGroup([self, other])
+        if isinstance(other, TaskGroup):
+            return TaskGroup([self, *other.tasks])
+        return NotImplemented
 
-        return TaskGroup([self]) + other
+    def __radd__(self, other):
+        if isinstance(other, TaskGroup):
+            return TaskGroup([*other.tasks, self])
+        return NotImplemented
 
     def __truediv__(self, other):
-        from ..stack import TaskGroup
-
         return TaskGroup([self]) / other
 
     def __repr__(self) -> str:

@@ -1,0 +1,234 @@
+"""Timing one case: a controller driven along the bench trajectory, cycle times and phases.
+
+A case is a robot, a stack, a solver and a QP back-end. :func:`run_case` runs
+``warmup`` + ``cycles`` control cycles along :mod:`.trajectory` from the robot's default
+posture at rest and reports the median, p99 and max time of ``Controller.solve`` (ms),
+and the split by phase: model update (``robot.update``), task rows (``stack.layout`` +
+``stack.assemble``), solve (the solver's methods) and torques (``Controller._finish``),
+measured in a second pass by :class:`PhaseTimer`. :func:`main_cases` runs Talos's and
+TIAGo's stacks with every solver and back-end.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections import Counter
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.controller import Controller
+from wbc.model import RobotModel
+from wbc.solver_names import SOLVERS as ALL_SOLVERS
+from wbc.stack import Stack
+
+from .stacks import talos_stack, tiago_stack
+from .trajectory import DT, moving_targets
+
+#: the phases of one cycle, in order (see :class:`PhaseTimer`)
+PHASES = ("update", "rows", "solve", "finish")
+#: the solvers of the cases, in the order they are run and reported: the projection
+#: (which needs no QP back-end) first
+SOLVERS = ("projection", *(s for s in ALL_SOLVERS if s != "projection"))
+
+
+# ----------------------------------------------------------- phase timing
+class PhaseTimer:
+    """Times the controller's phases by wrapping its own methods (instance attributes that
+    shadow the class methods; removed by :meth:`restore`). Nested calls (a solver calling
+    itself) count once."""
+
+    def __init__(self) -> None:
+        self.acc = dict.fromkeys(PHASES, 0.0)
+        self._depth = 0
+        self._wrapped: list[tuple[object, str]] = []
+
+    def _wrap(self, obj, attr: str, phase: str) -> None:
+        fn = getattr(obj, attr)
+        clock = time.perf_counter
+        acc = self.acc
+
+        def timed(*args, **kwargs):
+            if self._depth:
+                return fn(*args, **kwargs)
+            self._depth += 1
+            t0 = clock()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                acc[phase] += clock() - t0
+                self._depth -= 1
+
+        setattr(obj, attr, timed)
+        self._wrapped.append((obj, attr))
+
+    def instrument(self, ctrl: Controller) -> None:
+        self._wrap(ctrl.robot, "update", "update")
+        self._wrap(ctrl.stack, "layout", "rows")
+        self._wrap(ctrl.stack, "assemble", "rows")
+        for attr in ("solve_levels", "solve_accelerations", "distribute_forces"):
+            if hasattr(ctrl.solver, attr):
+                self._wrap(ctrl.solver, attr, "solve")
+        self._wrap(ctrl, "_finish", "finish")
+
+    def reset(self) -> None:
+        for k in self.acc:
+            self.acc[k] = 0.0
+
+    def restore(self) -> None:
+        for obj, attr in reversed(self._wrapped):
+            if attr in vars(obj):
+                delattr(obj, attr)
+        self._wrapped.clear()
+
+
+# -------------------------------------------------------------- one case
+def stats(total: np.ndarray) -> dict:
+    ms = total * 1e3
+    return {"median_ms": float(np.median(ms)), "p99_ms": float(np.percentile(ms, 99)),
+            "max_ms": float(ms.max()), "mean_ms": float(ms.mean())}
+
+
+def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, backend: str | None,
+             cycles: int, warmup: int, circles: tuple[str, ...] = ("right_hand", "left_hand"),
+             phases: bool = True, label: str | None = None, budget_s: float | None = None) -> dict:
+    """``warmup`` + ``cycles`` control cycles along the moving trajectory from the robot's
+    default posture at rest; timing of the last ``cycles``. Only ``ctrl.solve`` is timed
+    (setting the targets and integrating the state are not).
+
+    Two passes over the same trajectory: the cycle times (median, p99, max) come from a
+    pass with nothing but the controller; with ``phases``, a second pass wraps the
+    phases with timers and reads ``sol.diagnostics`` after each cycle (timed apart). The
+    timers cost a few µs per cycle, and working out the diagnostics between cycles
+    leaves the next one with cold caches, so neither is in the first pass.
+
+    ``budget_s``: wall-time budget of each pass; when it is used up the pass stops after
+    the current cycle and the case is marked ``truncated`` (statistics over the cycles
+    done), or reported as an error if not a single timed cycle was done."""
+    first = _timed_pass(robot, make_stack, solver, backend, cycles, warmup, circles, False, budget_s)
+    out = {"robot": label or robot.name, "solver": solver, "backend": backend if solver != "projection" else None,
+           "levels": first["levels"], "nv": robot.nv, "nx": first["nx"], "cycles": first["done"], "warmup": warmup,
+           "warmup_max_ms": float(first["warm"].max() * 1e3) if warmup else 0.0,
+           "warmup_s": float(first["warm"].sum())}
+    done = first["done"]
+    if done < cycles:
+        out["truncated"] = f"wall-time budget of {budget_s:g} s used up after {done} of {cycles} timed cycles"
+        if done == 0:
+            warm = first["warm"]
+            out["error"] = (f"budget of {budget_s:g} s used up during the warm-up ({int(np.count_nonzero(warm))} "
+                            f"of {warmup} cycles, slowest {warm.max() * 1e3:.0f} ms)")
+            return out
+    out.update(stats(first["total"][:done]))
+    if phases:
+        second = _timed_pass(robot, make_stack, solver, backend, cycles, warmup, circles, True, budget_s)
+        n = second["done"]
+        total = second["total"][:n]
+        per_phase = {p: a[:n] for p, a in second["phases"].items()}
+        # reading sol.diagnostics (per-level residuals, active sets, σ_min of J̄_k) costs this
+        # on top of the cycle; the controller computes them only when they are read
+        out["diagnostics_ms"] = float(np.median(second["diag"][:n]) * 1e3)
+        med = {p: float(np.median(per_phase[p]) * 1e3) for p in PHASES}
+        mean = {p: float(per_phase[p].mean() * 1e3) for p in PHASES}
+        other = total - sum(per_phase[p] for p in PHASES)
+        med["other"] = float(np.median(other) * 1e3)
+        mean["other"] = float(other.mean() * 1e3)
+        out["phases"] = med
+        out["phases_mean"] = mean
+        # fraction of the instrumented pass's mean cycle that the four timed phases account for
+        out["phase_coverage"] = float(sum(mean[p] for p in PHASES) / (total.mean() * 1e3))
+        out["instrumented_median_ms"] = float(np.median(total) * 1e3)
+        out["instrumented_mean_ms"] = float(total.mean() * 1e3)
+    out["qp_per_cycle"] = first["qp_count"] / done
+    out["statuses"] = dict(first["statuses"])
+    if first["warns"]:
+        out["warnings"] = dict(first["warns"].most_common(5))
+    out["final_state_finite"] = first["finite"]
+    return out
+
+
+def _timed_pass(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, backend: str | None,
+                cycles: int, warmup: int, circles: tuple[str, ...], instrumented: bool,
+                budget_s: float | None) -> dict:
+    """One pass of :func:`run_case` from the default posture at rest."""
+    stack = make_stack()
+    ctrl = Controller(robot, stack, solver=solver, backend=backend or "daqp")
+    q, v = robot.q_default.copy(), np.zeros(robot.nv)
+    robot.update(q, v)
+    set_targets = moving_targets(robot, stack, circles)
+    timer = PhaseTimer()
+    if instrumented:
+        timer.instrument(ctrl)
+    total = np.empty(cycles)
+    diag = np.empty(cycles)
+    per_phase = {p: np.empty(cycles) for p in PHASES}
+    statuses: Counter = Counter()
+    warns: Counter = Counter()
+    qp_count = 0
+    model, clock = robot.model, time.perf_counter
+    warm = np.zeros(warmup)
+    done = 0
+    t_case = clock()
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for k in range(warmup + cycles):
+                set_targets(k * DT)
+                timer.reset()
+                t0 = clock()
+                sol = ctrl.solve(q, v)
+                t1 = clock()
+                if instrumented:
+                    _ = sol.diagnostics              # worked out on demand: timed apart
+                t2 = clock()
+                if k >= warmup:
+                    i = k - warmup
+                    total[i] = t1 - t0
+                    diag[i] = t2 - t1
+                    for p in PHASES:
+                        per_phase[p][i] = timer.acc[p]
+                    statuses[sol.status] += 1
+                    qp_count += sol.qp_count
+                    done = i + 1
+                else:
+                    warm[k] = t1 - t0
+                if caught:
+                    for w in caught:
+                        warns[f"{w.category.__name__}: {str(w.message)[:90]}"] += 1
+                    caught.clear()
+                v = v + sol.qdd * DT
+                q = pin.integrate(model, q, v * DT)
+                if budget_s is not None and clock() - t_case > budget_s and k + 1 < warmup + cycles:
+                    break
+    finally:
+        timer.restore()
+    return {"total": total, "diag": diag, "phases": per_phase, "statuses": statuses, "warns": warns,
+            "qp_count": qp_count, "warm": warm, "done": done, "levels": len(stack), "nx": ctrl.layout.nx,
+            "finite": bool(np.all(np.isfinite(q)) and np.all(np.isfinite(v)))}
+
+
+def main_cases(robots: dict[str, RobotModel], backends: list[str], cycles: int, warmup: int,
+               on_case: Callable[[dict], None] | None = None, budget_s: float | None = None) -> list[dict]:
+    """The cases of the bench: Talos's full stack (:func:`.stacks.talos_stack`, both hands on
+    circles) and TIAGo's (its hand on a circle), each with every solver of :data:`SOLVERS`
+    and, for the QP solvers, every one of ``backends``; ``on_case(case)`` after each. A
+    case that raises is reported with its ``error``, not fatal."""
+    specs = []
+    for name, make_stack, circles in (("talos", talos_stack, ("right_hand", "left_hand")),
+                                      ("tiago", tiago_stack, ("hand",))):
+        if name not in robots:
+            continue
+        for solver in SOLVERS:
+            for backend in ([None] if solver == "projection" else backends):
+                specs.append((name, make_stack, circles, solver, backend))
+    cases = []
+    for name, make_stack, circles, solver, backend in specs:
+        try:
+            case = run_case(robots[name], make_stack, solver, backend, cycles, warmup, circles, budget_s=budget_s)
+        except Exception as exc:  # a back-end that cannot run is reported, not fatal
+            case = {"robot": name, "solver": solver, "backend": backend, "error": f"{type(exc).__name__}: {exc}"}
+        cases.append(case)
+        if on_case:
+            on_case(case)
+    return cases
