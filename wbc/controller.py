@@ -42,7 +42,8 @@ from .problem.problem import Problem
 from .problem.result import SolveResult
 from .problem.rows import Layout, Level
 from .solution import LevelDiagnostics, Solution
-from .solvers import SOLVER_CLASSES, SOLVERS
+from .solver_names import SOLVERS
+from .solvers import SOLVER_CLASSES
 from .solvers.cascade import Damping
 from .stack import Stack
 from .tasks.contact_regularization import ContactRegularization, reference_point

@@ -4,10 +4,12 @@
 bench's cases all take one of :data:`SOLVERS`: ``hqp`` (strict hierarchical QP,
 :class:`wbc.solvers.hqp.HierarchicalQP`), ``projection`` (recursive null-space projection,
 :class:`wbc.solvers.projection.RecursiveProjection`) and ``weighted`` (level 0 hard, the
-rest one weighted QP, :class:`wbc.solvers.hqp.WeightedQP`).
+rest one weighted QP, :class:`wbc.solvers.weighted.WeightedQP`). The list is the solver
+registry's (:data:`wbc.solvers.SOLVER_CLASSES`): a solver registered there is a name here.
 """
 
 from __future__ import annotations
 
-#: every solver name (``hqp``, the default of a scenario and of ``Controller``, first)
-SOLVERS: tuple[str, ...] = ("hqp", "projection", "weighted")
+from .solvers import SOLVERS
+
+__all__ = ["SOLVERS"]

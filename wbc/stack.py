@@ -1,8 +1,8 @@
 """Stack: the task hierarchy, ordered levels of weighted tasks (index 0 = highest).
 
 Per cycle the stack turns its tasks into plain data for the solvers: a
-:class:`~wbc.rows.Layout` (where each contact's force lives in x) and one
-:class:`~wbc.rows.Level` per priority, with the rows of its tasks stacked and
+:class:`~wbc.problem.rows.Layout` (where each contact's force lives in x) and one
+:class:`~wbc.problem.rows.Level` per priority, with the rows of its tasks stacked and
 each task's equality rows scaled by √weight, so a level minimises
 Σ_i w_i ‖A_i x − b_i‖².
 """

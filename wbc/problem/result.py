@@ -70,6 +70,3 @@ class SolveResult:
     dynamics_gap: float = 0.0
     dynamics_scale: float = 0.0
 
-
-#: the name the solvers used before the boundary types moved here
-CascadeResult = SolveResult

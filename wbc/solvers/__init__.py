@@ -7,7 +7,7 @@ from .projection import RecursiveProjection
 from .weighted import WeightedQP
 
 #: solver name -> class (``Controller(solver=NAME)``, a scenario's ``solver.type``)
-SOLVER_CLASSES = {"hqp": HierarchicalQP, "projection": RecursiveProjection, "weighted": WeightedQP}
+SOLVER_CLASSES = {cls.name: cls for cls in (HierarchicalQP, RecursiveProjection, WeightedQP)}
 SOLVERS = tuple(SOLVER_CLASSES)
 
 __all__ = ["SOLVERS", "SOLVER_CLASSES", "HierarchicalQP", "RecursiveProjection", "WeightedQP"]
