@@ -449,9 +449,9 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
             notice.stop()
             t_wall, k_wall = time.perf_counter(), 1
-        if sol.status == "failed":
+        if sol.fault in ("solve_failures", "solver_errors"):     # (a held state fault is in "faults")
             failures += 1
-        elif sol.status == "stopped":
+        if sol.status == "stopped":
             stopped = {"time": t, "by": "controller", "reason": sol.message}
             break
         relaxed_cycles += sol.relaxed
@@ -533,7 +533,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
                                  **contact_metrics.summary(c.name)}
                      for c in contacts if c.name not in switched},
         "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)), "max": float(ct.max())},
-        "solver_failures": failures,
+        "solver_failures": failures,            # cycles whose solve failed or raised (held)
         "faults": ctrl.fault_counts(),
         "stopped": stopped,
         # cycles with a relaxed level (an inequality that could not hold), cycles whose

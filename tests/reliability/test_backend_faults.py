@@ -135,3 +135,27 @@ def test_consecutive_faults_are_held_a_bounded_number_of_cycles_then_stop(panda)
     assert counts["solver_errors"] == 21 and counts["held_cycles"] == 20 and counts["stops"] == 1
     ctrl.faults.reset()
     assert ctrl.solve(panda.q_default, np.zeros(panda.nv)).status != "stopped"
+
+
+@pytest.mark.parametrize("mode", ["nan", "garbage"])
+def test_garbage_is_refused_on_every_qp_path(panda, mode):
+    """Without the KKT certificates every QP (the nearest feasible point of a level's
+    inequalities too) goes to the back-end: each garbage answer is still refused, counted,
+    and the cascade's answer meets level 0's rows."""
+    from wbc.solvers.hqp import HierarchicalQP
+    from wbc.solvers.level_kernel import max_violation
+
+    ctrl = wbc.Controller(panda, _stack())
+    checked = 0
+    for q, v in _states(panda, 12, seed=4):
+        ctrl.solve(q, v)
+        levels, nx = ctrl.levels, ctrl.layout.nx
+        be = FaultyBackend(mode)
+        solver = HierarchicalQP(backend=be, certify=False)
+        res = solver.solve_levels(levels, nx)
+        assert np.all(np.isfinite(res.x)) and solver.backend_failures == be.calls
+        C, lo, hi = levels[0].inequalities(nx)
+        if be.calls and not res.levels[0].relaxed:
+            checked += 1
+            assert max_violation(C, lo, hi, res.x) <= 1e-6
+    assert checked >= 3
