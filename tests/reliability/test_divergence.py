@@ -85,3 +85,26 @@ def test_diverged_names_the_cause():
     assert "not finite" in diverged(q, v)
     q[0], v[3] = 1e9, 0.0
     assert "coordinate" in diverged(q, v)
+
+
+def test_a_sweep_case_whose_simulation_diverged_does_not_survive(tmp_path):
+    """A sweep's worker records a run stopped early as ``fell`` (it ran, with metrics, and
+    never survives), not ``ok``."""
+    import yaml
+
+    from wbc.sweep.cases import static_cases
+    from wbc.sweep.criteria import survived
+    from wbc.sweep.spec import load_spec
+    from wbc.sweep.worker import execute
+
+    panda_scenario(tmp_path, duration=0.15, pushes=[{"frame": "hand", "force": [1.0, 0.0, 0.0],
+                                                      "start": 0.05, "duration": 0.1}])
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"base": str(tmp_path / "panda_arm.yaml"),
+                                    "axes": {"pushes[0].force@magnitude": [1.0, 1e5]}}))
+    sp = load_spec(spec)
+    rows = [execute(c.payload()) for c in static_cases(sp)]
+    gentle, huge = sorted(rows, key=lambda r: r["metrics"]["duration"], reverse=True)
+    assert gentle["status"] == "ok" and survived(gentle | gentle["metrics"], sp.survive)
+    assert huge["status"] == "fell" and huge["metrics"]["stopped.by"] == "simulator"
+    assert not survived(huge | huge["metrics"], sp.survive)
