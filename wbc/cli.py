@@ -33,6 +33,14 @@ def _cmd_run(args) -> int:
     from .scenario import load_config
 
     sc = load_config(args.file)
+    if args.duration is not None:           # the scenario's own `duration:` rule, keyed by the option
+        from .errors import ConfigError
+        from .scenario_sections import duration_value
+
+        try:
+            duration_value(args.duration, sc.dt)
+        except ConfigError as exc:
+            raise ConfigError(exc.message, key="--duration") from None
     callback, scene = None, None
     if not args.headless or args.record:
         from .viz import Scene, viewer_callback
@@ -72,7 +80,11 @@ def _cmd_run(args) -> int:
     if metrics.get("saturated_cycles"):
         print(f"wbc: torques saturated at the actuator limits in {metrics['saturated_cycles']} control cycles "
               f"(the solver asked up to {metrics['tau_ratio_requested_max']:.2f} × τ_max)", file=sys.stderr)
-    return 1 if metrics["fell"] or metrics["solver_failures"] else 0
+    stopped = metrics.get("stopped")
+    if stopped:
+        print(f"wbc: run stopped at t = {stopped['time']:.3f} s by the {stopped['by']}: {stopped['reason']} "
+              f"(metrics of the cycles before)", file=sys.stderr)
+    return 1 if metrics["fell"] or metrics["solver_failures"] or stopped else 0
 
 
 def _cmd_plot(args) -> int:

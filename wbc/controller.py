@@ -23,8 +23,11 @@ Three guarantees, whatever the solver and the state:
   solver, which does not enforce torque limits, a stack without TorqueLimits) is clipped,
   the cycle's status is ``"saturated"`` and the diagnostics name the joints.
 - **No NaN.** A non-finite or failed solve is reported in ``Solution.status`` and the
-  torque falls back to the last good one (or gravity compensation on the first cycle),
-  saturated too; q̈ is then 0 and the forces are the last good ones.
+  torque falls back to the last good one (or gravity compensation on the first cycle)
+  with joint damping, saturated too; q̈ is then 0 and the forces are the last good ones.
+  So do a non-finite or stale measured state, a solver that raised and a solve over its
+  time budget, each counted, and after a bounded number of such cycles in a row the
+  controller stops (``"stopped"``): the fault policy of :mod:`wbc.faults`.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import SolverError
+from .faults import FaultMonitor, FaultPolicy, hold_torque
 from .model import RobotModel
 from .problem.buffer import row_values, split_values
 from .problem.problem import Problem
@@ -44,6 +48,7 @@ from .problem.rows import Layout, Level
 from .solution import LevelDiagnostics, Solution
 from .solver_names import SOLVERS
 from .solvers import SOLVER_CLASSES
+from .solvers.backends import Backend
 from .solvers.cascade import Damping
 from .stack import Stack
 from .tasks.contact_regularization import ContactRegularization, reference_point
@@ -58,7 +63,8 @@ class Controller:
     ``solver``: ``"hqp"`` (strict, inequalities at any level), ``"projection"``
     (analytic recursive null-space projection, q̈ only, SNS joint limits) or
     ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
-    back-end (``"proxqp"``, ``"daqp"`` or any qpsolvers name). ``weighting``:
+    back-end (``"proxqp"``, ``"daqp"``, any qpsolvers name, or a
+    :class:`~wbc.solvers.backends.Backend` instance). ``weighting``:
     generalised-inverse weight W of the projection solver (``"identity"``, or
     ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
     joints such as grippers are the cheapest to accelerate and saturate first).
@@ -75,13 +81,17 @@ class Controller:
     lowest level of a stack with contacts that has none (module docstring); a
     ContactRegularization instance is added instead (its weights); False adds nothing
     (the internal forces are then left to the reference x₀).
+    ``faults``: the run-time fault policy (:class:`~wbc.faults.FaultPolicy`: hold cycles,
+    damping, stale-state detection); ``solve_timeout`` (s): its per-cycle budget of the
+    solve's wall time, None for none (shorthand for ``FaultPolicy.solve_timeout``).
     """
 
-    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str = "daqp",
+    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
                  weighting: str = "identity", damping: Damping | None = None,
                  sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
                  warm_start: bool = True, sacrifice_rel: float = 1e-3,
-                 contact_regularization: bool | ContactRegularization = True) -> None:
+                 contact_regularization: bool | ContactRegularization = True,
+                 faults: FaultPolicy | None = None, solve_timeout: float | None = None) -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
@@ -94,6 +104,10 @@ class Controller:
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
+        policy = faults or FaultPolicy()
+        if solve_timeout is not None:
+            policy = FaultPolicy(policy.max_hold_cycles, policy.damping, policy.detect_stale, solve_timeout)
+        self.faults = FaultMonitor(policy)
         self.warm_start = bool(warm_start)
         if isinstance(contact_regularization, ContactRegularization):
             self.regularization: ContactRegularization | None = contact_regularization
@@ -218,7 +232,20 @@ class Controller:
         return x
 
     def solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
-        """One control cycle at state (q, v); see the module docstring."""
+        """One control cycle at state (q, v) under the fault policy (:mod:`wbc.faults`); see
+        the module docstring. ``Solution.fault`` names a faulty cycle's counter."""
+        sol = self.faults.cycle(q, v, self._solve, self._hold)
+        if not sol.fault:           # accepted: what a later faulty cycle holds
+            self._last_tau, self._last_forces = sol.tau_full.copy(), sol.forces
+        return sol
+
+    def fault_counts(self) -> dict[str, int]:
+        """The fault policy's counters (:data:`wbc.faults.COUNTERS`) and
+        ``qp_backend_failures``: QP answers the solver rejected or its back-end failed on,
+        each rescued by its fallback back-end (not a faulty cycle by itself)."""
+        return {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
+
+    def _solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
         robot = self.robot
         q, v = robot.check_state(q, v)
         if self._ramps:
@@ -264,16 +291,14 @@ class Controller:
         if not finite:
             status, message = "failed", "non-finite solution"
         if status == "failed":
-            tau_full = self._fallback_torque()
+            tau_full = self._fallback_torque(robot.v)
             ratio, n_sat = _saturate(tau_full, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
             qdd = np.zeros(nv)
             forces = {name: self._last_forces.get(name, np.zeros(sl.stop - sl.start)).copy()
                       for name, sl in layout.contact_slices.items()}
             x = np.concatenate([qdd] + [forces[name] for name in layout.contact_slices])
         else:
-            self._last_tau = tau_full.copy()
             forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
-            self._last_forces = forces
         saturated = n_sat > 0
         if saturated:
             lim = robot.tau_max[robot.actuated_idx]
@@ -291,13 +316,28 @@ class Controller:
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
                         relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit)
 
-    def _fallback_torque(self) -> np.ndarray:
-        if self._last_tau is not None:
-            return self._last_tau.copy()
+    def _fallback_torque(self, v: np.ndarray) -> np.ndarray:
+        """The hold torque of :mod:`wbc.faults` (before saturation): the last accepted τ, or
+        g(q) at the model's last state before the first, with the joint damping on v."""
         robot = self.robot
-        tau = pin.computeGeneralizedGravity(robot.model, robot.data, robot.q).copy()
-        tau[robot.unactuated_idx] = 0.0
-        return tau
+        good = self._last_tau
+        if good is None:
+            good = pin.computeGeneralizedGravity(robot.model, robot.data, robot.q).copy()
+        return hold_torque(good, robot.M, np.asarray(v, dtype=float).reshape(-1), robot.actuated_idx,
+                           self.faults.policy.damping)
+
+    def _hold(self, v: np.ndarray, message: str) -> Solution:
+        """A faulty cycle that was not solved (:mod:`wbc.faults`): the hold torque, saturated,
+        q̈ = 0, the last accepted forces, no diagnostics."""
+        robot = self.robot
+        v = np.asarray(v, dtype=float).reshape(-1)
+        tau = self._fallback_torque(v if v.shape == (robot.nv,) else np.zeros(robot.nv))
+        ratio, n_sat = _saturate(tau, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+        forces = {name: f.copy() for name, f in self._last_forces.items()}
+        x = np.concatenate([np.zeros(robot.nv)] + list(forces.values()))
+        return Solution(qdd=np.zeros(robot.nv), tau=tau[robot.actuated_idx], tau_full=tau, forces=forces, x=x,
+                        status="failed", message=message, residuals=[], task_residuals={}, diagnostics=[],
+                        saturated=n_sat > 0, tau_ratio=ratio)
 
 
 _NO_FORCES = np.zeros((0, 0))
@@ -388,7 +428,7 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
             unenforced = float(np.linalg.norm(viol[:n_gen]))
             viol[:n_gen] = 0.0
         residuals.append(float(np.sqrt(e @ e + viol @ viol)))
-        sacrificed, active = [], {}
+        sacrificed, active, violations = [], {}, {}
         for t in tasks:
             r2 = 0.0
             tol = sacrifice_tol
@@ -405,6 +445,7 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
                 n_act = int(np.count_nonzero(act[isl]))
                 if n_act:
                     active[t.name] = n_act
+                _violated_rows(violations, t.name, vs, np.arange(len(vs)), sacrifice_tol)
             r = r2**0.5
             task_res[t.name] = r
             if r > tol and not t.regularizer:
@@ -413,6 +454,7 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
             n_act = int(np.count_nonzero(act[n_gen:]))
             if n_act:
                 active["joint_limits"] = n_act
+            _violated_rows(violations, "joint_limits", viol[n_gen:], lvl.box[0], sacrifice_tol)
         sat = list(saturated_torques) if len(diags) == sat_level else []
         if sat:
             active["torque_saturation"] = len(sat)
@@ -421,5 +463,14 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
             sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
-            unenforced_violation=unenforced, qp_status=info.qp_status, saturated_torques=sat))
+            unenforced_violation=unenforced, qp_status=info.qp_status, saturated_torques=sat,
+            violations=violations))
     return residuals, task_res, diags
+
+
+def _violated_rows(out: dict, name: str, viol: np.ndarray, rows: np.ndarray, tol: float, keep: int = 8) -> None:
+    """``out[name]`` = [(row, violation)] of the rows violated beyond ``tol``, worst first."""
+    bad = np.flatnonzero((viol > tol) & np.isfinite(viol))      # a failed cycle's rows are inf
+    if len(bad):
+        bad = bad[np.argsort(-viol[bad], kind="stable")][:keep]
+        out[name] = [(int(rows[i]), float(viol[i])) for i in bad]

@@ -12,6 +12,13 @@ clipping); per sole contact ``cop_edge_min`` (m), ``cop_inside_1cm`` and
 ``normal_force_min`` (N), and for two contacts ``internal_force`` (N), all from the
 simulator's contact forces (:class:`ContactMetrics`).
 
+Faults (:mod:`wbc.faults`, ``docs/faults.md``): ``faults`` holds the controller's fault
+counters (a non-finite or stale measurement, a solver that raised, failed or overran, the
+cycles held, the stops); a run the controller stopped, or whose simulated state diverged
+(:func:`wbc.faults.diverged`, or a numerical failure the simulator reported), ends there
+with ``stopped`` = {``time`` (s), ``by`` ("controller" or "simulator"), ``reason``} and the
+metrics of the cycles before (``stopped`` is None otherwise).
+
 ``run(..., series=True)`` also records time series (task errors, per-level residual,
 rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
 support margin) into preallocated arrays and returns them under ``metrics["series"]``
@@ -30,7 +37,9 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .compile_notice import CompileNotice
 from .controller import Controller
+from .faults import FaultPolicy, diverged, simulation_diverged
 from .scenario import Scenario
+from .scenario_sections import duration_value
 from .sim.backends import make_simulator
 from .tasks.contact import Contact
 from .tasks.frame import to_se3
@@ -333,7 +342,7 @@ def _simulated_robot(robot, model_perturbation):
 
 def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
         progress: bool = False, callback=None, series: bool = False, simulator: str | None = None,
-        model_perturbation=None, wrap_simulator=None) -> dict:
+        model_perturbation=None, faults: FaultPolicy | None = None, wrap_simulator=None) -> dict:
     """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
     (after the simulator's step). ``series``: also return the run's time series under
     ``"series"`` (:class:`Series`, JSON-ready). ``simulator``: the physics back-end
@@ -341,6 +350,9 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     ``model_perturbation(model)``: changes (in place) a copy of the robot's pinocchio model
     that the simulator then simulates, the controller keeping the nominal one (model
     error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`).
+    ``duration`` (s): at least one control period (a :class:`~wbc.errors.ConfigError`
+    otherwise). ``faults``: the controller's fault policy (default: ``FaultPolicy`` with
+    stale-state detection on, the simulator's state always moving).
     ``wrap_simulator(sim)``: the object the loop drives in place of the simulator, one with
     the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer)."""
     robot, stack = sc.robot, sc.stack
@@ -351,14 +363,15 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         opts["backend"] = backend
     notice = CompileNotice(enabled=progress)   # a first run compiles the kernels: say so
     notice.start()
-    ctrl = Controller(robot, stack, solver=solver_name, dt=sc.dt, **opts)
+    ctrl = Controller(robot, stack, solver=solver_name, dt=sc.dt, faults=faults or FaultPolicy(detect_stale=True),
+                      **opts)
     sim = make_simulator(simulator or sc.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
                          dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max, **sc.sensing)
     if wrap_simulator is not None:
         sim = wrap_simulator(sim)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
-    duration = sc.duration if duration is None else duration
+    duration = sc.duration if duration is None else duration_value(duration, sc.dt)
     n = round(duration / sc.dt)
 
     # start values of referenced tasks (the controller's model at the initial state)
@@ -393,7 +406,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     slip = {c.name: 0.0 for c in contacts}
     lifted = {c.name: False for c in contacts}
     cycle, margins, lateral = [], [], 0.0
-    failures, fell = 0, False
+    failures, fell, stopped = 0, False, None
+    sim_failures = getattr(sim, "solver_failures", 0)
     mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
     qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
     vi = np.array([m.joints[j].idx_v for j in range(1, m.njoints) if m.joints[j].nq == 1])
@@ -439,8 +453,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
             notice.stop()
             t_wall, k_wall = time.perf_counter(), 1
-        if sol.status == "failed":
+        if sol.fault in ("solve_failures", "solver_errors"):     # (a held state fault is in "faults")
             failures += 1
+        if sol.status == "stopped":
+            stopped = {"time": t, "by": "controller", "reason": sol.message}
+            break
         relaxed_cycles += sol.relaxed
         saturated_cycles += sol.saturated
         tau_ratio_asked = max(tau_ratio_asked, sol.tau_ratio)
@@ -452,6 +469,10 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].append(errs[name][-1])
         sim.step(sol.tau_full)
+        why = simulation_diverged(sim, sim_failures)
+        if why:
+            stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}
+            break
         if callback is not None:
             callback(t, sim, sol)
         # ---- metrics on the true (simulated) state
@@ -506,16 +527,19 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     if progress:
         sys.stderr.write("\n")
     ct = np.array(cycle)
+    backend_used = opts.get("backend", "daqp")        # a name, or a Backend instance
     out = {
         "scenario": sc.name, "robot": robot.name, "solver": solver_name, "simulator": simulator or sc.simulator,
-        "backend": opts.get("backend", "daqp"), "duration": float(len(ct) * sc.dt), "fell": fell,
+        "backend": getattr(backend_used, "name", backend_used), "duration": float(len(ct) * sc.dt), "fell": fell,
         "tasks": {k: _stats(v) for k, v in errs.items() if v},
         "violations": viol,
         "contacts": {c.contact: {"slip": math.sqrt(slip[c.name]), "lifted": lifted[c.name],
                                  **contact_metrics.summary(c.name)}
                      for c in contacts if c.name not in switched},
         "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)), "max": float(ct.max())},
-        "solver_failures": failures,
+        "solver_failures": failures,            # cycles whose solve failed or raised (held)
+        "faults": ctrl.fault_counts(),
+        "stopped": stopped,
         # cycles with a relaxed level (an inequality that could not hold), cycles whose
         # torque the controller clipped at ±τ_max, the worst |τ_i|/τ_max,i sent (≤ 1) and
         # asked for by the solver before the clipping
@@ -532,8 +556,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         out["internal_force"] = internal
     if robot.differential_drive:
         out["base_lateral_velocity_max"] = lateral
-    robot.update(sim.q, sim.v)
-    if contacts:
+    if contacts and not diverged(sim.q, sim.v):
+        robot.update(sim.q, sim.v)
         out["com_final"] = robot.com.tolist()
     if rec is not None:
         out["series"] = rec.to_dict()

@@ -37,6 +37,35 @@ class LevelDiagnostics:
     #: velocity indices of the joints whose torque the controller clipped at ±τ_max this
     #: cycle (reported by the level holding the torque limits, else level 0)
     saturated_torques: list[int] = field(default_factory=list)
+    #: the level's inequality rows left violated (a relaxed level, an infeasible one):
+    #: task name -> [(row, violation)], worst first, at most 8 per task; ``row`` counts the
+    #: task's inequality rows (TorqueLimits: its k-th actuated joint with a finite limit;
+    #: "joint_limits": the velocity index of the bounded joint), violation in the rows'
+    #: units (N·m, N, rad/s²) beyond the bound
+    violations: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
+
+    @property
+    def why(self) -> str:
+        """Why the level's tasks are not met, in words ("" when nothing is amiss): its
+        sacrificed tasks and what limited them (a singular J̄_k damped, no freedom left by
+        the higher levels, inequality rows left violated, joint limits or torque saturation)."""
+        causes = []
+        if self.damping > 0.0:
+            causes.append(f"J̄ near-singular (σ_min {self.sigma_min:.3g} below the damping threshold): "
+                          f"damped least squares, λ² = {self.damping:.3g}")
+        if self.dof_before == 0:
+            causes.append("the higher levels left no free direction")
+        for task, rows in self.violations.items():
+            shown = ", ".join(f"row {r} by {w:.3g}" for r, w in rows)
+            causes.append(f"'{task}' inequalities violated ({shown})")
+        if self.saturated_joints:
+            causes.append(f"joint limits bound {len(self.saturated_joints)} joint(s)")
+        if self.saturated_torques:
+            causes.append(f"torque saturated at ±τ_max on joint(s) {self.saturated_torques}")
+        if not (self.sacrificed or causes):
+            return ""
+        head = f"level {self.index}: " + (f"sacrificed {self.sacrificed}" if self.sacrificed else "tasks met")
+        return head + ("; " + "; ".join(causes) if causes else "")
 
 
 class Solution:
@@ -47,7 +76,10 @@ class Solution:
     force (3) or wrench (6) in the contact frame (N, N·m); ``residuals``: one
     float per level; ``task_residuals``: per task name; ``diagnostics``: one
     :class:`LevelDiagnostics` per level; ``status``, the first that applies of:
-    ``"failed"`` (no usable solution: the torque falls back to the last good one, q̈ = 0),
+    ``"stopped"`` (the fault policy stopped the controller after too many faulty cycles in
+    a row, :mod:`wbc.faults`: the hold torque, latched),
+    ``"failed"`` (no usable solution, or a faulty cycle held: the torque falls back to the
+    last good one with joint damping, q̈ = 0),
     ``"saturated"`` (the solver's torque exceeded ±τ_max on some joint and was clipped:
     ``tau`` is inside the limits, but on those joints it is not S_a(M q̈ + h − J_fᵀ f) of
     the returned q̈ and f, which stay the solver's plan), ``"relaxed"`` (a level's
@@ -58,7 +90,9 @@ class Solution:
     ``relaxed`` and ``saturated`` (bool) say the same whatever the status;
     ``tau_ratio``: the worst |τ_i|/τ_max,i the solver asked for, before saturation (≤ 1
     when nothing was clipped); ``saturated_torques``: velocity indices of the joints held
-    at ±τ_max by the saturation. ``tau`` is always finite and within ±τ_max.
+    at ±τ_max by the saturation. ``tau`` is always finite and within ±τ_max. ``fault``: the
+    :mod:`wbc.faults` counter of a faulty cycle (``"state_faults"``, ``"solve_timeouts"``,
+    ...), "" for an accepted one.
 
     ``residuals``, ``task_residuals`` and ``diagnostics`` are worked out on first
     access, from row values the controller keeps for this cycle (a cycle whose
@@ -73,6 +107,7 @@ class Solution:
         self.status, self.message, self.qp_count = status, message, qp_count
         self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(tau_ratio)
         self.saturated_torques = list(saturated_torques or [])
+        self.fault = ""
         self._residuals, self._task_residuals, self._diagnostics = residuals, task_residuals, diagnostics
         self._evaluate = evaluate
 
@@ -98,7 +133,7 @@ class Solution:
 
     @property
     def ok(self) -> bool:
-        return self.status != "failed"
+        return self.status not in ("failed", "stopped")
 
     def __repr__(self) -> str:
         return (f"Solution(status={self.status!r}, qp_count={self.qp_count}, "

@@ -120,3 +120,16 @@ def write_yaml(path: Path, doc) -> Path:
     """``doc`` written as YAML (``yaml.safe_dump`` semantics) to ``path``."""
     path.write_text(yaml.dump(doc, Dumper=_DUMPER, sort_keys=False, allow_unicode=True))
     return path
+
+
+@pytest.fixture(scope="session")
+def panda() -> wbc.RobotModel:
+    return wbc.load_robot("panda")
+
+
+def panda_scenario(tmp_path: Path, **changes) -> wbc.Scenario:
+    """:data:`SYNTHETIC`'s panda_arm scenario (joint and torque limits, a hand target, null-space
+    impedance, posture) with top-level keys replaced by ``changes``."""
+    doc = yaml.safe_load(SYNTHETIC["panda_arm"])
+    doc.update(changes)
+    return wbc.load_config(write_yaml(tmp_path / "panda_arm.yaml", doc))

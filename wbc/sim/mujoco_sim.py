@@ -190,7 +190,8 @@ class MujocoSimulator:
     As Simulator's: ``model``, ``data`` (pinocchio, owned), ``q``, ``v`` (pinocchio coordinates,
     updated by each step), ``t``, ``dt``, ``substeps``, ``h``, ``points`` ((pinocchio joint id,
     offset in its frame)), ``point_forces`` (world, N, last step), ``pushes``, ``env``,
-    ``solver_failures`` (MuJoCo's bad-acceleration resets), ``saturated_steps``;
+    ``solver_failures`` (MuJoCo's resets of a bad position, velocity or acceleration),
+    ``saturated_steps``;
     MuJoCo's ``mj_model``, ``mj_data``.
     """
 
@@ -396,7 +397,8 @@ class MujocoSimulator:
         mm, d = self.mj_model, self.mj_data
         d.ctrl[:] = tau
         self.saturated_steps += bool(np.any(np.abs(tau) > self.tau_limits[self._act_v]))
-        bad = mujoco.mjtWarning.mjWARN_BADQACC
+        w = mujoco.mjtWarning          # MuJoCo resets the state on any of these (a diverged step)
+        bad = (w.mjWARN_BADQPOS, w.mjWARN_BADQVEL, w.mjWARN_BADQACC)
         for _ in range(self.substeps):
             d.xfrc_applied[:] = self.push_wrenches(self.t) if self.pushes else 0.0
             if self.differential_drive:
@@ -404,13 +406,13 @@ class MujocoSimulator:
                 mujoco.mj_forward(mm, d)
                 e, Me = self._lateral()
                 d.qfrc_applied[:] = e * (-(e @ (d.qvel + self.h * d.qacc)) / (self.h * (e @ Me)))
-            n_bad = d.warning[bad].number
+            n_bad = sum(d.warning[k].number for k in bad)
             mujoco.mj_step(mm, d)
             self._fresh = False
             if self.differential_drive:       # the impulse along the new heading's lateral axis
                 e, Me = self._lateral()
                 d.qvel[:] -= Me * ((e @ d.qvel) / (e @ Me))
-            self.solver_failures += d.warning[bad].number - n_bad
+            self.solver_failures += sum(d.warning[k].number for k in bad) - n_bad
             self.t += self.h
         self._read_contacts()
         self._read_state()

@@ -86,6 +86,9 @@ class HierarchicalQP:
         self.margin = margin
         self.certify = certify
         self.tol = feasibility_tol
+        #: QP answers of the back-end refused (rows violated, non-finite) or failed on a
+        #: problem known to be feasible, over the solver's life (each then went to a fallback)
+        self.backend_failures = 0
         #: largest violation of its rows a QP answer may have (units of the rows)
         self.qp_tol = 1e-6
         #: leading levels that need no QP in one compiled call (False: the Python loop
@@ -260,6 +263,10 @@ class HierarchicalQP:
                     return z, CERTIFIED
             Cq, lq, hq = nearest_feasible_rows(C, lo, hi, Ca, la, ha, cas.x, Z, identity, margin, tighten)
             res = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=False)
+            # an answer off its rows (beyond a first-order solver's accuracy) or not finite: garbage
+            if res.ok and not (np.isfinite(res.z).all() and max_violation(Cq, lq, hq, res.z) <= 10 * self.qp_tol):
+                self.backend_failures += 1
+                res = QPResult(None, False, f"{res.status}, but its answer is off its rows", res.iterations)
             if res.ok:
                 return res.z, res.status
         return None, res.status
@@ -355,6 +362,8 @@ class HierarchicalQP:
         an error of 1e-6 at level 0 reached the levels below amplified (1e-5 to 1e-4 of
         their residuals, from one solve of the same stack to the next)."""
         res = backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
+        if res.ok and not np.isfinite(res.z).all():     # (max_violation passes a NaN)
+            return QPResult(None, False, f"{res.status}, but its answer is not finite", res.iterations)
         if res.ok and len(lq):
             v = max_violation(Cq, lq, hq, res.z)
             if not v <= self.qp_tol:
@@ -373,6 +382,7 @@ class HierarchicalQP:
                 return z[:r], z[r:], CERTIFIED
         res = self._attempt(self.backend, H, g, Cq, lq, hq, key)
         if not res.ok:
+            self.backend_failures += 1
             # z = 0 is feasible by construction, so a failure is numerical (a degenerate
             # vertex, an ill-conditioned H): retry with the other first-class back-end,
             # then with a stronger regularisation of z.

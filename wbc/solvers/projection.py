@@ -73,6 +73,8 @@ class RecursiveProjection:
     enforces_inequality_rows = False
     #: room kept from a limit (none: saturation puts a joint on its bound)
     margin = 0.0
+    #: QP answers rejected or failed (it solves no QP: always 0)
+    backend_failures = 0
 
     @classmethod
     def create(cls, backend: str = "daqp", damping: Damping | None = None, weighting: str = "identity",

@@ -3,8 +3,8 @@
 :func:`execute` builds the case's scenario through :func:`wbc.scenario.load_config` (the
 same checks as ``wbc validate``: the resolved document is written to a temporary YAML
 file), runs it with :func:`wbc.runner.run` and returns a plain dict: ``status`` (``ok``,
-``fell`` or ``error``), ``error`` (the message of an exception the case raised),
-``metrics`` (flattened, :func:`flatten`) and ``wall_s`` (s). It never raises for a bad
+``fell`` (also a run stopped early: its ``stopped`` metric) or ``error``), ``error`` (the
+message of an exception the case raised), ``metrics`` (flattened, :func:`flatten`) and ``wall_s`` (s). It never raises for a bad
 case; a case that kills or hangs its process is the executor's to record (``failed``,
 ``timeout``).
 
@@ -131,7 +131,9 @@ def execute(payload: dict) -> dict:
         sc, sim_pert = build(payload)
         metrics = run(sc, model_perturbation=sim_pert)
         flat = flatten(metrics)
-        status = "fell" if metrics.get("fell") else "ok"
+        # a run stopped early (a controller stop, a diverged simulation: wbc.faults) did not
+        # run to its end: it never survives, its metrics are kept, like a fall's
+        status = "fell" if metrics.get("fell") or metrics.get("stopped") else "ok"
         return {"status": status, "error": "", "metrics": flat, "wall_s": time.perf_counter() - t0}
     except Exception as exc:          # the case's failure, recorded; the sweep goes on
         msg = f"{type(exc).__name__}: {exc}"
