@@ -18,7 +18,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parent.parent / "wbc"
 MAX_LINES = 500
 #: modules over MAX_LINES that are being split (issue 17): remove a file once it is under
-UNDER_REFACTOR = ("wbc/runner.py",)
+UNDER_REFACTOR: tuple[str, ...] = ()
 #: cycles through deferred imports that are known: each is a lazy import of an optional
 #: part (``rotation:`` trajectories, the ray executor, the sweep command) from a module the
 #: part itself imports. Remove a cycle from here once it is gone.

@@ -133,6 +133,9 @@ class Controller:
         self._ramps: dict[str, tuple] = {}   # contact task name -> (f_start, f_end, cycles, k, remove)
         self.layout: Layout | None = None
         self.levels: list[Level] = []
+        #: an object with ``lap(phase, t0) -> t`` (the bench's phase timer) told the time of each
+        #: phase of a cycle (update, rows, solve, finish); None: not timed
+        self.phase_clock = None
         # bind every task to the robot now, so a wrong frame fails here, not mid-run
         for task in self.stack:
             task.bind(robot)
@@ -246,15 +249,18 @@ class Controller:
         return {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
 
     def _solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
-        robot = self.robot
+        robot, clock = self.robot, self.phase_clock
         q, v = robot.check_state(q, v)
         if self._ramps:
             self._advance_ramps()
+        t = clock and clock.lap(None, 0.0)
         robot.update(q, v)
+        t = clock and clock.lap("update", t)
         layout = self.stack.layout(robot)
         lowest, weights_of = self._lowest()
         levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),
                                      lowest if layout.nf else ())
+        t = clock and clock.lap("rows", t)
         self.layout, self.levels = layout, levels
         scale = None
         if layout.nf and self.force_scale != 1.0:
@@ -266,9 +272,14 @@ class Controller:
         contacts = []
         if self.solver.distributes_forces and layout.nf:
             contacts = [t.contact_data() for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-        res = self.solver.solve(Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale, contacts))
-        x, ok, message, qp_count = res.x, res.ok, res.message, res.qp_count
-        return self._finish(x, res, levels, layout, ok, message, qp_count)
+        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale, contacts)
+        t = clock and clock.lap(None, t)
+        res = self.solver.solve(problem)
+        t = clock and clock.lap("solve", t)
+        sol = self._finish(res.x, res, levels, layout, res.ok, res.message, res.qp_count)
+        if clock:
+            clock.lap("finish", t)
+        return sol
 
     def _finish(self, x, res: SolveResult, levels, layout, ok, message, qp_count) -> Solution:
         robot, nv = self.robot, layout.nv

@@ -36,52 +36,33 @@ SOLVERS = ("projection", *(s for s in ALL_SOLVERS if s != "projection"))
 
 # ----------------------------------------------------------- phase timing
 class PhaseTimer:
-    """Times the controller's phases by wrapping its own methods (instance attributes that
-    shadow the class methods; removed by :meth:`restore`). Nested calls (a solver calling
-    itself) count once."""
+    """Times the controller's phases through its ``phase_clock`` hook: the controller calls
+    :meth:`lap` after each phase with the time the phase started (``phase`` None: a stretch
+    not counted in any phase, e.g. building the Problem); what is left of a cycle is
+    "other"."""
 
     def __init__(self) -> None:
         self.acc = dict.fromkeys(PHASES, 0.0)
-        self._depth = 0
-        self._wrapped: list[tuple[object, str]] = []
+        self._ctrl: Controller | None = None
 
-    def _wrap(self, obj, attr: str, phase: str) -> None:
-        fn = getattr(obj, attr)
-        clock = time.perf_counter
-        acc = self.acc
-
-        def timed(*args, **kwargs):
-            if self._depth:
-                return fn(*args, **kwargs)
-            self._depth += 1
-            t0 = clock()
-            try:
-                return fn(*args, **kwargs)
-            finally:
-                acc[phase] += clock() - t0
-                self._depth -= 1
-
-        setattr(obj, attr, timed)
-        self._wrapped.append((obj, attr))
+    def lap(self, phase: str | None, t0: float) -> float:
+        t = time.perf_counter()
+        if phase is not None:
+            self.acc[phase] += t - t0
+        return t
 
     def instrument(self, ctrl: Controller) -> None:
-        self._wrap(ctrl.robot, "update", "update")
-        self._wrap(ctrl.stack, "layout", "rows")
-        self._wrap(ctrl.stack, "assemble", "rows")
-        for attr in ("solve_levels", "solve_accelerations", "distribute_forces"):
-            if hasattr(ctrl.solver, attr):
-                self._wrap(ctrl.solver, attr, "solve")
-        self._wrap(ctrl, "_finish", "finish")
+        ctrl.phase_clock = self
+        self._ctrl = ctrl
 
     def reset(self) -> None:
         for k in self.acc:
             self.acc[k] = 0.0
 
     def restore(self) -> None:
-        for obj, attr in reversed(self._wrapped):
-            if attr in vars(obj):
-                delattr(obj, attr)
-        self._wrapped.clear()
+        if self._ctrl is not None:
+            self._ctrl.phase_clock = None
+            self._ctrl = None
 
 
 # -------------------------------------------------------------- one case
