@@ -17,8 +17,6 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "wbc"
 MAX_LINES = 500
-#: modules over MAX_LINES that are being split (issue 17): remove a file once it is under
-UNDER_REFACTOR: tuple[str, ...] = ()
 #: cycles through deferred imports that are known: each is a lazy import of an optional
 #: part (``rotation:`` trajectories, the ray executor, the sweep command) from a module the
 #: part itself imports. Remove a cycle from here once it is gone.
@@ -171,11 +169,6 @@ def _lines(path: Path) -> int:
 def test_no_module_over_500_lines():
     root = PACKAGE.parent
     over = {str(f.relative_to(root)): _lines(f) for f in PACKAGE.rglob("*.py")}
-    over = {f: n for f, n in over.items() if n > MAX_LINES and f not in UNDER_REFACTOR}
+    over = {f: n for f, n in over.items() if n > MAX_LINES}
     assert not over, f"modules over {MAX_LINES} lines: {over}"
 
-
-@pytest.mark.parametrize("name", [pytest.param(f, marks=pytest.mark.xfail(strict=True, reason="being split (issue 17)"))
-                                  for f in UNDER_REFACTOR])
-def test_module_under_refactor_is_under_500_lines(name):
-    assert _lines(PACKAGE.parent / name) <= MAX_LINES
