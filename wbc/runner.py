@@ -30,6 +30,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .compile_notice import CompileNotice
 from .controller import Controller
+from .metrics_interaction import InteractionRun
 from .scenario import Scenario
 from .sim.backends import make_simulator
 from .tasks.contact import Contact
@@ -354,6 +355,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
                          dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max, **sc.sensing)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
+    interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)   # force tasks: their measurement, figures
     duration = sc.duration if duration is None else duration
     n = round(duration / sc.dt)
 
@@ -373,7 +375,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         else:
             t.target = pin.SE3(start[tname].rotation, start[tname].translation + off)
 
-    contacts = [t for t in stack if isinstance(t, Contact)]
+    contacts = [t for t in stack if isinstance(t, Contact) and not t.sliding]   # a sliding hand is no support
     m = robot.model
     pts_of = {}
     for c in contacts:
@@ -411,6 +413,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     a = robot.actuated_idx
     tau_hi = robot.tau_max[a] * (1 + 1e-6) + 1e-9
     margin = np.nan
+    sol = None
     for k in range(n):
         t = k * sc.dt
         if k == 0 or (pending and pending[0]["time"] <= t + 1e-9):
@@ -428,6 +431,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, start[tname], t - t0))
         q, v = sim.measure()
+        if interaction is not None:
+            interaction.before_solve(q, v, sol)
         t0 = time.perf_counter()
         sol = ctrl.solve(q, v)
         cycle.append(time.perf_counter() - t0)
@@ -448,6 +453,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].append(errs[name][-1])
         sim.step(sol.tau_full)
+        if interaction is not None:
+            interaction.after_step()
         if callback is not None:
             callback(t, sim, sol)
         # ---- metrics on the true (simulated) state
@@ -531,6 +538,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     robot.update(sim.q, sim.v)
     if contacts:
         out["com_final"] = robot.com.tolist()
+    if interaction is not None:
+        out.update(interaction.metrics())
     if rec is not None:
         out["series"] = rec.to_dict()
     return out
