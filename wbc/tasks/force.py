@@ -82,8 +82,9 @@ def selection_basis(directions: np.ndarray, owner: str = "task 'force'") -> tupl
 
 
 class Force(Task):
-    """Rows S_fᵀ f = λ_D + K_P (λ_D − λ_m) + K_I ∫(λ_D − λ_m) dt on the force variables of the
-    contact task ``contact``; see the module docstring.
+    """Track a contact force along S_f with measured-force PI feedback (5.3.3): rows
+    S_fᵀ f = λ_D + K_P (λ_D − λ_m) + K_I ∫(λ_D − λ_m) dt on the force variables of the contact
+    task ``contact`` (module docstring).
 
     ``target`` λ_D (N; N·m along a moment direction): a number (one direction) or m numbers.
     ``directions``: one direction (3 numbers for a point contact, 6 for a surface) or a list
