@@ -12,6 +12,8 @@
     pushes: [{frame: torso, force: [60, 0, 0], start: 2.0, duration: 0.1}]
     sensing: {noise_q: 0.0, noise_v: 0.0, latency_steps: 0}
     simulator: pinocchio               # or mujoco (wbc.sim.backends; `wbc run --sim` overrides)
+    contacts: {hand_pad: {frame: hand, kind: point, offset: [0.08, 0, 0]}}   # this scenario's own
+                                       # contacts, added to a copy of the robot (wbc.scenario_contacts)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
