@@ -138,6 +138,10 @@ def test_anti_windup_bounds_the_integral_while_the_contact_is_lost():
     assert b[1100] > 150.0                        # unbounded: 10 N × 20/s × 1 s wound up
     assert a[1100] <= 10.0 + 0.5 * 10.0 + 5.0 + 1e-9
     assert np.all(a >= 0.0)                       # a pushing direction never commands a pull
+    assert limited.clipped == 0 and free.clipped == 0
+    pulled = Force("c", target=1.0, kp=0.5)
+    pulled.feed([0.0, 0.0, 30.0], 1e-3)           # 29 N too much: the P term alone asks a pull
+    assert pulled.command[0] == 0.0 and pulled.clipped == 1
     # back in contact, the bounded integral unwinds with the loop's 75 ms: 5 N e^(-0.5/0.075) left
     assert abs(a[-1] - 10.0) < 0.01
 

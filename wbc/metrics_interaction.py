@@ -13,7 +13,8 @@ Everything is measured on the simulated (true) robot, whatever the force tasks m
   ``normal_force_error_max`` (N, after ``settle``), ``measurement_rms_error`` (N, RMS of
   ‖λ_m − λ‖: how far the task's own measurement, sensor or observer, is from the truth),
   ``contact_lost_cycles`` (cycles after ``settle`` with a true normal force below 1 % of the
-  target's: each counted, none silently).
+  target's: each counted, none silently), ``command_clipped_cycles`` (the cycles whose force
+  command was clipped at its bounds, :attr:`Force.clipped`, over the whole run).
 - ``path_error_max`` (m): for a hybrid pair (the force task's ``motion`` partner), the
   largest ‖(p_d − p)‖ over the run along the motion task's position axes (the tangent plane),
   p the true position of its frame and p_d its target at the same instant; with
@@ -127,7 +128,8 @@ class InteractionRun:
                          normal_force_rms_error_relative=rms / target if target > 0 else math.nan,
                          normal_force_mean=float(lam[0]) if len(lam) == 1 else lam.tolist(),
                          normal_force_error_max=w.err_max, measurement_rms_error=math.sqrt(w.meas2 / w.n),
-                         contact_lost_cycles=w.lost, source=w.task.source, settle=self.settle)
+                         contact_lost_cycles=w.lost, command_clipped_cycles=w.task.clipped,
+                         source=w.task.source, settle=self.settle)
             if w.np:
                 d.update(path_error_max=w.path_max, path_error_rms=math.sqrt(w.path2 / w.np), slide_length=w.slide)
             per[w.task.name] = d

@@ -12,6 +12,11 @@ clipping); per sole contact ``cop_edge_min`` (m), ``cop_inside_1cm`` and
 ``normal_force_min`` (N), and for two contacts ``internal_force`` (N), all from the
 simulator's contact forces (:class:`ContactMetrics`).
 
+A stack with :class:`~wbc.tasks.Force` tasks gets their measurement each cycle and the
+interaction figures (``normal_force_rms_error``, ``path_error_max``, ``interaction``) from
+:class:`~wbc.metrics_interaction.InteractionRun`; a ``sliding`` contact (a hand wiping a
+table) is no support and stays out of the contact figures.
+
 ``run(..., series=True)`` also records time series (task errors, per-level residual,
 rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
 support margin) into preallocated arrays and returns them under ``metrics["series"]``

@@ -175,6 +175,8 @@ class Force(Task):
         self.fed = False
         self.measured: np.ndarray | None = None
         self.command = self.reference()
+        #: feeds whose command was clipped at its bounds (a fault of the force loop, counted)
+        self.clipped = 0
 
     # ------------------------------------------------------------ the law
     def selection(self, dim: int) -> tuple[np.ndarray, np.ndarray]:
@@ -220,6 +222,7 @@ class Force(Task):
             integral = np.clip(integral, -cap, cap)
         raw = ref + self.kp * e + self.ki * integral
         cmd = np.clip(raw, lo, hi)
+        self.clipped += bool(np.any(cmd != raw))
         # conditional integration: no integral step that drives a saturated command further out
         held = ((raw > hi) & (e > 0)) | ((raw < lo) & (e < 0))
         integral[held] = self.integral[held]
