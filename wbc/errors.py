@@ -62,6 +62,11 @@ class StackError(WbcError):
     """A stack that is malformed (duplicate names, unknown task, missing contact)."""
 
 
+class HybridError(StackError):
+    """A hybrid force/motion pair whose force and motion directions are not reciprocal
+    (S_fᵀ S_v ≠ 0, 5.33), or that names tasks the stack does not have."""
+
+
 class ConfigError(WbcError):
     """A YAML scenario that does not validate; names file, key path, expectation."""
 

@@ -19,6 +19,11 @@ cycles held, the stops); a run the controller stopped, or whose simulated state 
 with ``stopped`` = {``time`` (s), ``by`` ("controller" or "simulator"), ``reason``} and the
 metrics of the cycles before (``stopped`` is None otherwise).
 
+A stack with :class:`~wbc.tasks.Force` tasks gets their measurement each cycle and the
+interaction figures (``normal_force_rms_error``, ``path_error_max``, ``interaction``) from
+:class:`~wbc.metrics_interaction.InteractionRun`; a ``sliding`` contact (a hand wiping a
+table) is no support and stays out of the contact figures.
+
 ``run(..., series=True)`` also records time series (task errors, per-level residual,
 rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
 support margin) into preallocated arrays and returns them under ``metrics["series"]``
@@ -36,6 +41,7 @@ import pinocchio as pin
 from .compile_notice import CompileNotice
 from .controller import Controller
 from .faults import FaultPolicy, diverged, simulation_diverged
+from .metrics_interaction import InteractionRun
 from .run_metrics import RunMetrics, tilt
 from .scenario import Scenario
 from .scenario_sections import duration_value
@@ -118,10 +124,13 @@ class ScenarioRun:
         self.sim = sim
         for p in sc.pushes:
             sim.push(p["frame"], p["force"], p["start"], p["duration"])
+        self.interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)  # force tasks: measurement, figures
+        self.last_sol = None
         self.duration = sc.duration if duration is None else duration_value(duration, sc.dt)
         self.n = round(self.duration / sc.dt)
         self.start = self._start_values()
-        self.contacts = contacts = [t for t in stack if isinstance(t, Contact)]
+        # a sliding hand is no support
+        self.contacts = contacts = [t for t in stack if isinstance(t, Contact) and not t.sliding]
         m = robot.model
         pts_of = {}
         for c in contacts:
@@ -177,8 +186,10 @@ class ScenarioRun:
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, self.start[tname], t - t0))
         q, v = sim.measure()
+        if self.interaction is not None:
+            self.interaction.before_solve(q, v, self.last_sol)
         t0 = time.perf_counter()
-        sol = ctrl.solve(q, v)
+        sol = self.last_sol = ctrl.solve(q, v)
         self.cycle_times.append(time.perf_counter() - t0)
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
@@ -195,6 +206,8 @@ class ScenarioRun:
         if why:
             self.stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}
             return False
+        if self.interaction is not None:
+            self.interaction.after_step()
         if self.callback is not None:
             self.callback(t, sim, sol)
         self.measured.record_state(t, sim, sol, stack)
@@ -239,6 +252,8 @@ class ScenarioRun:
         if self.contacts and not diverged(sim.q, sim.v):
             robot.update(sim.q, sim.v)
             out["com_final"] = robot.com.tolist()
+        if self.interaction is not None:
+            out.update(self.interaction.metrics())
         if self.measured.rec is not None:
             out["series"] = self.measured.rec.to_dict()
         return out

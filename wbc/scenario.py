@@ -12,6 +12,8 @@
     pushes: [{frame: torso, force: [60, 0, 0], start: 2.0, duration: 0.1}]
     sensing: {noise_q: 0.0, noise_v: 0.0, latency_steps: 0}
     simulator: pinocchio               # or mujoco (wbc.sim.backends; `wbc run --sim` overrides)
+    contacts: {hand_pad: {frame: hand, kind: point, offset: [0.08, 0, 0]}}   # this scenario's own
+                                       # contacts, added to a copy of the robot (wbc.scenario_contacts)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
@@ -42,7 +44,9 @@ from .config import build_task
 from .errors import ConfigError, WbcError, placed
 from .examples import scenario_path
 from .gains import apply_robot_gains
+from .hybrid import check_force_tasks
 from .robots import load_robot
+from .scenario_contacts import with_contacts
 from .scenario_events import build_events
 from .schema import mapping, sequence, text
 from .sim.backends import SIMULATORS
@@ -52,7 +56,7 @@ from .trajectories import build_task_trajectory
 from .yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance", "events", "simulator"}
+        "description", "acceptance", "events", "simulator", "contacts"}
 
 
 @dataclass
@@ -97,7 +101,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
         if key in cfg and not isinstance(cfg[key], str):
             raise ConfigError(f"must be text, got {type(cfg[key]).__name__}", key=key)
     acceptance = mapping(cfg.get("acceptance"), "acceptance")
-    robot = _robot(cfg["robot"], src, robot_loader)
+    robot = with_contacts(_robot(cfg["robot"], src, robot_loader), cfg.get("contacts"))   # the scenario's own
     solver = sections.solver_section(cfg.get("solver"))
     dt, substeps = sections.control_section(cfg.get("control"))
     duration = sections.duration_value(cfg.get("duration", 5.0), dt)
@@ -165,11 +169,11 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
             tasks.append(task)
         built.append(tasks)
     stack = Stack(built)          # names are unique (checked above)
-    _check_references(stack, where_of)
+    _check_references(stack, where_of, robot)
     return stack, refs, offsets
 
 
-def _check_references(stack: Stack, where_of: dict[str, str]) -> None:
+def _check_references(stack: Stack, where_of: dict[str, str], robot) -> None:
     """Tasks that name other tasks or surfaces: one contact task per surface; a
     contact_wrench names a contact task of the stack, with a target of its force size."""
     held: dict[str, str] = {}
@@ -180,6 +184,7 @@ def _check_references(stack: Stack, where_of: dict[str, str]) -> None:
                                   f"({where_of[held[t.contact]]})", key=f"{where_of[t.name]}.contact")
             held[t.contact] = t.name
     contacts = {t.name: t for t in stack if isinstance(t, Contact)}
+    check_force_tasks(stack, contacts, where_of, robot)
     for t in stack:
         if t.kind != "contact_wrench":
             continue

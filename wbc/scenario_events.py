@@ -16,7 +16,7 @@ cycle by cycle, as the runner and the controller will apply them (a released con
 the stack when its ramp ends; an empty level is dropped), and refuses what would fail or be
 ignored mid-run: a name that is not in the stack then, or is twice; removing a task whose
 force ramp is under way; a touch-down below the last level + 1; two contact tasks on one
-contact surface; a contact removed while a contact_wrench task still refers to it.
+contact surface; a contact removed while a contact_wrench or force task still refers to it.
 """
 
 from __future__ import annotations
@@ -37,6 +37,8 @@ KINDS = ("release", "add", "touchdown", "remove")
 _KEYS = {"release": {"time", "release", "duration"}, "remove": {"time", "remove"},
          "touchdown": {"time", "touchdown", "level", "duration"}, "add": {"time", "add", "level", "trajectory"}}
 MAX_LEVEL = 1000
+#: task kinds that act on a contact task's force variables (they name it as ``contact``)
+_ON_FORCES = ("contact_wrench", "force")
 
 
 def build_events(spec: Any, robot, stack, dt: float, duration: float) -> list[dict]:
@@ -109,10 +111,10 @@ class _Timeline:
 
     def drop(self, name: str, key: str, when: str) -> None:
         tasks = self.tasks()
-        needs = [t.name for t in tasks.values() if t.kind == "contact_wrench" and t.contact == name]
+        needs = [t for t in tasks.values() if t.kind in _ON_FORCES and t.contact == name]
         if needs:
-            raise ConfigError(f"removes contact task '{name}' {when} while contact_wrench task '{needs[0]}' still "
-                              "acts on its force; remove that task first", key=key)
+            raise ConfigError(f"removes contact task '{name}' {when} while {needs[0].kind} task '{needs[0].name}' "
+                              "still acts on its force; remove that task first", key=key)
         for lvl in self.levels:
             lvl[:] = [t for t in lvl if t.name != name]
         self.levels = [lvl for lvl in self.levels if lvl]
@@ -134,11 +136,11 @@ class _Timeline:
             same = [t.name for t in tasks.values() if isinstance(t, Contact) and t.contact == task.contact]
             if same:
                 raise ConfigError(f"contact '{task.contact}' is already held by task '{same[0]}' {when}", key=key)
-        if task.kind == "contact_wrench":
+        if task.kind in _ON_FORCES:
             contact = tasks.get(task.contact)
             if not isinstance(contact, Contact) or (task.contact in self.ramps and self.ramps[task.contact][1]):
                 there = sorted(n for n, t in tasks.items() if isinstance(t, Contact))
-                raise ConfigError(f"contact_wrench task '{task.name}' needs contact task '{task.contact}' in the "
+                raise ConfigError(f"{task.kind} task '{task.name}' needs contact task '{task.contact}' in the "
                                   f"stack {when}; there: {there}", key=key)
         if level == len(self.levels):
             self.levels.append([])

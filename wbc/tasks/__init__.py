@@ -6,6 +6,7 @@ from .contact import Contact, friction_pyramid, wrench_cone, wrench_cone_generat
 from .contact_regularization import ContactRegularization
 from .contact_wrench import ContactWrench
 from .dynamics import DifferentialDrive, FloatingBaseDynamics
+from .force import Force
 from .frame import Frame
 from .joint_limits import JointLimits
 from .null_space_impedance import NullSpaceImpedance
@@ -14,10 +15,10 @@ from .torque_limits import TorqueLimits
 
 #: task types a YAML stack may name, by their ``type:`` key
 TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench,
-                                        ContactRegularization, NullSpaceImpedance)}
+                                        ContactRegularization, NullSpaceImpedance, Force)}
 
 __all__ = [
-    "Task", "MotionTask", "CoM", "Contact", "ContactRegularization", "ContactWrench", "Frame", "JointLimits",
+    "Task", "MotionTask", "CoM", "Contact", "ContactRegularization", "ContactWrench", "Force", "Frame", "JointLimits",
     "NullSpaceImpedance", "Posture", "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
     "friction_pyramid", "wrench_cone_generators",
 ]

@@ -88,13 +88,19 @@ class Contact(MotionTask):
     encoder and calibration errors of a few mm; the next cycle's disturbance). A fifth
     of the half sizes still leaves 64 % of the sole's area to the CoP. Ignored by point
     contacts.
+
+    ``sliding=True``: the contact may slide along its surface (a hand wiping a table). Its
+    equality rows keep only the directions the surface constrains, the normal translation (a
+    point: world z; a surface: its LOCAL z and the two tilts x, y), the natural constraint
+    J_φ q̇ = 0 of 5.30; the tangential motion is left to a motion task (the hybrid force/motion
+    construct, :mod:`wbc.hybrid`) and the force inequalities stay as they are.
     """
 
     kind = "contact"
 
     def __init__(self, contact: str, kp: float = 10.0, kd=None, weight: float = 1.0,
                  name: str | None = None, mu: float | None = None, fmin: float = 0.0,
-                 bilateral: bool = False, cop_margin: float = COP_MARGIN) -> None:
+                 bilateral: bool = False, cop_margin: float = COP_MARGIN, sliding: bool = False) -> None:
         text(contact, "contact", what="a contact name (under contacts: in the robot YAML)",
              error=TaskDefinitionError, owner="task 'contact'")
         super().__init__(name or f"{contact}_contact", kp, kd, weight)
@@ -105,6 +111,7 @@ class Contact(MotionTask):
             mu = number(mu, "mu", gt=0, unit="unitless", error=TaskDefinitionError, owner=owner)
         fmin = number(fmin, "fmin", ge=0, unit="N", error=TaskDefinitionError, owner=owner)
         bilateral = boolean(bilateral, "bilateral", error=TaskDefinitionError, owner=owner)
+        self.sliding = boolean(sliding, "sliding", error=TaskDefinitionError, owner=owner)
         margin = cop_margin
         if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not 0.0 <= margin < 1.0:
             raise TaskDefinitionError(f"task '{self.name}': cop_margin must be in [0, 1) (a fraction of the "
@@ -163,16 +170,18 @@ class Contact(MotionTask):
         return e, vel, drift
 
     def error(self, robot) -> np.ndarray:
-        """Drift from the contact placement: (m, rad) for a surface, m for a point."""
-        return self._errors(robot)[0]
+        """Drift from the contact placement: (m, rad) for a surface, m for a point (a sliding
+        contact: along its constrained directions only)."""
+        e = self._errors(robot)[0]
+        return e[self._zero_axes(len(e))[1]]
 
     def rows(self, robot, layout: Layout) -> Rows:
         s = self._surface if self._surface is not None else self.surface(robot)
         m = s.force_dim
-        A, b = eq_buffer(self, m, layout.nx)
+        zero, axes = self._zero_axes(m)
+        A, b = eq_buffer(self, len(axes), layout.nx)
         e, vel, drift = self._errors(robot)
         kp, kd = self.gain_vectors(m)
-        zero, axes = self._zero_axes(m)
         # J_c q̈ = K_p e − K_d v_c − J̇_c q̇
         motion_rows(A, b, self.force_jacobian(robot), axes, zero, kp, e, kd, zero, vel, drift)
         if self.bilateral:
@@ -183,9 +192,10 @@ class Contact(MotionTask):
 
     def _zero_axes(self, m: int) -> tuple[np.ndarray, np.ndarray]:
         got = self._za
-        if got is None or len(got[0]) != m:
-            got = self._za = (np.zeros(m), np.arange(m))
-        return got
+        if got is None or len(got[0]) != m or got[2] != self.sliding:
+            axes = np.array([2] if m == 3 else [2, 3, 4]) if self.sliding else np.arange(m)
+            got = self._za = (np.zeros(m), axes, self.sliding)
+        return got[0], got[1]
 
     def cop_rectangle(self) -> tuple[float, float]:
         """(X, Y) (m): the half sizes of the rectangle the CoP is kept in, the sole's shrunk by
@@ -258,4 +268,6 @@ class Contact(MotionTask):
             p["bilateral"] = True
         if self.cop_margin != COP_MARGIN:
             p["cop_margin"] = self.cop_margin
+        if self.sliding:
+            p["sliding"] = True
         return p

@@ -98,6 +98,11 @@ class Frame(MotionTask):
     def target(self) -> pin.SE3 | None:
         return self._target
 
+    @property
+    def axes(self) -> np.ndarray:
+        """The controlled axes of ``mask``: indices into (linear x, y, z, angular x, y, z), world-aligned."""
+        return self._sel.copy()
+
     @target.setter
     def target(self, value) -> None:
         self._target = to_se3(self.name, value, self._target)
