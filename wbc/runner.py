@@ -15,7 +15,9 @@ simulator's contact forces (:class:`ContactMetrics`).
 ``run(..., series=True)`` also records time series (task errors, per-level residual,
 rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
 support margin) into preallocated arrays and returns them under ``metrics["series"]``
-(see :class:`Series`); ``wbc plot`` draws them. Without it nothing extra is kept.
+(see :class:`Series`); ``wbc plot`` draws them. Without it nothing extra is kept: the
+other metrics are running sums (:mod:`wbc.run_stats`) and the cycle times one array
+filled at the start, so a run's memory does not grow with its length.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .compile_notice import CompileNotice
 from .controller import Controller
+from .run_stats import Running
 from .scenario import Scenario
 from .sim.backends import make_simulator
 from .tasks.contact import Contact
@@ -128,7 +131,7 @@ class ContactMetrics:
         self.loaded = {name: 0 for name in self.soles}
         self.fn_min = {name: np.inf for name in self.soles}
         self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
-        self.internal: list[float] = []
+        self.internal = Running()
 
     def record(self, pf: np.ndarray, pts: np.ndarray, watched: set, pts_of: dict) -> None:
         for name, (idx, order) in self.soles.items():
@@ -154,7 +157,7 @@ class ContactMetrics:
                 fa, fb = pf[a, :2].sum(axis=0), pf[b, :2].sum(axis=0)
                 s = float((fa - fb) @ d) / (2.0 * n)
                 if math.isfinite(s):
-                    self.internal.append(s)
+                    self.internal.add(s)
 
     def summary(self, name: str) -> dict:
         if name not in self.soles or not np.isfinite(self.fn_min[name]):
@@ -167,8 +170,7 @@ class ContactMetrics:
     def internal_force(self) -> dict | None:
         if not self.internal:
             return None
-        x = np.asarray(self.internal)
-        return {"mean": float(x.mean()), "max_abs": float(np.abs(x).max())}
+        return {"mean": self.internal.mean, "max_abs": self.internal.max_abs}
 
 
 def _tilt(q: np.ndarray) -> float:
@@ -281,11 +283,6 @@ class Series:
         }
 
 
-def _stats(x) -> dict:
-    x = np.asarray(x, dtype=float)
-    return {"rms": float(np.sqrt(np.mean(x**2))), "max": float(np.max(x)), "final": float(x[-1])}
-
-
 def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
     """A timeline event: release a contact, touch down, add or remove a task."""
     stack = ctrl.stack
@@ -383,12 +380,12 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     p0 = sim.point_positions()
     base_z0 = sim.q[2] if robot.root == "free_flyer" else None
 
-    errs = {t.name: [] for t in stack if t.error(robot) is not None and t.kind not in ("contact",)}
+    errs = {t.name: Running() for t in stack if t.error(robot) is not None and t.kind not in ("contact",)}
     err_tasks = [(name, stack[name]) for name in errs]
     viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
     slip = {c.name: 0.0 for c in contacts}
     lifted = {c.name: False for c in contacts}
-    cycle, margins, lateral = [], [], 0.0
+    cycle, margins, lateral = np.full(n, np.nan), Running(), 0.0   # touched now: no growth mid-run
     failures, fell = 0, False
     mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
     qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
@@ -430,7 +427,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         q, v = sim.measure()
         t0 = time.perf_counter()
         sol = ctrl.solve(q, v)
-        cycle.append(time.perf_counter() - t0)
+        cycle[k] = time.perf_counter() - t0
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
             notice.stop()
@@ -444,9 +441,9 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         for name, task, live in err_live:
             if live:
                 e = task.error(robot)
-                errs[name].append(math.sqrt(float(e @ e)))
+                errs[name].add(math.sqrt(float(e @ e)))
             elif errs[name]:     # a task removed by an event keeps its last value
-                errs[name].append(errs[name][-1])
+                errs[name].add(errs[name].last)
         sim.step(sol.tau_full)
         if callback is not None:
             callback(t, sim, sol)
@@ -481,11 +478,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         if support_idx:
             robot_com = pin.centerOfMass(sim.model, sim.data, qs)  # true CoM, simulator model and data
             margin = hull.margin(support_idx, pts[:, :2], robot_com[:2])
-            margins.append(margin)
+            margins.add(margin)
         else:
             margin = np.nan
         if rec is not None:
-            rec.record(t, [e[-1] if e else np.nan for e in errs.values()], sol,
+            rec.record(t, [e.last for e in errs.values()], sol,
                        [pf[pts_of[c.name]].sum(axis=0) for c in contacts], margin)
         if robot.differential_drive:
             lateral = max(lateral, abs(vs[1]))
@@ -501,11 +498,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         notice.stop()
     if progress:
         sys.stderr.write("\n")
-    ct = np.array(cycle)
+    ct = cycle[~np.isnan(cycle)]
     out = {
         "scenario": sc.name, "robot": robot.name, "solver": solver_name, "simulator": simulator or sc.simulator,
         "backend": opts.get("backend", "daqp"), "duration": float(len(ct) * sc.dt), "fell": fell,
-        "tasks": {k: _stats(v) for k, v in errs.items() if v},
+        "tasks": {k: v.stats() for k, v in errs.items() if v},
         "violations": viol,
         "contacts": {c.contact: {"slip": math.sqrt(slip[c.name]), "lifted": lifted[c.name],
                                  **contact_metrics.summary(c.name)}
@@ -522,7 +519,7 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         "real_time_factor": float((len(ct) - k_wall) * sc.dt / max(time.perf_counter() - t_wall, 1e-9)),
     }
     if margins:
-        out["support_margin_min"] = float(np.min(margins))
+        out["support_margin_min"] = float(margins.min)
     internal = contact_metrics.internal_force()
     if internal is not None:
         out["internal_force"] = internal
