@@ -13,10 +13,13 @@ and last window) are printed, not asserted.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
 from .soak import soak
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="reads Linux's /proc/self/statm")
 
 
 def _check(fig: dict, drift_mm: float) -> None:

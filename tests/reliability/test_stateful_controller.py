@@ -1,8 +1,9 @@
-"""Random edit sequences on a running controller: Talos standing (limits, torque limits, two
-sole contacts / CoM / torso orientation / posture), then add, remove, move and retarget
+"""Random edit sequences on a running controller: Talos standing (tests.stacks.talos_stack: limits,
+torque limits, two sole contacts / CoM / both hands / posture), then add, remove, move and retarget
 frame, CoM and posture tasks, release and make contacts (force ramps of 2-10 cycles),
-push the robot and switch solver (hqp, projection, weighted), 2 control cycles after each
-edit with the state integrated from the controller's own q̈. After every cycle:
+push the robot and switch solver (hqp, projection, weighted: a new Controller on the same
+stack, when no force ramp is under way, since the ramps live in the controller), 2 control
+cycles after each edit with the state integrated from the controller's own q̈. After every cycle:
 
 - τ finite and within ±τ_max; τ = clip(S_a(M q̈ + h − J_fᵀ f)) and the root rows of
   M q̈ + h = Sᵀτ + J_fᵀ f (5.26) hold to 1e-8 (relative to max(1, |M q̈ + h|, |h|)), unless
@@ -27,7 +28,9 @@ from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, pr
 
 import wbc
 from wbc.controller import SOLVERS
-from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture, TorqueLimits
+from wbc.tasks import CoM, Contact, Frame, Posture
+
+from ..stacks import randomise_targets, talos_stack
 
 DT, CYCLES, FEET = 1e-3, 2, ("left_foot", "right_foot")
 FRAMES = ("left_hand", "right_hand", "torso", "head", "left_foot", "right_foot")
@@ -41,25 +44,16 @@ def talos() -> wbc.RobotModel:
     return wbc.load_robot("talos")
 
 
-def _target(task, robot, rng):
-    """A target a few cm (0.2 rad) from the task's current value (robot.update done)."""
-    if isinstance(task, CoM):
-        return robot.com + 0.03 * rng.standard_normal(3)
-    if isinstance(task, Frame):
-        M = robot.frame_placement(robot.frame_id(task.frame))
-        return pin.SE3(M.rotation @ pin.rpy.rpyToMatrix(*(0.2 * rng.standard_normal(3))),
-                       M.translation + 0.05 * rng.standard_normal(3))
-    q = robot.q_default.copy()
-    q[7:] += 0.1 * rng.standard_normal(robot.nq - 7)
-    return q
+def _retarget(task, robot, seed) -> None:
+    """A target near the task's current value (tests.stacks.randomise_targets; robot.update done)."""
+    randomise_targets(wbc.Stack([[task]]), robot, np.random.default_rng(seed))
 
 
 class Standing(RuleBasedStateMachine):
     def __init__(self) -> None:
         super().__init__()
         self.robot = robot = talos()
-        self.stack = wbc.Stack([[JointLimits(), TorqueLimits(), Contact("left_foot"), Contact("right_foot")],
-                                [CoM(kp=100.0)], [Frame("torso", kp=50.0, mask="orientation")], [Posture(kp=10.0)]])
+        self.stack = talos_stack()
         self.q, self.v, self.k, self.ramps, self.sol = robot.q_default.copy(), np.zeros(robot.nv), 0, {}, None
         COUNTS["sequences"] += 1
 
@@ -83,7 +77,7 @@ class Standing(RuleBasedStateMachine):
                 "frame": lambda: Frame(frame, kp=kp, name=name, mask=mask)}[kind]()
         task.bind(self.robot)
         self.robot.update(self.q, self.v)
-        task.target = _target(task, self.robot, np.random.default_rng(seed))
+        _retarget(task, self.robot, seed)
         self.stack.add(task, min(level, len(self.stack.levels)))
         self._cycles()
 
@@ -104,7 +98,7 @@ class Standing(RuleBasedStateMachine):
     def retarget(self, data, seed):
         task = self.stack[data.draw(st.sampled_from(self._motion()))]
         self.robot.update(self.q, self.v)
-        task.target = _target(task, self.robot, np.random.default_rng(seed))
+        _retarget(task, self.robot, seed)
         self._cycles()
 
     @precondition(lambda self: len(self._stable_contacts()) >= 2)
