@@ -45,7 +45,8 @@ def _cmd_run(args) -> int:
     if not args.headless or args.record:
         from .viz import Scene, viewer_callback
 
-        scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps, live=not args.headless)
+        scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps, live=not args.headless,
+                      host=args.host)
         if not args.headless:
             print(f"wbc: browser view at {scene.url}  (Ctrl-C to stop)", flush=True)
         callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed,
@@ -240,12 +241,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser(
         "run", formatter_class=_Help, help="simulate a scenario YAML; browser view, metrics, plots, recordings",
-        description="Simulate a scenario (a YAML file or a bundled scenario's name): the controller drives a simulation at the "
-                    "scenario's control rate. Without --headless a Meshcat server starts on 127.0.0.1, its URL "
-                    "is printed and the run plays in real time with the priority diagnostics (per level: "
-                    "residual, rank and σ_min of the projected Jacobian, sacrificed tasks, active constraints) "
-                    "drawn top left. Prints the metrics JSON (or writes it with --metrics). Exit status: 0, 1 "
-                    "if the robot fell or the solver failed, 2 on a bad scenario.",
+        description="Simulate a scenario (a YAML file or a bundled scenario's name): the controller drives a "
+                    "simulation at the scenario's control rate. Without --headless a Meshcat server starts, its page "
+                    "on 127.0.0.1 only (--host to serve it elsewhere), its URL is printed and the run plays in real "
+                    "time with the priority diagnostics (per level: residual, rank and σ_min of the projected "
+                    "Jacobian, sacrificed tasks, active constraints) drawn top left. Prints the metrics JSON (or "
+                    "writes it with --metrics). Exit status: 0, 1 if the robot fell or the solver failed, 2 on a "
+                    "bad scenario.",
         epilog="examples:\n  wbc run talos_push --headless --solver projection --duration 3\n"
                "  wbc run talos_reach --headless --plot reach.png --record reach.html\n"
                "  wbc run my_scenario.yaml --headless")
@@ -274,6 +276,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--record", metavar="FILE.html",
                    help="write a self-contained HTML replay (plays offline: the viewer's JavaScript is embedded), "
                         "with the diagnostics panel following the replay")
+    r.add_argument("--host", default="127.0.0.1", metavar="ADDR",
+                   help="address the browser view's page listens on (default 127.0.0.1: this machine only; "
+                        "0.0.0.0: every interface, e.g. to watch from another machine; the scene itself is "
+                        "sent over a socket on 127.0.0.1 whatever ADDR)")
     r.add_argument("--speed", type=float, default=1.0, metavar="X",
                    help="live playback speed, 1 = real time, 0.5 = half speed (default 1.0; ignored with --headless)")
     r.add_argument("--fps", type=float, default=30.0, metavar="HZ",

@@ -15,6 +15,8 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
+from .run_stats import Running
+
 
 def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (m) of p to the boundary of the convex hull of points (> 0 inside)."""
@@ -107,7 +109,7 @@ class ContactMetrics:
         self.loaded = {name: 0 for name in self.soles}
         self.fn_min = {name: np.inf for name in self.soles}
         self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
-        self.internal: list[float] = []
+        self.internal = Running()
 
     def record(self, pf: np.ndarray, pts: np.ndarray, watched: set, pts_of: dict) -> None:
         for name, (idx, order) in self.soles.items():
@@ -133,7 +135,7 @@ class ContactMetrics:
                 fa, fb = pf[a, :2].sum(axis=0), pf[b, :2].sum(axis=0)
                 s = float((fa - fb) @ d) / (2.0 * n)
                 if math.isfinite(s):
-                    self.internal.append(s)
+                    self.internal.add(s)
 
     def summary(self, name: str) -> dict:
         if name not in self.soles or not np.isfinite(self.fn_min[name]):
@@ -146,8 +148,7 @@ class ContactMetrics:
     def internal_force(self) -> dict | None:
         if not self.internal:
             return None
-        x = np.asarray(self.internal)
-        return {"mean": float(x.mean()), "max_abs": float(np.abs(x).max())}
+        return {"mean": self.internal.mean, "max_abs": self.internal.max_abs}
 
 
 def tilt(q: np.ndarray) -> float:
@@ -260,11 +261,6 @@ class Series:
         }
 
 
-def _stats(x) -> dict:
-    x = np.asarray(x, dtype=float)
-    return {"rms": float(np.sqrt(np.mean(x**2))), "max": float(np.max(x)), "final": float(x[-1])}
-
-
 class RunMetrics:
     """The metrics of one run, accumulated cycle by cycle (see :mod:`wbc.runner`).
 
@@ -282,13 +278,13 @@ class RunMetrics:
         self.robot, self.contacts, self.pts_of, self.mu_max = robot, contacts, pts_of, mu_max
         pin.forwardKinematics(m, sim.data, sim.q)
         self.p0 = sim.point_positions()
-        self.errs: dict[str, list] = {t.name: [] for t in stack if t.error(robot) is not None
-                                      and t.kind not in ("contact",)}
+        self.errs: dict[str, Running] = {t.name: Running() for t in stack if t.error(robot) is not None
+                                         and t.kind not in ("contact",)}
         self.err_tasks = [(name, stack[name]) for name in self.errs]
         self.viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
         self.slip = {c.name: 0.0 for c in contacts}
         self.lifted = {c.name: False for c in contacts}
-        self.margins: list[float] = []
+        self.margins = Running()
         self.lateral = 0.0
         self.qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
         self.vi = np.array([m.joints[j].idx_v for j in range(1, m.njoints) if m.joints[j].nq == 1])
@@ -325,9 +321,9 @@ class RunMetrics:
         for name, task, live in self.err_live:
             if live:
                 e = task.error(robot)
-                errs[name].append(math.sqrt(float(e @ e)))
+                errs[name].add(math.sqrt(float(e @ e)))
             elif errs[name]:     # a task removed by an event keeps its last value
-                errs[name].append(errs[name][-1])
+                errs[name].add(errs[name].last)
 
     def record_state(self, t: float, sim, sol, stack) -> None:
         """The true (simulated) state after the step."""
@@ -362,11 +358,11 @@ class RunMetrics:
         if support_idx:
             robot_com = pin.centerOfMass(sim.model, sim.data, qs)  # true CoM, simulator model and data
             margin = self.hull.margin(support_idx, pts[:, :2], robot_com[:2])
-            self.margins.append(margin)
+            self.margins.add(margin)
         else:
             margin = np.nan
         if self.rec is not None:
-            self.rec.record(t, [e[-1] if e else np.nan for e in self.errs.values()], sol,
+            self.rec.record(t, [e.last for e in self.errs.values()], sol,
                             [pf[self.pts_of[c.name]].sum(axis=0) for c in self.contacts], margin)
         if self.robot.differential_drive:
             self.lateral = max(self.lateral, abs(vs[1]))
@@ -374,7 +370,7 @@ class RunMetrics:
     def summary(self, switched: set) -> dict:
         """The run's metrics on tasks, limits and contacts (the runner adds the rest)."""
         out = {
-            "tasks": {k: _stats(v) for k, v in self.errs.items() if v},
+            "tasks": {k: v.stats() for k, v in self.errs.items() if v},
             "violations": self.viol,
             "contacts": {c.contact: {"slip": math.sqrt(self.slip[c.name]), "lifted": self.lifted[c.name],
                                      **self.contact_metrics.summary(c.name)}
@@ -388,7 +384,7 @@ class RunMetrics:
             "tau_ratio_requested_max": self.tau_ratio_asked,
         }
         if self.margins:
-            out["support_margin_min"] = float(np.min(self.margins))
+            out["support_margin_min"] = float(self.margins.min)
         internal = self.contact_metrics.internal_force()
         if internal is not None:
             out["internal_force"] = internal

@@ -27,7 +27,9 @@ table) is no support and stays out of the contact figures.
 ``run(..., series=True)`` also records time series (task errors, per-level residual,
 rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
 support margin) into preallocated arrays and returns them under ``metrics["series"]``
-(see :class:`~wbc.run_metrics.Series`); ``wbc plot`` draws them. Without it nothing extra is kept.
+(see :class:`~wbc.run_metrics.Series`); ``wbc plot`` draws them. Without it nothing extra is kept: the
+other metrics are running sums (:mod:`wbc.run_stats`) and the cycle times one array
+filled at the start, so a run's memory does not grow with its length.
 """
 
 from __future__ import annotations
@@ -140,7 +142,7 @@ class ScenarioRun:
         mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
         self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, series,
                                    self.ctrl.lowest_tasks())
-        self.cycle_times: list[float] = []
+        self.cycle_times = np.full(self.n, np.nan)     # touched now: no growth mid-run
         self.failures, self.fell, self.stopped = 0, False, None
         self.sim_failures = getattr(sim, "solver_failures", 0)
         self.t_wall, self.k_wall = time.perf_counter(), 0
@@ -190,7 +192,7 @@ class ScenarioRun:
             self.interaction.before_solve(q, v, self.last_sol)
         t0 = time.perf_counter()
         sol = self.last_sol = ctrl.solve(q, v)
-        self.cycle_times.append(time.perf_counter() - t0)
+        self.cycle_times[k] = time.perf_counter() - t0
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
             self.notice.stop()
@@ -230,7 +232,7 @@ class ScenarioRun:
         if self.progress:
             sys.stderr.write("\n")
         sc, robot, sim = self.sc, self.robot, self.sim
-        ct = np.array(self.cycle_times)
+        ct = self.cycle_times[~np.isnan(self.cycle_times)]
         measured = self.measured.summary(self.switched)
         out = {
             "scenario": sc.name, "robot": robot.name, "solver": self.solver_name, "simulator": self.simulator,

@@ -5,8 +5,9 @@ geometry), the environment, each CoM/frame task's target, the CoM and its ground
 projection, the support polygon, the contact forces as arrows scaled by magnitude
 (1 mm per ``force_scale`` N) and external pushes while they act.
 
-``Scene(robot, environment)`` starts a Meshcat server bound to 127.0.0.1 (the
-viewer's JavaScript comes from the installed ``meshcat`` package: no internet).
+``Scene(robot, environment)`` starts a Meshcat server whose page listens on 127.0.0.1
+only, or on ``host`` (:mod:`wbc.viz.server`; the viewer's JavaScript comes from the
+installed ``meshcat`` package: no internet).
 ``record=True`` keeps every frame for :meth:`save_html`, a self-contained page
 that replays the run offline.
 
@@ -30,6 +31,7 @@ from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, HalfSpace
+from . import server
 from .diagnostics import overlay_html, render_png, table_lines
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
@@ -101,13 +103,17 @@ class Scene:
     """See the module docstring. ``force_scale``: N per mm of arrow (default 1 mm per 2 N);
     ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s);
     ``live``: also draw on the server's page while recording (default: only without
-    ``record``)."""
+    ``record``); ``host``: the address the page listens on (``zmq_url``: draw through a
+    server already running there instead)."""
 
     def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
                  force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0,
-                 live: bool | None = None) -> None:
+                 live: bool | None = None, host: str = server.DEFAULT_HOST) -> None:
         self.robot = robot
-        self.vis = meshcat.Visualizer(zmq_url=zmq_url) if zmq_url else meshcat.Visualizer()
+        self.server = None          # the server process this scene started (stopped by close)
+        if not zmq_url:
+            self.server, zmq_url, _ = server.start(host)
+        self.vis = meshcat.Visualizer(zmq_url=zmq_url)
         if open_browser:
             self.vis.open()
         self.vis.delete()
@@ -327,20 +333,9 @@ class Scene:
 
     def close(self) -> None:
         """Stop this scene's Meshcat server process (and close its zmq socket)."""
-        import subprocess
-
-        window = getattr(self.vis, "window", None)
-        sock = getattr(window, "zmq_socket", None)
-        if sock is not None:
-            sock.close(linger=0)
-        proc = getattr(window, "server_proc", None)
-        if proc is not None and proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        self.vis.window.zmq_socket.close(linger=0)
+        if self.server is not None:
+            server.stop(self.server)
 
 
 def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0,
