@@ -14,7 +14,6 @@ not ship the harness: then the command says where to get it and exits with statu
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 from pathlib import Path
 
@@ -50,7 +49,7 @@ def load_harness():
             "repository or the sdist it was installed from) and run `wbc bench` (or `make bench`) in its top directory")
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    cli = importlib.import_module("benchmarks.harness.cli")
+    from benchmarks.harness import cli  # found on the path just set: a source tree's, not the package's
     found = Path(cli.__file__).resolve().parent
     if found != (root / HARNESS).resolve():
         raise HarnessNotFound(f"`benchmarks.harness` was imported from {found}, not from {root / HARNESS}: "
