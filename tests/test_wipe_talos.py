@@ -6,33 +6,18 @@ from __future__ import annotations
 
 import pytest
 
-from wbc.scenario import load_config
-
-from .wipe import figures, wipe
-
-ACCEPT = load_config("talos_wipe").acceptance
-
-
-def _accepted(m: dict, stroke: float) -> None:
-    f = figures(m)
-    assert not m["fell"] and m["solver_failures"] == 0 and m["saturated_cycles"] == 0
-    assert sum(m["violations"].values()) == 0, m["violations"]
-    assert f["contact_lost_cycles"] == 0
-    assert m["normal_force_rms_error"] < ACCEPT["normal_force_rms_error"]
-    assert m["path_error_max"] < ACCEPT["path_error_max"]
-    assert f["slide_length"] > stroke
-    assert all(not c["lifted"] and c["slip"] < 1e-3 for c in m["contacts"].values())    # the feet
+from .wipe import assert_accepted, figures, wipe
 
 
 def test_talos_wipe_short_meets_the_acceptance():
-    _accepted(wipe("talos_wipe", duration=2.5), stroke=0.14)
+    assert_accepted(wipe("talos_wipe", duration=2.5), "talos_wipe", stroke=0.14, feet=True)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("solver", ["hqp", "weighted"])
 @pytest.mark.parametrize("source", ["simulator", "observer"])
 def test_talos_wipe_full(solver, source):
-    _accepted(wipe("talos_wipe", source=source, solver=solver), stroke=0.29)
+    assert_accepted(wipe("talos_wipe", source=source, solver=solver), "talos_wipe", stroke=0.29, feet=True)
 
 
 @pytest.mark.slow

@@ -7,27 +7,13 @@ from __future__ import annotations
 
 import pytest
 
-from wbc.scenario import load_config
-
-from .wipe import figures, wipe
-
-ACCEPT = load_config("tiago_wipe").acceptance
-
-
-def _accepted(m: dict, stroke: float) -> None:
-    f = figures(m)
-    assert not m["fell"] and m["solver_failures"] == 0 and m["saturated_cycles"] == 0
-    assert sum(m["violations"].values()) == 0, m["violations"]
-    assert f["contact_lost_cycles"] == 0
-    assert m["normal_force_rms_error"] < ACCEPT["normal_force_rms_error"]
-    assert m["path_error_max"] < ACCEPT["path_error_max"]
-    assert f["slide_length"] > stroke
+from .wipe import assert_accepted, figures, wipe
 
 
 @pytest.mark.parametrize("source", ["simulator", "observer"])
 def test_tiago_wipe_short_meets_the_acceptance(source):
     m = wipe("tiago_wipe", source=source, duration=2.5)
-    _accepted(m, stroke=0.14)
+    assert_accepted(m, "tiago_wipe", stroke=0.14)
 
 
 def test_tiago_wipe_the_integral_removes_a_constant_force_bias():
@@ -44,4 +30,4 @@ def test_tiago_wipe_the_integral_removes_a_constant_force_bias():
 @pytest.mark.parametrize("solver", ["hqp", "weighted"])
 @pytest.mark.parametrize("source", ["simulator", "observer"])
 def test_tiago_wipe_full(solver, source):
-    _accepted(wipe("tiago_wipe", source=source, solver=solver), stroke=0.29)
+    assert_accepted(wipe("tiago_wipe", source=source, solver=solver), "tiago_wipe", stroke=0.29)

@@ -30,3 +30,19 @@ def wipe(name: str, *, source: str = "simulator", integral: bool = True, bias: f
 def figures(m: dict) -> dict:
     """The force task's figures (wbc.metrics_interaction)."""
     return next(iter(m["interaction"].values()))
+
+
+def assert_accepted(m: dict, name: str, stroke: float, feet: bool = False) -> None:
+    """The scenario's acceptance (its ``acceptance:`` figures) on a wipe run's metrics: no fall,
+    failure, saturation or violation, no contact lost, the force and path errors within
+    bounds, a stroke longer than ``stroke`` (m); ``feet``: the feet neither lift nor slip 1 mm."""
+    accept = load_config(name).acceptance
+    f = figures(m)
+    assert not m["fell"] and m["solver_failures"] == 0 and m["saturated_cycles"] == 0
+    assert sum(m["violations"].values()) == 0, m["violations"]
+    assert f["contact_lost_cycles"] == 0
+    assert m["normal_force_rms_error"] < accept["normal_force_rms_error"]
+    assert m["path_error_max"] < accept["path_error_max"]
+    assert f["slide_length"] > stroke
+    if feet:
+        assert all(not c["lifted"] and c["slip"] < 1e-3 for c in m["contacts"].values())
