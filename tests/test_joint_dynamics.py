@@ -32,7 +32,8 @@ def _robot(tmp_path, damping: float, friction: float):
     """A fixed-base robot of one vertical revolute joint with the URDF's dynamics."""
     urdf = tmp_path / f"joint_{damping:g}_{friction:g}.urdf"
     urdf.write_text(f"""<robot name="one_joint">
-  <link name="base"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="base"><inertial><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <link name="arm"><inertial><origin xyz="{R} 0 0"/><mass value="{MASS}"/>
     <inertia ixx="0.001" iyy="0.02" izz="{IZZ}" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
@@ -176,22 +177,78 @@ def test_box_qp_meets_its_optimality_conditions():
 
 
 def test_friction_with_contacts_meets_the_friction_law():
-    """Talos standing with joint dynamics: after each step, each friction impulse is within
-    ±h f, and a joint whose impulse is inside the bound does not move (block Gauss-Seidel
-    of contacts and friction converged)."""
-    robot = load_robot("talos")
-    from wbc.sim import ground
+    """Talos on the ground under its default posture's gravity torques, with joint dynamics:
+    after each step each friction impulse is within ±h f and a joint whose impulse is inside
+    the bound does not move; and the block Gauss-Seidel of one step converged to a point where
+    both laws hold at once: the contacts' PGS, given the final friction impulses, returns the
+    contact impulses it ended with (and the friction QP, given those, the friction impulses)."""
+    import pinocchio as pin
 
-    sim = Simulator.for_robot(robot, [ground()], dt=H, joint_dynamics=True,
-                              tau_limits=robot.tau_max)
-    jd = sim.joint_dynamics
+    from wbc.sim import ground
+    from wbc.sim.joint_dynamics import MAX_SWEEPS
+
+    robot = load_robot("talos")
+    sim = Simulator.for_robot(robot, [ground()], dt=H, joint_dynamics=True, tau_limits=robot.tau_max)
+    jd, m, d = sim.joint_dynamics, robot.model, sim.data
     robot.update(robot.q_default, np.zeros(robot.nv))
-    tau = robot.h.copy()                  # the joints' gravity torques: a slow sag on the soles
-    for _ in range(50):
-        sim.step(tau[robot.actuated_idx])
+    tau = robot.h.copy()
+    tau[: robot.n_root] = 0.0             # the joints' gravity torques: Talos sags onto its soles
+    for _ in range(20):
+        sim.step(tau)
         lam, b = jd.lam_f, H * jd.friction[jd.friction_idx]
         assert np.all(np.abs(lam) <= b)
         stuck = np.abs(lam) < b * (1 - 1e-9)
         assert np.abs(sim.v[jd.friction_idx[stuck]]).max(initial=0.0) <= 1e-8
-        assert jd.sweeps < 100
-    assert stuck.any() and np.all(np.isfinite(sim.q))
+        assert 1 <= jd.sweeps < MAX_SWEEPS
+    assert stuck.any()
+    # one more step's impulse problem, solved as the simulator does, then checked as a fixed point
+    pin.computeJointJacobians(m, d, sim.q)
+    pin.updateFramePlacements(m, d)
+    rows, _, depths, mus, _ = sim._contact_rows()
+    Minv, a = jd.free_motion(m, d, sim.q, sim.v, tau, None, H)
+    v_free = sim.v + H * a
+    J = np.vstack(rows)
+    g = J @ v_free
+    g[2::3] -= np.where(np.array(depths) > 0, sim.baumgarte * np.array(depths), depths) / H
+    pgs = sim._pgs_for(tuple(mus))
+    _, lam_c = jd.friction_impulses(Minv, v_free, H, (J, g, pgs.solve, np.zeros_like(g)))
+    assert jd.sweeps > 1 and lam_c[2::3].sum() > 0.0
+    f = jd.friction_idx
+    again = pgs.solve(J @ Minv @ J.T, g + J @ Minv[:, f] @ jd.lam_f, lam_c)
+    assert np.abs(again - lam_c).max() <= 1e-6 * np.abs(lam_c).max()
+    lam_f = box_qp(Minv[np.ix_(f, f)], v_free[f] + (Minv @ J.T @ lam_c)[f], H * jd.friction[f], jd.lam_f)
+    assert np.abs(lam_f - jd.lam_f).max() <= 1e-6 * H * jd.friction[f].max()
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_mujoco_model_takes_the_urdf_values_when_on(on):
+    """MuJoCo's dof_damping and dof_frictionloss are pinocchio's (the URDF's) with joint
+    dynamics on, zero with it off (Talos: 1 N·m·s/rad and 1 N·m on 20 joints)."""
+    pytest.importorskip("mujoco")
+    from wbc.sim.backends import make_simulator
+
+    robot = load_robot("talos")
+    sim = make_simulator("mujoco", robot, [], joint_dynamics=on, dt=H)
+    mm, m = sim.mj_model, robot.model
+    assert mm.dof_damping[sim._vm] == pytest.approx(m.damping[sim._vi] if on else 0.0, abs=0.0)
+    assert mm.dof_frictionloss[sim._vm] == pytest.approx(m.friction[sim._vi] if on else 0.0, abs=0.0)
+    assert not mm.dof_damping[sim._root_v: sim._root_v + 6].any()
+    assert (np.count_nonzero(mm.dof_frictionloss) == 20) == on
+
+
+def test_make_simulator_and_scenario_flag(tmp_path):
+    from wbc.errors import ConfigError
+    from wbc.scenario import load_config
+    from wbc.sim.backends import make_simulator
+
+    robot = _robot(tmp_path, 0.3, 0.5)
+    assert make_simulator("pinocchio", robot, [], joint_dynamics=True).joint_dynamics is not None
+    assert make_simulator("pinocchio", robot, []).joint_dynamics is None
+    sc = tmp_path / "bad.yaml"
+    sc.write_text(f"robot: {tmp_path / 'joint_0.3_0.5.yaml'}\nenvironment: []\njoint_dynamics: 1\n"
+                  "stack:\n  - - {type: posture, kp: 1.0}\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(sc)
+    assert "bad.yaml:3: joint_dynamics: must be true or false, got 1" in str(err.value)
+    sc.write_text(sc.read_text().replace("joint_dynamics: 1", "joint_dynamics: true"))
+    assert load_config(sc).joint_dynamics is True
