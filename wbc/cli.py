@@ -54,7 +54,8 @@ def _cmd_run(args) -> int:
     want_series = bool(args.plot or args.series)
     try:
         metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
-                      progress=True, callback=callback, series=want_series, simulator=args.sim)
+                      progress=True, callback=callback, series=want_series, simulator=args.sim,
+                      joint_dynamics=True if args.joint_dynamics else None)
         if not args.headless and sys.stdin.isatty():
             try:
                 input("wbc: run finished; press Enter to close the browser view ")
@@ -262,6 +263,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--sim", choices=list(SIMULATORS),
                    help="physics: pinocchio (wbc's own, rigid contacts) or mujoco (MuJoCo's soft contacts, "
                         "pip install 'wbc[mujoco]'); default: the scenario's `simulator`, else pinocchio")
+    r.add_argument("--joint-dynamics", action="store_true",
+                   help="the URDF's joint damping and friction act in the simulator (default: the scenario's "
+                        "`joint_dynamics`, else off); the controller compensates them if the robot YAML's "
+                        "`compensate:` says so")
     r.add_argument("--backend", metavar="NAME",
                    help="QP back-end: daqp, proxqp, or any qpsolvers name (default: the scenario's, else daqp)")
     r.add_argument("--metrics", metavar="FILE.json",

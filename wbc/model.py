@@ -6,7 +6,8 @@
   zero-acceleration bias accelerations (so frame drifts J̇q̇ come for free), then
   ``computeJointJacobians`` and ``updateFramePlacements`` from them;
 - ``crba``: the joint-space inertia M(q) (the chapter's B(q));
-- ``nonLinearEffects``: h = C(q, q̇)q̇ + g(q) (5.1);
+- ``nonLinearEffects``: h = C(q, q̇)q̇ + g(q) (5.1), plus the joints' damping and friction
+  D q̇ + F tanh(q̇/v_s) when the robot YAML's ``compensate:`` asks (:mod:`wbc.joint_compensation`);
 - ``centerOfMass`` (with its drift J̇_com q̇, from the same forward pass) and
   ``jacobianCenterOfMass``.
 
@@ -32,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import FrameNotFound, TargetError
+from .joint_compensation import JointCompensation
 
 LOCAL = pin.ReferenceFrame.LOCAL
 WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -102,6 +104,8 @@ class RobotModel:
     package_dirs: list[str] = field(default_factory=list)
     locked_joints: list[str] = field(default_factory=list)
     source: Path | None = None
+    #: D q̇ + F σ(q̇) added to h (robot YAML ``compensate:``), None for none
+    compensation: JointCompensation | None = None
 
     def __post_init__(self) -> None:
         m = self.model
@@ -122,6 +126,7 @@ class RobotModel:
         self.q = self.q_default.copy()
         self.v = np.zeros(self.nv)
         self._zero_v = np.zeros(self.nv)
+        self._h_eff = None          # h + the compensation, when there is one
         self.cycle = 0
         self.update(self.q, self.v)
 
@@ -171,6 +176,8 @@ class RobotModel:
         """Run the cycle's pinocchio algorithms once (see the module docstring)."""
         self.q, self.v = q, v
         whole_body_terms(self.model, self.data, q, v, self._zero_v)
+        if self.compensation is not None:
+            self._h_eff = self.data.nle + self.compensation.torque(v)
         self._cache.clear()
         self.cycle += 1
 
@@ -182,8 +189,9 @@ class RobotModel:
 
     @property
     def h(self) -> np.ndarray:
-        """Nonlinear effects h = C(q, q̇)q̇ + g(q), nv, N·m."""
-        return self.data.nle
+        """Nonlinear effects h = C(q, q̇)q̇ + g(q) (nv, N·m), plus D q̇ + F σ(q̇) with a
+        ``compensation`` (:mod:`wbc.joint_compensation`)."""
+        return self.data.nle if self.compensation is None else self._h_eff
 
     @property
     def com(self) -> np.ndarray:

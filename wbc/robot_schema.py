@@ -19,6 +19,8 @@
       fl_foot: {frame: FL_foot, kind: point, radius: 0.022, offset: [0, 0, 0], mu: 0.7}   # m
     limits: {torque: {joint: N·m}, velocity: {joint: rad/s}, root_torque: [...], root_velocity: [...]}
     gains: {com: 100.0, torso: 400.0}             # task kind or task name -> default kp (1/s²)
+    compensate: {damping: true, friction: true,   # the controller's model adds the URDF's joint
+                 friction_velocity: 0.01}         # damping and friction (wbc.joint_compensation); rad/s
 
 Unknown keys are refused with a did-you-mean; every value's type, length and range is
 checked (contact sizes in (0, 1] m, mu in (0, 10], limits >= 1e-6 with ``.inf`` for none,
@@ -34,13 +36,15 @@ from typing import Any
 import numpy as np
 
 from .errors import RobotDefinitionError
+from .joint_compensation import FRICTION_VELOCITY
 from .robot_extras import contact_extras, frame_entry
 from .schema import boolean, mapping, number, sequence, text, vector
 
 ROOTS = ("free_flyer", "planar", "fixed")
 N_ROOT = {"free_flyer": 6, "planar": 3, "fixed": 0}
 KEYS = {"name", "urdf", "srdf", "root", "actuated_root", "differential_drive", "level_on_contacts",
-        "default_posture", "locked_joints", "base_position", "frames", "contacts", "limits", "gains"}
+        "default_posture", "locked_joints", "base_position", "frames", "contacts", "limits", "gains",
+        "compensate"}
 CONTACT_KEYS = {"frame", "kind", "half_length", "half_width", "mu", "radius", "offset"}
 LIMIT_KEYS = {"torque", "velocity", "root_torque", "root_velocity"}
 MAX_MU = 10.0
@@ -101,7 +105,20 @@ def check_document(cfg: dict) -> dict:
     out["limits"] = _limits(cfg.get("limits"), N_ROOT[out["root"]])
     gains = mapping(cfg.get("gains"), "gains", what="a mapping task kind -> default kp (1/s²)", error=RobotDefinitionError)
     out["gains"] = {k: number(v, f"gains.{k}", ge=0, unit="1/s²", error=RobotDefinitionError) for k, v in gains.items()}
+    out["compensate"] = _compensate(cfg.get("compensate"))
     return out
+
+
+def _compensate(value: Any) -> dict:
+    """``compensate:`` -> JointCompensation.of_model's keyword arguments (all off by default)."""
+    spec = mapping(value, "compensate", allowed={"damping", "friction", "friction_velocity"},
+                   what="a mapping {damping: true/false, friction: true/false, friction_velocity: rad/s}",
+                   error=RobotDefinitionError)
+    return {"damping": boolean(spec.get("damping", False), "compensate.damping", error=RobotDefinitionError),
+            "friction": boolean(spec.get("friction", False), "compensate.friction", error=RobotDefinitionError),
+            "friction_velocity": number(spec.get("friction_velocity", FRICTION_VELOCITY),
+                                        "compensate.friction_velocity", gt=0, le=10, unit="rad/s or m/s",
+                                        error=RobotDefinitionError)}
 
 
 def _posture(value: Any) -> tuple[str | None, dict[str, float], str]:

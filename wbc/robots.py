@@ -151,6 +151,7 @@ def load_robot(name_or_path: str | Path) -> RobotModel:
 def _build(src: Path, cfg: dict) -> RobotModel:
     import pinocchio as pin
 
+    from .joint_compensation import JointCompensation
     from .model import ContactSurface, RobotModel
 
     root = cfg["root"]
@@ -264,6 +265,7 @@ def _build(src: Path, cfg: dict) -> RobotModel:
         package_dirs=package_dirs,
         locked_joints=list(locked),
         source=src,
+        compensation=JointCompensation.of_model(model, **cfg["compensate"]),
     )
     check_robot(robot)        # RobotWarning: static torque over a limit, posture outside limits, tilted contact
     return robot

@@ -105,7 +105,7 @@ class ScenarioRun:
     def __init__(self, sc: Scenario, solver: str | None = None, backend: str | None = None,
                  duration: float | None = None, progress: bool = False, callback=None, series: bool = False,
                  simulator: str | None = None, model_perturbation=None, faults: FaultPolicy | None = None,
-                 wrap_simulator=None) -> None:
+                 wrap_simulator=None, joint_dynamics: bool | None = None) -> None:
         robot, stack = sc.robot, sc.stack
         self.sc, self.robot, self.stack, self.progress, self.callback = sc, robot, stack, progress, callback
         opts = dict(sc.solver)
@@ -115,12 +115,14 @@ class ScenarioRun:
             opts["backend"] = backend
         self.backend = opts.get("backend", "daqp")        # a name, or a Backend instance
         self.simulator = simulator or sc.simulator
+        self.joint_dynamics = sc.joint_dynamics if joint_dynamics is None else bool(joint_dynamics)
         self.notice = CompileNotice(enabled=progress)    # a first run compiles the kernels: say so
         self.notice.start()
         self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
                                faults=faults or FaultPolicy(detect_stale=True), **opts)
         sim = make_simulator(self.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
-                             dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max, **sc.sensing)
+                             joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
+                             tau_limits=robot.tau_max, **sc.sensing)
         if wrap_simulator is not None:
             sim = wrap_simulator(sim)
         self.sim = sim
@@ -236,6 +238,7 @@ class ScenarioRun:
         measured = self.measured.summary(self.switched)
         out = {
             "scenario": sc.name, "robot": robot.name, "solver": self.solver_name, "simulator": self.simulator,
+            "joint_dynamics": self.joint_dynamics,
             "backend": getattr(self.backend, "name", self.backend), "duration": float(len(ct) * sc.dt),
             "fell": self.fell,
             "tasks": measured.pop("tasks"),
@@ -263,7 +266,8 @@ class ScenarioRun:
 
 def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
         progress: bool = False, callback=None, series: bool = False, simulator: str | None = None,
-        model_perturbation=None, faults: FaultPolicy | None = None, wrap_simulator=None) -> dict:
+        model_perturbation=None, faults: FaultPolicy | None = None, wrap_simulator=None,
+        joint_dynamics: bool | None = None) -> dict:
     """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
     (after the simulator's step). ``series``: also return the run's time series under
     ``"series"`` (:class:`~wbc.run_metrics.Series`, JSON-ready). ``simulator``: the physics
@@ -275,9 +279,11 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     otherwise). ``faults``: the controller's fault policy (default: ``FaultPolicy`` with
     stale-state detection on, the simulator's state always moving).
     ``wrap_simulator(sim)``: the object the loop drives in place of the simulator, one with
-    the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer)."""
+    the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer).
+    ``joint_dynamics``: the URDF's joint damping and friction in the simulator (default the
+    scenario's ``joint_dynamics``)."""
     r = ScenarioRun(sc, solver, backend, duration, progress, callback, series, simulator, model_perturbation,
-                    faults, wrap_simulator)
+                    faults, wrap_simulator, joint_dynamics)
     for k in range(r.n):
         if not r.cycle(k):
             break

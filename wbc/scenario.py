@@ -14,6 +14,8 @@
     simulator: pinocchio               # or mujoco (wbc.sim.backends; `wbc run --sim` overrides)
     contacts: {hand_pad: {frame: hand, kind: point, offset: [0.08, 0, 0]}}   # this scenario's own
                                        # contacts, added to a copy of the robot (wbc.scenario_contacts)
+    joint_dynamics: false              # true: the URDF's joint damping and friction act in the
+                                       # simulator (`wbc run --joint-dynamics` turns it on)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
@@ -48,7 +50,7 @@ from .hybrid import check_force_tasks
 from .robots import load_robot
 from .scenario_contacts import with_contacts
 from .scenario_events import build_events
-from .schema import mapping, sequence, text
+from .schema import boolean, mapping, sequence, text
 from .sim.backends import SIMULATORS
 from .stack import Stack
 from .tasks.contact import Contact
@@ -56,7 +58,7 @@ from .trajectories import build_task_trajectory
 from .yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance", "events", "simulator", "contacts"}
+        "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics"}
 
 
 @dataclass
@@ -77,6 +79,7 @@ class Scenario:
     events: list[dict] = field(default_factory=list)
     source: Path | None = None
     simulator: str = "pinocchio"      # physics back-end (wbc.sim.backends.SIMULATORS)
+    joint_dynamics: bool = False      # the URDF's joint damping and friction in the simulator
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -116,9 +119,11 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     if simulator == "mujoco" and importlib.util.find_spec("mujoco") is None:      # the run would need it
         raise ConfigError("needs the mujoco package, which is not installed (pip install 'wbc[mujoco]')",
                           key="simulator")
+    joint_dynamics = boolean(cfg.get("joint_dynamics", False), "joint_dynamics")
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
-                    acceptance=dict(acceptance), events=events, source=src, simulator=simulator)
+                    acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
+                    joint_dynamics=joint_dynamics)
 
 
 def _robot(value: Any, src: Path, robot_loader):

@@ -55,11 +55,16 @@ class PhysicsSimulator(Protocol):
     def contact_wrench(self, frame: str) -> np.ndarray: ...
 
 
-def make_simulator(name: str, robot: RobotModel, environment: Sequence, **kwargs) -> PhysicsSimulator:
+def make_simulator(name: str, robot: RobotModel, environment: Sequence, joint_dynamics: bool = False,
+                   **kwargs) -> PhysicsSimulator:
     """The simulator ``name`` (one of :data:`SIMULATORS`) for ``robot`` in ``environment``,
     with ``Simulator.for_robot``'s keyword arguments (``dt``, ``substeps``, ``tau_limits``,
-    ``noise_q``, ``noise_v``, ``latency_steps``, ...). Raises :class:`ConfigError` for an
-    unknown name or a back-end that is not installed."""
+    ``noise_q``, ``noise_v``, ``latency_steps``, ...). ``joint_dynamics``: the URDF's joint
+    damping and dry friction (pinocchio's ``model.damping``, ``model.friction``) act in the
+    simulation (``wbc.sim``: :mod:`wbc.sim.joint_dynamics`; MuJoCo: joint ``damping`` and
+    ``frictionloss``); off by default. Raises :class:`ConfigError` for an unknown name or a
+    back-end that is not installed."""
+    kwargs["joint_dynamics"] = bool(joint_dynamics)
     if name == "pinocchio":
         from .simulator import Simulator
 

@@ -9,8 +9,10 @@ Model (:func:`build_model`; SI units: m, kg, s, rad, N, N·m)
 - Inertias: ``inertias="model"`` (default): pinocchio's inertia of each joint (URDF inertials, fixed
   links merged), as MuJoCo refuses URDF inertials pinocchio takes (TIAGo's antenna links are not
   positive definite); ``"urdf"``: MuJoCo reads them (Talos, Panda: equal to 1e-14).
-- Joint damping, dry friction, armature zeroed (ABA has none); position limits kept as MuJoCo's soft
-  limits (``joint_limits=False`` drops them).
+- Joint damping and dry friction zeroed, or (``joint_dynamics=True``) pinocchio's URDF values (the
+  URDF's ``<dynamics>``, which MuJoCo's parser reads equally): ``damping`` (implicit in MuJoCo's Euler)
+  and ``frictionloss`` (MuJoCo's soft dry-friction constraint, default solref/solimp); armature zeroed;
+  position limits kept as MuJoCo's soft limits (``joint_limits=False`` drops them).
 - A motor per actuated joint, ``ctrlrange`` ±τ_max (``tau_limits``, default the robot's): MuJoCo
   saturates (the URDF effort's joint ``actuatorfrcrange`` is cleared). An actuated root (TIAGo) has
   site motors at the root origin geared along the base axes (force x, y, torque z, base frame).
@@ -102,8 +104,8 @@ def _quat_wxyz(R: np.ndarray) -> np.ndarray:
 
 
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
-                joint_limits: bool = True,
-                inertias: str = "model", tau_max: np.ndarray | None = None) -> mujoco.MjModel:
+                joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
+                joint_dynamics: bool = False) -> mujoco.MjModel:
     """The MuJoCo model of ``robot`` (a :class:`~wbc.model.RobotModel`) in ``environment``
     (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`contact_points`. See the
     module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
@@ -126,8 +128,10 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
         root.add_joint(name="root_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
         root.add_joint(name="root_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
     for j in spec.joints:
+        i = m.idx_vs[m.getJointId(j.name)] if joint_dynamics and m.existJointName(j.name) else None
         j.damping[:] = 0.0          # mjNPOLY + 1 coefficients since 4.x
-        j.frictionloss, j.armature = 0.0, 0.0
+        j.damping[0] = 0.0 if i is None else m.damping[i]
+        j.frictionloss, j.armature = 0.0 if i is None else m.friction[i], 0.0
         j.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
         if not joint_limits and j.type != mujoco.mjtJoint.mjJNT_FREE:
             j.limited = mujoco.mjtLimited.mjLIMITED_FALSE
@@ -199,7 +203,7 @@ class MujocoSimulator:
                  v0: np.ndarray | None = None, dt: float = 1e-3, substeps: int = 1, extra_points=(),
                  noise_q: float = 0.0, noise_v: float = 0.0, latency_steps: int = 0, seed: int = 0,
                  joint_limits: bool = True, inertias: str = "model", tau_limits: np.ndarray | None = None,
-                 baumgarte: float | None = None, margin: float | None = None) -> None:
+                 baumgarte: float | None = None, margin: float | None = None, joint_dynamics: bool = False) -> None:
         self.robot, self.model, self.root = robot, robot.model, robot.root
         m = self.model
         self.data = m.createData()
@@ -214,7 +218,8 @@ class MujocoSimulator:
         self.tau_limits = lim.copy() if lim.shape[0] == m.nv else np.where(self.actuated, 0.0, np.inf)
         if lim.shape[0] != m.nv:
             self.tau_limits[self.actuated] = lim
-        self.mj_model = mm = build_model(robot, self.env, pts, self.h, joint_limits, inertias, self.tau_limits)
+        self.mj_model = mm = build_model(robot, self.env, pts, self.h, joint_limits, inertias, self.tau_limits,
+                                         joint_dynamics)
         self.mj_data = mujoco.MjData(mm)
         # pinocchio joint -> MuJoCo body, and the (q, v) <-> (qpos, qvel) indices of the joints
         self._body = np.zeros(m.njoints, int)
@@ -261,7 +266,7 @@ class MujocoSimulator:
         """Simulator.for_robot's arguments: the sole corners and point contacts of ``robot``'s
         YAML, ``extra_points`` more ``(frame name, offset in the frame)``; ``kwargs``: ``dt``,
         ``substeps``, ``tau_limits``, sensing (``noise_q``, ``noise_v``, ``latency_steps``,
-        ``seed``), and ``joint_limits``, ``inertias``, ``v0``."""
+        ``seed``), and ``joint_limits``, ``inertias``, ``v0``, ``joint_dynamics``."""
         return cls(robot, environment, q0=q0, extra_points=extra_points, **kwargs)
 
     # ----------------------------------------------------------- conversions

@@ -25,6 +25,9 @@ the impact is perfectly inelastic, so nothing rebounds higher than it fell.
 A differential-drive base (planar root) adds the bilateral constraint of zero
 lateral base velocity, solved in the same Gauss-Seidel sweep.
 
+Joint damping and dry friction from the URDF (``joint_dynamics=True``): implicit damping and
+friction impulses bounded by the URDF's friction, in the same step (:mod:`wbc.sim.joint_dynamics`).
+
 An optional motor driver saturates the torques: τ_i is clipped to ±``tau_limits``_i
 (N·m) before it is applied, and ``saturated_steps`` counts the control periods in
 which that changed anything.
@@ -44,6 +47,7 @@ import pinocchio as pin
 
 from ..errors import WbcError
 from .contact_solver import ContactSolver
+from .joint_dynamics import JointDynamics, eliminate_lateral
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -93,13 +97,16 @@ class Simulator:
     ``environment``: shapes from :mod:`wbc.sim.environment`; ``dt`` the control
     period, ``substeps`` physics steps per control period; ``tau_limits`` the
     driver's torque limits (N·m, ≥ 0, ``inf`` = none), per actuated joint (na) or
-    per dof (nv, unactuated entries ignored), ``None`` for no saturation.
+    per dof (nv, unactuated entries ignored), ``None`` for no saturation;
+    ``joint_dynamics``: the model's URDF damping and friction act on the joints
+    (:mod:`wbc.sim.joint_dynamics`; ``self.joint_dynamics`` None when off or all zero).
     """
 
     def __init__(self, model: pin.Model, points, environment, q0, v0=None, dt: float = 1e-3,
                  substeps: int = 1, actuated: np.ndarray | None = None, differential_drive: bool = False,
                  baumgarte: float = 0.2, margin: float = 2e-3, noise_q: float = 0.0, noise_v: float = 0.0,
-                 latency_steps: int = 0, seed: int = 0, tau_limits: np.ndarray | None = None) -> None:
+                 latency_steps: int = 0, seed: int = 0, tau_limits: np.ndarray | None = None,
+                 joint_dynamics: bool = False) -> None:
         self.model = model
         self.data = model.createData()
         self.env = list(environment)
@@ -129,6 +136,7 @@ class Simulator:
         self._free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
         self.tau_limits = self._full_limits(tau_limits)
         self.saturated_steps = 0    # control periods in which the driver clipped τ
+        self.joint_dynamics = JointDynamics.of_model(model) if joint_dynamics else None
 
     def _full_limits(self, tau_limits) -> np.ndarray | None:
         """``tau_limits`` (na or nv, N·m) as an nv vector, inf on the unactuated dofs."""
@@ -206,16 +214,11 @@ class Simulator:
         fext = self._external_forces()
         rows, frames, depths, mus, ids = self._contact_rows()
         nh = self.differential_drive
-        Minv = None
-        if rows or nh:
-            # M⁻¹ is needed for the contact impulses anyway: then the free acceleration is
-            # M⁻¹(τ − h) (one matrix-vector product) rather than a second pass of ABA
-            Minv = pin.computeMinverse(m, d, q)
-            Minv[self._tril] = Minv.T[self._tril]        # computeMinverse fills the upper triangle
-        if Minv is None or fext:
-            a_free = pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
+        jd = self.joint_dynamics
+        if jd is not None:          # damped: M̃⁻¹ = (M + hD)⁻¹ in the free motion and every impulse
+            Minv, a_free = jd.free_motion(m, d, q, v, tau, fext, h)
         else:
-            a_free = Minv @ (tau - pin.nonLinearEffects(m, d, q, v))
+            Minv, a_free = self._free_motion(q, v, tau, fext, bool(rows or nh))
         v_free = v + h * a_free
         if self._free_flyer:
             # The root's linear velocity is in the body frame: its rate holds the term
@@ -225,7 +228,9 @@ class Simulator:
             v_free[:3] = pin.exp3(-w * h) @ (v[:3] + h * (a_free[:3] + _cross(w, v[:3])))
 
         self.point_forces[:] = 0.0
-        if rows or nh:
+        if jd is not None and jd.friction_idx.size:
+            v = self._with_joint_friction(v_free, Minv, rows, frames, depths, mus, ids)
+        elif rows or nh:
             v_new = v_free
             if rows:
                 J = np.vstack(rows)
@@ -257,6 +262,43 @@ class Simulator:
         self.v = v
         self.q = pin.integrate(m, q, v * h)
         self.t += h
+
+    def _free_motion(self, q, v, tau, fext, need_minv: bool):
+        """(M⁻¹ or None, the free acceleration ABA(q, v, τ, f_ext))."""
+        m, d = self.model, self.data
+        Minv = None
+        if need_minv:
+            # M⁻¹ is needed for the contact impulses anyway: then the free acceleration is
+            # M⁻¹(τ − h) (one matrix-vector product) rather than a second pass of ABA
+            Minv = pin.computeMinverse(m, d, q)
+            Minv[self._tril] = Minv.T[self._tril]        # computeMinverse fills the upper triangle
+        if Minv is None or fext:
+            return Minv, pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
+        return Minv, Minv @ (tau - pin.nonLinearEffects(m, d, q, v))
+
+    def _with_joint_friction(self, v_free, Minv, rows, frames, depths, mus, ids) -> np.ndarray:
+        """The velocity after the joint friction impulses, the contact impulses and the
+        differential drive's lateral constraint (eliminated first), as
+        :meth:`JointDynamics.friction_impulses` solves them; sets the contacts' forces."""
+        if self.differential_drive:
+            Minv, v_free = eliminate_lateral(Minv, v_free, 1)
+        if not rows:
+            self._warm = {}
+            return self.joint_dynamics.friction_impulses(Minv, v_free, self.h)[0]
+        J = np.vstack(rows)
+        g = J @ v_free
+        for k, dep in enumerate(depths):
+            g[3 * k + 2] -= (self.baumgarte * dep if dep > 0 else dep) / self.h
+        lam = np.concatenate([self._warm.get(i, np.zeros(3)) for i in ids])
+        v_new, lam = self.joint_dynamics.friction_impulses(Minv, v_free, self.h,
+                                                           (J, g, self._pgs_for(tuple(mus)).solve, lam))
+        if not np.all(np.isfinite(lam)):
+            self.solver_failures += 1
+            return self.joint_dynamics.friction_impulses(Minv, v_free, self.h)[0]
+        self._warm = {i: lam[3 * k: 3 * k + 3].copy() for k, i in enumerate(ids)}
+        for k, i in enumerate(ids):
+            self.point_forces[i] = frames[k] @ lam[3 * k: 3 * k + 3] / self.h
+        return v_new
 
     def _contact_rows(self):
         """Points in (or within ``margin`` of) contact, each with the surface it touches:
