@@ -218,13 +218,15 @@ class Controller:
                         weights_of.force_weights(layout) if forces else _NO_BOUNDS)
         return x
 
-    def solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
-        """One control cycle at state (q, v); see the module docstring."""
+    def solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
+        """One control cycle at state (q, v); see the module docstring. ``external_torque``:
+        a known external generalised force on the robot (nv; a measured or estimated push,
+        :mod:`wbc.interaction`), put into the dynamics every level sees (``RobotModel.update``)."""
         robot = self.robot
         q, v = robot.check_state(q, v)
         if self._ramps:
             self._advance_ramps()
-        robot.update(q, v)
+        robot.update(q, v, external_torque)
         layout = self.stack.layout(robot)
         lowest, weights_of = self._lowest()
         levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),

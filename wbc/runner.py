@@ -30,6 +30,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .compile_notice import CompileNotice
 from .controller import Controller
+from .interaction import InteractionRun
 from .scenario import Scenario
 from .sim.backends import make_simulator
 from .tasks.contact import Contact
@@ -354,6 +355,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
                          dt=sc.dt, substeps=sc.substeps, tau_limits=robot.tau_max, **sc.sensing)
     for p in sc.pushes:
         sim.push(p["frame"], p["force"], p["start"], p["duration"])
+    # external-force source and glass figures of an interaction scenario (wbc.interaction)
+    inter = InteractionRun(sc.interaction, robot, sim, stack, sc.pushes) if sc.interaction is not None else None
     duration = sc.duration if duration is None else duration
     n = round(duration / sc.dt)
 
@@ -428,8 +431,9 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, start[tname], t - t0))
         q, v = sim.measure()
+        tau_e = inter.before_solve(t, q, v, sim) if inter is not None else None
         t0 = time.perf_counter()
-        sol = ctrl.solve(q, v)
+        sol = ctrl.solve(q, v, tau_e)
         cycle.append(time.perf_counter() - t0)
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
@@ -448,6 +452,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].append(errs[name][-1])
         sim.step(sol.tau_full)
+        if inter is not None:
+            inter.after_step(sim, sol)
         if callback is not None:
             callback(t, sim, sol)
         # ---- metrics on the true (simulated) state
@@ -528,6 +534,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
         out["internal_force"] = internal
     if robot.differential_drive:
         out["base_lateral_velocity_max"] = lateral
+    if inter is not None:
+        out.update(inter.summary())
     robot.update(sim.q, sim.v)
     if contacts:
         out["com_final"] = robot.com.tolist()

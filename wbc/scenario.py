@@ -12,6 +12,7 @@
     pushes: [{frame: torso, force: [60, 0, 0], start: 2.0, duration: 0.1}]
     sensing: {noise_q: 0.0, noise_v: 0.0, latency_steps: 0}
     simulator: pinocchio               # or mujoco (wbc.sim.backends; `wbc run --sim` overrides)
+    interaction: {glass: hand, external_force: simulator}   # wbc.interaction (5.3.5)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
@@ -42,17 +43,19 @@ from .config import build_task
 from .errors import ConfigError, WbcError, placed
 from .examples import scenario_path
 from .gains import apply_robot_gains
+from .interaction import InteractionSpec, interaction_section
 from .robots import load_robot
 from .scenario_events import build_events
 from .schema import mapping, sequence, text
 from .sim.backends import SIMULATORS
 from .stack import Stack
 from .tasks.contact import Contact
+from .tasks.null_space_impedance import check_in_stack
 from .trajectories import build_task_trajectory
 from .yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance", "events", "simulator"}
+        "description", "acceptance", "events", "simulator", "interaction"}
 
 
 @dataclass
@@ -73,6 +76,7 @@ class Scenario:
     events: list[dict] = field(default_factory=list)
     source: Path | None = None
     simulator: str = "pinocchio"      # physics back-end (wbc.sim.backends.SIMULATORS)
+    interaction: InteractionSpec | None = None   # external-force source and glass metrics (wbc.interaction)
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -106,6 +110,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     pushes = sections.pushes_section(cfg.get("pushes"), robot, duration)
     events = build_events(cfg.get("events"), robot, stack, dt, duration)
     sensing = sections.sensing_section(cfg.get("sensing"))
+    interaction = interaction_section(cfg.get("interaction"), robot, stack, pushes)
     simulator = text(cfg.get("simulator", "pinocchio"), "simulator", what=f"one of {', '.join(SIMULATORS)}")
     if simulator not in SIMULATORS:
         raise ConfigError(f"expected one of {', '.join(SIMULATORS)}, got {simulator!r}", key="simulator")
@@ -114,7 +119,8 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
                           key="simulator")
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
-                    acceptance=dict(acceptance), events=events, source=src, simulator=simulator)
+                    acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
+                    interaction=interaction)
 
 
 def _robot(value: Any, src: Path, robot_loader):
@@ -165,13 +171,14 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
             tasks.append(task)
         built.append(tasks)
     stack = Stack(built)          # names are unique (checked above)
-    _check_references(stack, where_of)
+    _check_references(stack, where_of, robot)
     return stack, refs, offsets
 
 
-def _check_references(stack: Stack, where_of: dict[str, str]) -> None:
+def _check_references(stack: Stack, where_of: dict[str, str], robot) -> None:
     """Tasks that name other tasks or surfaces: one contact task per surface; a
-    contact_wrench names a contact task of the stack, with a target of its force size."""
+    contact_wrench names a contact task of the stack, with a target of its force size; what
+    a null_space_impedance protects is held by a higher level."""
     held: dict[str, str] = {}
     for t in stack:
         if isinstance(t, Contact):
@@ -179,6 +186,8 @@ def _check_references(stack: Stack, where_of: dict[str, str]) -> None:
                 raise ConfigError(f"contact '{t.contact}' is already held by task '{held[t.contact]}' "
                                   f"({where_of[held[t.contact]]})", key=f"{where_of[t.name]}.contact")
             held[t.contact] = t.name
+    for name, key, message in check_in_stack(stack, robot):
+        raise ConfigError(message, key=f"{where_of[name]}.{key}")
     contacts = {t.name: t for t in stack if isinstance(t, Contact)}
     for t in stack:
         if t.kind != "contact_wrench":
