@@ -4,7 +4,7 @@ Main task: the hand's pose (the glass), a stiff task impedance (5.45-5.46).
 Null space: a compliant impedance (5.43-5.44). On a pinocchio simulation with
 external wrenches (wbc.sim.compliant, ABA + fext, 1 kHz):
 
-1. selective compliance (NullSpaceImpedance): 25 N sideways on the elbow for
+1. selective compliance (NullSpaceImpedanceController): 25 N sideways on the elbow for
    1.5 s; the arm yields in its null space, the glass barely tilts;
 2. non-selective compliance (joint PD + gravity with the same joint stiffness
    k_q everywhere): the same push tilts the glass;
@@ -37,7 +37,7 @@ def main() -> int:
     import pinocchio as pin
 
     import wbc
-    from wbc.control import NullSpaceImpedance, PDGravity
+    from wbc.control import NullSpaceImpedanceController, PDGravity
     from wbc.sim.compliant import ExternalWrench, InteractionSim
 
     robot = wbc.load_robot("panda")
@@ -77,11 +77,11 @@ def main() -> int:
 
     print(f"Panda carrying a glass; task K = {K[0, 0]:.0f} N/m, {K[3, 3]:.0f} N·m/rad; "
           f"null space k_q = {k_q} N·m/rad, B_ν = {B_nu} N·m·s/rad; pushes on [{t_on}, {t_off}) s")
-    episode(NullSpaceImpedance(robot, "hand", K=K, D=D, k_q=k_q, B_nu=B_nu), ("elbow", elbow_f),
+    episode(NullSpaceImpedanceController(robot, "hand", K=K, D=D, k_q=k_q, B_nu=B_nu), ("elbow", elbow_f),
             "1. null-space impedance, 25 N on the elbow:")
     episode(PDGravity(robot, q0, kp=k_q, kd=B_nu), ("elbow", elbow_f),
             "2. joint PD + g (not selective), same push:")
-    episode(NullSpaceImpedance(robot, "hand", K=K, D=D, k_q=k_q, B_nu=B_nu), ("hand", hand_f),
+    episode(NullSpaceImpedanceController(robot, "hand", K=K, D=D, k_q=k_q, B_nu=B_nu), ("hand", hand_f),
             "3. null-space impedance, 10 N down on the hand:")
     print(f"     (task impedance 5.46 at rest: K x̃ = h_e, |K⁻¹h_e| = {np.linalg.norm(hand_f) / K[2, 2] * 1e3:.2f} mm)")
     view.finish(args.record)

@@ -288,10 +288,10 @@ def test_singular_task_jacobian_raises_a_clear_error(panda):
     """Λ_e = (J M⁻¹ Jᵀ)⁻¹ does not exist for a frame that moves with two joints only."""
     with pytest.raises(wbc.SolverError, match="singular"):
         StiffnessControl(panda, frame="panda_link2")(panda.q_default, np.zeros(panda.nv))
-    from wbc.control.null_space_impedance import NullSpaceImpedance
+    from wbc.control.null_space_impedance import NullSpaceImpedanceController
 
     with pytest.raises(wbc.SolverError, match="singular"):
-        NullSpaceImpedance(panda, frame="panda_link3")(panda.q_default, np.zeros(panda.nv))
+        NullSpaceImpedanceController(panda, frame="panda_link3")(panda.q_default, np.zeros(panda.nv))
 
 
 def test_interaction_sim_applies_wrenches_and_surfaces_through_the_jacobian_transpose(panda, rng):

@@ -10,7 +10,7 @@ import pytest
 
 import wbc
 from wbc.control.motion_common import ControllerDefinitionError
-from wbc.control.null_space_impedance import NullSpaceImpedance
+from wbc.control.null_space_impedance import NullSpaceImpedanceController
 from wbc.sim.compliant import ExternalWrench, InteractionSim
 
 from .closed_form import msd_response
@@ -26,8 +26,8 @@ def panda() -> wbc.RobotModel:
     return wbc.load_robot("panda")
 
 
-def controller(panda) -> NullSpaceImpedance:
-    return NullSpaceImpedance(panda, "hand", K=K_TASK, D=D_TASK, k_q=K_Q, B_nu=B_NU)
+def controller(panda) -> NullSpaceImpedanceController:
+    return NullSpaceImpedanceController(panda, "hand", K=K_TASK, D=D_TASK, k_q=K_Q, B_nu=B_NU)
 
 
 def elbow_torque(panda, data, q, force) -> np.ndarray:
@@ -136,12 +136,12 @@ def test_hand_wrench_meets_the_task_impedance_5_46(panda):
 
 def test_bad_parameters_and_inputs_are_refused(panda):
     with pytest.raises(ControllerDefinitionError, match="K"):
-        NullSpaceImpedance(panda, K=-1.0)
+        NullSpaceImpedanceController(panda, K=-1.0)
     with pytest.raises(ControllerDefinitionError, match="B_nu"):
-        NullSpaceImpedance(panda, B_nu=np.eye(2))
-    with pytest.raises(wbc.FrameNotFound, match="NullSpaceImpedance"):
-        NullSpaceImpedance(panda, frame="no_such_frame")
-    ctrl = NullSpaceImpedance(panda)
+        NullSpaceImpedanceController(panda, B_nu=np.eye(2))
+    with pytest.raises(wbc.FrameNotFound, match="NullSpaceImpedanceController"):
+        NullSpaceImpedanceController(panda, frame="no_such_frame")
+    ctrl = NullSpaceImpedanceController(panda)
     with pytest.raises(wbc.TargetError, match="q"):
         ctrl(np.zeros(3), np.zeros(panda.nv))
     with pytest.raises(wbc.TargetError, match="call the controller once"):

@@ -182,7 +182,10 @@ PARAM_HELP: dict = {
     "margin": "distance kept from the position limits, rad or m",
     "joints": "joint names (None: every non-root joint)",
     "scale": "fraction (0, 1] of the URDF torque limits",
-    ("null_space_impedance", "frame"): "frame of the pose task one level above (its self-motion is made compliant)",
+    ("null_space_impedance", "frame"): "frame of a pose task above (protected: the impedance acts in its null space)",
+    ("null_space_impedance", "protect"): "more protected frames or 'com', each held by a task above; the contacts "
+                                         "are always protected",
+    ("null_space_impedance", "zeta"): "damping ratio of every null-space mode (instead of B_nu)",
     ("null_space_impedance", "target"): "posture q_d (nq,) of the null-space spring, rad (None: the start)",
     "k_q": "null-space joint stiffness, N·m/rad (scalar or one per joint)",
     "B_nu": "null-space damping, N·m·s/rad (scalar or matrix)",

@@ -234,10 +234,14 @@ class Controller:
                         weights_of.force_weights(layout) if forces else _NO_BOUNDS)
         return x
 
-    def solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
+    def solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
         """One control cycle at state (q, v) under the fault policy (:mod:`wbc.faults`); see
-        the module docstring. ``Solution.fault`` names a faulty cycle's counter."""
-        sol = self.faults.cycle(q, v, self._solve, self._hold)
+        the module docstring. ``Solution.fault`` names a faulty cycle's counter.
+        ``external_torque``: a known external generalised force on the robot (nv; a measured
+        or estimated push, :mod:`wbc.interaction`), put into the dynamics every level sees
+        (``RobotModel.update``)."""
+        solve = self._solve if external_torque is None else partial(self._solve, external_torque=external_torque)
+        sol = self.faults.cycle(q, v, solve, self._hold)
         if not sol.fault:           # accepted: what a later faulty cycle holds
             self._last_tau, self._last_forces = sol.tau_full.copy(), sol.forces
         return sol
@@ -248,13 +252,13 @@ class Controller:
         each rescued by its fallback back-end (not a faulty cycle by itself)."""
         return {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
 
-    def _solve(self, q: np.ndarray, v: np.ndarray) -> Solution:
+    def _solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
         robot, clock = self.robot, self.phase_clock
         q, v = robot.check_state(q, v)
         if self._ramps:
             self._advance_ramps()
         t = clock and clock.lap(None, 0.0)
-        robot.update(q, v)
+        robot.update(q, v, external_torque)
         t = clock and clock.lap("update", t)
         layout = self.stack.layout(robot)
         lowest, weights_of = self._lowest()

@@ -6,7 +6,10 @@
   zero-acceleration bias accelerations (so frame drifts J̇q̇ come for free), then
   ``computeJointJacobians`` and ``updateFramePlacements`` from them;
 - ``crba``: the joint-space inertia M(q) (the chapter's B(q));
-- ``nonLinearEffects``: h = C(q, q̇)q̇ + g(q) (5.1), plus the joints' damping and friction
+- ``nonLinearEffects``: h = C(q, q̇)q̇ + g(q) (5.1), minus a known external generalised
+  force τ_e when one is given (``update(q, v, external_torque=τ_e)``: a measured or
+  estimated push, :mod:`wbc.interaction`), so that every task and solver reads the
+  dynamics M q̈ + h = Sᵀτ + J_fᵀ f with τ_e in it, plus the joints' damping and friction
   D q̇ + F tanh(q̇/v_s) when the robot YAML's ``compensate:`` asks (:mod:`wbc.joint_compensation`);
 - ``centerOfMass`` (with its drift J̇_com q̇, from the same forward pass) and
   ``jacobianCenterOfMass``.
@@ -127,6 +130,9 @@ class RobotModel:
         self.v = np.zeros(self.nv)
         self._zero_v = np.zeros(self.nv)
         self._h_eff = None          # h + the compensation, when there is one
+        #: the known external generalised force τ_e (nv, N·m or N, applied *to* the robot) of
+        #: the last ``update``, already subtracted from ``h``; zeros when none was given
+        self.external_torque = np.zeros(self.nv)
         self.cycle = 0
         self.update(self.q, self.v)
 
@@ -172,10 +178,22 @@ class RobotModel:
             raise TargetError(f"robot '{self.name}': q or v contains NaN or inf")
         return q, v
 
-    def update(self, q: np.ndarray, v: np.ndarray) -> None:
-        """Run the cycle's pinocchio algorithms once (see the module docstring)."""
+    def update(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> None:
+        """Run the cycle's pinocchio algorithms once (see the module docstring).
+        ``external_torque``: a known external generalised force τ_e on the robot (nv; N·m,
+        N on linear root rows), moved into h = C q̇ + g − τ_e for this cycle."""
         self.q, self.v = q, v
         whole_body_terms(self.model, self.data, q, v, self._zero_v)
+        if external_torque is None:
+            if self.external_torque.any():
+                self.external_torque = np.zeros(self.nv)
+        else:
+            tau_e = np.asarray(external_torque, dtype=float)
+            if tau_e.shape != (self.nv,) or not np.all(np.isfinite(tau_e)):
+                raise TargetError(f"robot '{self.name}': external_torque must be {self.nv} finite numbers, "
+                                  f"got shape {tau_e.shape}")
+            self.external_torque = tau_e.copy()
+            self.data.nle -= tau_e
         if self.compensation is not None:
             self._h_eff = self.data.nle + self.compensation.torque(v)
         self._cache.clear()
@@ -189,8 +207,9 @@ class RobotModel:
 
     @property
     def h(self) -> np.ndarray:
-        """Nonlinear effects h = C(q, q̇)q̇ + g(q) (nv, N·m), plus D q̇ + F σ(q̇) with a
-        ``compensation`` (:mod:`wbc.joint_compensation`)."""
+        """Nonlinear effects h = C(q, q̇)q̇ + g(q) − τ_e (τ_e the known external generalised
+        force given to :meth:`update`, else 0), plus D q̇ + F σ(q̇) with a ``compensation``
+        (:mod:`wbc.joint_compensation`); nv, N·m."""
         return self.data.nle if self.compensation is None else self._h_eff
 
     @property

@@ -43,6 +43,7 @@ import pinocchio as pin
 from .compile_notice import CompileNotice
 from .controller import Controller
 from .faults import FaultPolicy, diverged, simulation_diverged
+from .interaction import ExternalForceRun
 from .metrics_interaction import InteractionRun
 from .run_metrics import RunMetrics, tilt
 from .scenario import Scenario
@@ -129,6 +130,9 @@ class ScenarioRun:
         for p in sc.pushes:
             sim.push(p["frame"], p["force"], p["start"], p["duration"])
         self.interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)  # force tasks: measurement, figures
+        # external-force source and glass figures of an interaction scenario (wbc.interaction)
+        self.external = (ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)
+                         if sc.interaction is not None else None)
         self.last_sol = None
         self.duration = sc.duration if duration is None else duration_value(duration, sc.dt)
         self.n = round(self.duration / sc.dt)
@@ -192,8 +196,9 @@ class ScenarioRun:
         q, v = sim.measure()
         if self.interaction is not None:
             self.interaction.before_solve(q, v, self.last_sol)
+        tau_e = self.external.before_solve(t, q, v, sim) if self.external is not None else None
         t0 = time.perf_counter()
-        sol = self.last_sol = ctrl.solve(q, v)
+        sol = self.last_sol = ctrl.solve(q, v, tau_e)
         self.cycle_times[k] = time.perf_counter() - t0
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
@@ -212,6 +217,8 @@ class ScenarioRun:
             return False
         if self.interaction is not None:
             self.interaction.after_step()
+        if self.external is not None:
+            self.external.after_step(sim, sol)
         if self.callback is not None:
             self.callback(t, sim, sol)
         self.measured.record_state(t, sim, sol, stack)
@@ -259,6 +266,8 @@ class ScenarioRun:
             out["com_final"] = robot.com.tolist()
         if self.interaction is not None:
             out.update(self.interaction.metrics())
+        if self.external is not None:
+            out.update(self.external.summary())
         if self.measured.rec is not None:
             out["series"] = self.measured.rec.to_dict()
         return out

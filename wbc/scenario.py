@@ -16,6 +16,7 @@
                                        # contacts, added to a copy of the robot (wbc.scenario_contacts)
     joint_dynamics: false              # true: the URDF's joint damping and friction act in the
                                        # simulator (`wbc run --joint-dynamics` turns it on)
+    interaction: {glass: hand, external_force: simulator}   # wbc.interaction (5.3.5)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
@@ -47,6 +48,7 @@ from .errors import ConfigError, WbcError, placed
 from .examples import scenario_path
 from .gains import apply_robot_gains
 from .hybrid import check_force_tasks
+from .interaction import InteractionSpec, interaction_section
 from .robots import load_robot
 from .scenario_contacts import with_contacts
 from .scenario_events import build_events
@@ -54,11 +56,12 @@ from .schema import boolean, mapping, sequence, text
 from .sim.backends import SIMULATORS
 from .stack import Stack
 from .tasks.contact import Contact
+from .tasks.null_space_impedance import check_in_stack
 from .trajectories import build_task_trajectory
 from .yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics"}
+        "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics", "interaction"}
 
 
 @dataclass
@@ -80,6 +83,7 @@ class Scenario:
     source: Path | None = None
     simulator: str = "pinocchio"      # physics back-end (wbc.sim.backends.SIMULATORS)
     joint_dynamics: bool = False      # the URDF's joint damping and friction in the simulator
+    interaction: InteractionSpec | None = None   # external-force source and glass metrics (wbc.interaction)
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -113,6 +117,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     pushes = sections.pushes_section(cfg.get("pushes"), robot, duration)
     events = build_events(cfg.get("events"), robot, stack, dt, duration)
     sensing = sections.sensing_section(cfg.get("sensing"))
+    interaction = interaction_section(cfg.get("interaction"), robot, stack, pushes)
     simulator = text(cfg.get("simulator", "pinocchio"), "simulator", what=f"one of {', '.join(SIMULATORS)}")
     if simulator not in SIMULATORS:
         raise ConfigError(f"expected one of {', '.join(SIMULATORS)}, got {simulator!r}", key="simulator")
@@ -123,7 +128,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
                     acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
-                    joint_dynamics=joint_dynamics)
+                    joint_dynamics=joint_dynamics, interaction=interaction)
 
 
 def _robot(value: Any, src: Path, robot_loader):
@@ -180,7 +185,8 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
 
 def _check_references(stack: Stack, where_of: dict[str, str], robot) -> None:
     """Tasks that name other tasks or surfaces: one contact task per surface; a
-    contact_wrench names a contact task of the stack, with a target of its force size."""
+    contact_wrench names a contact task of the stack, with a target of its force size; what
+    a null_space_impedance protects is held by a higher level."""
     held: dict[str, str] = {}
     for t in stack:
         if isinstance(t, Contact):
@@ -188,6 +194,8 @@ def _check_references(stack: Stack, where_of: dict[str, str], robot) -> None:
                 raise ConfigError(f"contact '{t.contact}' is already held by task '{held[t.contact]}' "
                                   f"({where_of[held[t.contact]]})", key=f"{where_of[t.name]}.contact")
             held[t.contact] = t.name
+    for name, key, message in check_in_stack(stack, robot):
+        raise ConfigError(message, key=f"{where_of[name]}.{key}")
     contacts = {t.name: t for t in stack if isinstance(t, Contact)}
     check_force_tasks(stack, contacts, where_of, robot)
     for t in stack:

@@ -26,7 +26,7 @@ from .joint_space import (
     slotine_li_regressor,
 )
 from .motion_common import ControllerDefinitionError, MotionController, Reference
-from .null_space_impedance import NullSpaceImpedance
+from .null_space_impedance import NullSpaceImpedanceController
 from .robust_passivity import RobustPassivityBased, body_parameter_indices, body_parameter_scale, with_payload
 from .stiffness import StiffnessControl
 from .task_space import (
@@ -49,7 +49,7 @@ __all__ = [
     "JacobianTransposePD",
     "MotionController",
     "MotorPD",
-    "NullSpaceImpedance",
+    "NullSpaceImpedanceController",
     "OperationalSpace",
     "PDGravity",
     "PDPlus",

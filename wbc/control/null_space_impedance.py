@@ -12,8 +12,9 @@ the inertia Λ_E = diag(Λ_x, Λ_ν) is block diagonal (5.24).
 Choice of Z: Z(q) = N(q) Z₀ with N = I − J⁺J (Moore-Penrose) and Z₀ an
 orthonormal basis of ker J at the first call (or given): smooth in q, exactly
 J Z = 0, and Ż = Ṅ Z₀ in closed form from J and J̇ (pinocchio's
-``getFrameJacobianTimeVariation``): with A = J Jᵀ,
-Ṅ = −(J̇⁺ J + J⁺ J̇), J̇⁺ = J̇ᵀ A⁻¹ − J⁺ (J̇ Jᵀ + J J̇ᵀ) A⁻¹.
+``getFrameJacobianTimeVariation``), Ṅ = −(J⁺J̇N + NJ̇ᵀJ⁺ᵀ): :mod:`wbc.null_space`, which
+the stack task :mod:`wbc.tasks.null_space_impedance` shares (there J stacks every higher
+level and the contacts).
 
 Control: inverse dynamics τ = M r + C q̇ + g (5.2) with (5.39)
 
@@ -52,6 +53,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import TargetError
+from ..null_space import null_basis_at, null_space_terms
 from ._opspace import (
     ControllerDefinitionError,
     PoseReference,
@@ -63,12 +65,6 @@ from ._opspace import (
 )
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-
-def null_basis_at(J: np.ndarray) -> np.ndarray:
-    """An orthonormal basis Z₀ (n × (n − m)) of ker J, from the SVD of a full-row-rank J."""
-    _, _, Vt = np.linalg.svd(J)
-    return Vt[J.shape[0]:].T.copy()
 
 
 @dataclass
@@ -110,31 +106,18 @@ def extended_task_space_terms(robot, data: pin.Data, fid: int, Z0: np.ndarray) -
     pin.updateFramePlacement(m, data, fid)
     Jdot = pin.getFrameJacobianTimeVariation(m, data, fid, LWA)
     C = pin.computeCoriolisMatrix(m, data, q, v)
-    Mdot = C + C.T
-    # Z = N Z0, Zdot = Ndot Z0
-    A_inv = np.linalg.inv(J @ J.T)
-    Jp = J.T @ A_inv
-    N = np.eye(J.shape[1]) - Jp @ J
-    Jp_dot = Jdot.T @ A_inv - Jp @ (Jdot @ J.T + J @ Jdot.T) @ A_inv
-    Z, Zdot = N @ Z0, -(Jp_dot @ J + Jp @ Jdot) @ Z0
-    # task side
+    ns = null_space_terms(M, C, v, J, Jdot, Z0)
     Minv = np.linalg.inv(M)
     Lam_x = np.linalg.inv(J @ Minv @ J.T)
     Js = Minv @ J.T @ Lam_x
-    # null-space side
-    Lam_nu = Z.T @ M @ Z
-    Lam_nu_inv = np.linalg.inv(Lam_nu)
-    Zs = Lam_nu_inv @ Z.T @ M
-    Lam_nu_dot = Zdot.T @ M @ Z + Z.T @ Mdot @ Z + Z.T @ M @ Zdot
-    Zs_dot = Lam_nu_inv @ (Zdot.T @ M + Z.T @ Mdot - Lam_nu_dot @ Zs)
     return ExtendedTaskSpaceTerms(
-        J=J, Jdqd=Jdqd, Jdot=Jdot, Jsharp=Js, Lambda_x=Lam_x, Z=Z, Zdot=Zdot, Zsharp=Zs,
-        Zsharp_dot_v=Zs_dot @ v, Lambda_nu=Lam_nu, mu_x=Js.T @ C @ Js - Lam_x @ Jdot @ Js,
-        mu_nu=Z.T @ (C @ Z + M @ Zdot), C=C)
+        J=J, Jdqd=Jdqd, Jdot=Jdot, Jsharp=Js, Lambda_x=Lam_x, Z=ns.Z, Zdot=ns.Zdot, Zsharp=ns.Zsharp,
+        Zsharp_dot_v=ns.Zsharp_dot_v, Lambda_nu=ns.Lambda_nu, mu_x=Js.T @ C @ Js - Lam_x @ Jdot @ Js,
+        mu_nu=ns.mu_nu, C=C)
 
 
 
-class NullSpaceImpedance:
+class NullSpaceImpedanceController:
     """Task impedance (5.45) + null-space impedance (5.43), 5.39. Call: ``tau = ctrl(q, v, t)``.
 
     Parameters
@@ -152,7 +135,7 @@ class NullSpaceImpedance:
 
     def __init__(self, robot, frame: str = "hand", K=2000.0, D=None, k_q=20.0, B_nu=3.0, target=None,
                  q_d=None, Z0=None) -> None:
-        name = f"NullSpaceImpedance({frame})"
+        name = f"NullSpaceImpedanceController({frame})"
         self.robot, self.frame, self.name = robot, frame, name
         if robot.na != robot.nv:
             raise ControllerDefinitionError(f"{name}: needs every joint actuated (robot '{robot.name}' "

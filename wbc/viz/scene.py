@@ -154,12 +154,16 @@ class Scene:
                 self.vis[f"env/{s.name}{i}"].set_transform(T)
 
     def set_targets(self, stack) -> None:
-        """One marker per CoM/frame task (created once; positions follow the targets)."""
+        """One marker per CoM/frame task (created once; positions follow the targets); a frame
+        task that holds an orientation also gets the target frame's axes (x red, y green, z
+        blue, 8 cm: the glass's frame in an interaction scenario)."""
         for t in stack:
             if t.kind in ("com", "frame") and t.target is not None:
                 node = self.vis[f"targets/{t.name}"]
                 node.set_object(mg.Sphere(0.015 if t.kind == "frame" else 0.025),
                                 mg.MeshLambertMaterial(color=COLORS["target"], opacity=0.7))
+                if t.kind == "frame" and max(t._sel) > 2:
+                    node["axes"].set_object(mg.triad(0.08))
 
     def _node(self, path: str):
         return self.vis[path] if self._target is None else self._target[path]

@@ -1,0 +1,34 @@
+"""Shared by the glass-of-water scenario tests (tests/test_glass_tiago.py, test_glass_talos.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+from wbc.runner import run
+from wbc.scenario import load_config
+
+TASKS = Path(__file__).resolve().parent.parent / "tasks"
+TWO_DEG = math.radians(2.0)
+TEN_DEG = math.radians(10.0)
+
+
+def glass_run(name: str, duration: float | None = None, solver: str | None = None, simulator: str | None = None,
+              external_force: str | None = None) -> dict:
+    """Run the bundled scenario ``name`` (optionally another external-force source); print its figures."""
+    sc = load_config(TASKS / f"{name}.yaml")
+    if external_force is not None:
+        sc.interaction = dataclasses.replace(sc.interaction, external_force=external_force)
+    m = run(sc, duration=duration, solver=solver, simulator=simulator)
+    est = m.get("push_estimate", {})
+    print(f"{name} [{m['external_force']}, {m['solver']}, {m['simulator']}]: glass tilt "
+          f"{math.degrees(m['glass_tilt_max']):.2f}°, hand error {m['hand_position_error_max'] * 1e3:.2f} mm, elbow "
+          f"{m['elbow_displacement_max'] * 1e2:.2f} cm, push estimate error {est.get('error_rel', float('nan')):.1e}")
+    return m
+
+
+def assert_clean(m: dict) -> None:
+    """No fall, no solver failure, no limit violated."""
+    assert not m["fell"] and m["solver_failures"] == 0
+    assert sum(m["violations"].values()) == 0, m["violations"]
