@@ -13,8 +13,6 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
-
 PACKAGE = Path(__file__).resolve().parent.parent / "wbc"
 MAX_LINES = 500
 #: cycles through deferred imports that are known: each is a lazy import of an optional
@@ -153,7 +151,6 @@ def test_tasks_do_not_import_the_sugar_user():
             assert "wbc.stack" not in imports_of(m, deferred=True), m
 
 
-@pytest.mark.xfail(strict=True, reason="null-space impedance rename in progress (wbc/tasks/null_space_impedance.py)")
 def test_tasks_do_not_import_wbc_control():
     """The stack's tasks are the core; the chapter's controllers (wbc.control) are built
     on it, not the other way round."""
