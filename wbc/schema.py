@@ -216,7 +216,8 @@ def mapping(value: Any, key: str | None = None, *, allowed: Iterable[str] | None
         raise error(f"must be {what} (key: value), got {found(value)}", key=key, owner=owner)
     allowed = None if allowed is None else sorted(allowed)
     for k in value:
-        sub = f"{key}.{k}" if key else str(k)
+        name = k if not isinstance(k, str) or len(k) <= 60 else f"{k[:40]}…({len(k)} characters)"
+        sub = f"{key}.{name}" if key else str(name)
         if not isinstance(k, str):
             raise error(f"keys must be text, got {show(k)}", key=sub, owner=owner)
         if allowed is not None and k not in allowed:
