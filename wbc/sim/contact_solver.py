@@ -100,6 +100,9 @@ class _PGS4:
     def solve(self, G: np.ndarray, g: np.ndarray, lam_warm: np.ndarray) -> np.ndarray:
         """Impulses λ (3n, N·s, contact frames (t1, t2, n)) from the warm start ``lam_warm``."""
         self._result.setConstraintImpulseGuess(np.asarray(lam_warm, dtype=float))
+        # column-major (G is symmetric: the same matrix): built from a C-ordered array, pinocchio
+        # 4.1's binding leaks 32 B per operator, 19 MB over 10 simulated minutes at 1 kHz
+        G = np.asfortranarray(G, dtype=float)
         self.converged = bool(self._solver.solve(pin.DelassusOperatorDense(G), np.asarray(g, dtype=float),
                                                  self._cmodels, self._cdatas, self._settings, self._result))
         return np.array(self._result.retrieveConstraintImpulses())
