@@ -120,7 +120,7 @@ class ScenarioRun:
         self.notice = CompileNotice(enabled=progress)    # a first run compiles the kernels: say so
         self.notice.start()
         self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
-                               faults=faults or FaultPolicy(detect_stale=True), **opts)
+                               faults=faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
         sim = make_simulator(self.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
                              joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
                              tau_limits=robot.tau_max, **sc.sensing)
@@ -285,8 +285,8 @@ def run(sc: Scenario, solver: str | None = None, backend: str | None = None, dur
     that the simulator then simulates, the controller keeping the nominal one (model
     error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`).
     ``duration`` (s): at least one control period (a :class:`~wbc.errors.ConfigError`
-    otherwise). ``faults``: the controller's fault policy (default: ``FaultPolicy`` with
-    stale-state detection on, the simulator's state always moving).
+    otherwise). ``faults``: the controller's fault policy (default: the scenario's ``faults:``
+    section with stale-state detection on, the simulator's state always moving).
     ``wrap_simulator(sim)``: the object the loop drives in place of the simulator, one with
     the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer).
     ``joint_dynamics``: the URDF's joint damping and friction in the simulator (default the

@@ -17,6 +17,9 @@
     joint_dynamics: false              # true: the URDF's joint damping and friction act in the
                                        # simulator (`wbc run --joint-dynamics` turns it on)
     interaction: {glass: hand, external_force: simulator}   # wbc.interaction (5.3.5)
+    faults: {max_hold_cycles: 20, damping: 10.0, solve_timeout: 0.005}   # wbc.faults: held cycles
+                                       # before a stop, the hold torque's damping (1/s), a solve's
+                                       # time budget (s; none by default)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories`, an offset from the start value unless ``absolute``).
@@ -61,7 +64,8 @@ from .trajectories import build_task_trajectory
 from .yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
-        "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics", "interaction"}
+        "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics", "interaction",
+        "faults"}
 
 
 @dataclass
@@ -84,6 +88,7 @@ class Scenario:
     simulator: str = "pinocchio"      # physics back-end (wbc.sim.backends.SIMULATORS)
     joint_dynamics: bool = False      # the URDF's joint damping and friction in the simulator
     interaction: InteractionSpec | None = None   # external-force source and glass metrics (wbc.interaction)
+    faults: dict = field(default_factory=dict)   # FaultPolicy keyword arguments (wbc.faults)
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -117,6 +122,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     pushes = sections.pushes_section(cfg.get("pushes"), robot, duration)
     events = build_events(cfg.get("events"), robot, stack, dt, duration)
     sensing = sections.sensing_section(cfg.get("sensing"))
+    faults = sections.faults_section(cfg.get("faults"))
     interaction = interaction_section(cfg.get("interaction"), robot, stack, pushes)
     simulator = text(cfg.get("simulator", "pinocchio"), "simulator", what=f"one of {', '.join(SIMULATORS)}")
     if simulator not in SIMULATORS:
@@ -128,7 +134,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
                     acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
-                    joint_dynamics=joint_dynamics, interaction=interaction)
+                    joint_dynamics=joint_dynamics, interaction=interaction, faults=faults)
 
 
 def _robot(value: Any, src: Path, robot_loader):

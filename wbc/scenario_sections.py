@@ -1,5 +1,5 @@
 """The plain sections of a scenario YAML, checked and converted: ``solver``, ``control``,
-``duration``, ``environment``, ``pushes``, ``sensing``.
+``duration``, ``environment``, ``pushes``, ``sensing``, ``faults``.
 
 Every value is checked for type, shape, finiteness and range here, so that a scenario that
 loads is one the runner can run (``wbc validate`` and ``wbc run`` go through the same
@@ -14,6 +14,8 @@ loads is one the runner can run (``wbc validate`` and ``wbc run`` go through the
   [0, duration) s, ``duration`` in (0, 3600] s;
 - ``sensing``: ``noise_q`` in [0, 1] rad or m, ``noise_v`` in [0, 10] rad/s or m/s,
   ``latency_steps`` an integer in [0, 1000];
+- ``faults`` (the run-time fault policy, :class:`wbc.faults.FaultPolicy`): ``max_hold_cycles``
+  an integer in [0, 10⁴], ``damping`` in [0, 1000] 1/s, ``solve_timeout`` in [1e-6, 1] s;
 - ``solver``: ``type`` hqp | projection | weighted, ``backend`` a QP back-end that is
   installed, ``weighting`` identity | inertia, ``level_weight`` in (0, 1].
 
@@ -148,6 +150,21 @@ def sensing_section(spec: Any) -> dict:
     if "latency_steps" in spec:
         out["latency_steps"] = integer(spec["latency_steps"], "sensing.latency_steps", ge=0, le=1000,
                                        unit="control periods")
+    return out
+
+
+def faults_section(spec: Any) -> dict:
+    """``faults:`` -> the keyword arguments of :class:`wbc.faults.FaultPolicy` it sets (the rest
+    keep the policy's defaults: 20 held cycles, damping 10 /s, no time budget)."""
+    spec = mapping(spec, "faults", allowed={"max_hold_cycles", "damping", "solve_timeout"})
+    out: dict = {}
+    if "max_hold_cycles" in spec:
+        out["max_hold_cycles"] = integer(spec["max_hold_cycles"], "faults.max_hold_cycles", ge=0, le=10_000,
+                                         unit="control cycles")
+    if "damping" in spec:
+        out["damping"] = number(spec["damping"], "faults.damping", ge=0, le=1000, unit="1/s")
+    if "solve_timeout" in spec:
+        out["solve_timeout"] = number(spec["solve_timeout"], "faults.solve_timeout", ge=1e-6, le=1.0, unit="s")
     return out
 
 
