@@ -23,7 +23,7 @@ NAMES = {f"yaml.{n}" for n in ("load", "load_all", "unsafe_load", "unsafe_load_a
                                "add_constructor", "add_multi_constructor", "constructor.UnsafeConstructor",
                                "constructor.FullConstructor", "constructor.Constructor")} | {
     "importlib.import_module", "importlib.util.spec_from_file_location", "os.system", "os.popen",
-    "numpy.load", "pandas.read_pickle", "torch.load"}
+    "numpy.load", "pandas.read_pickle", "torch.load"} | {f"builtins.{b}" for b in BUILTINS}
 
 
 def offences(source: str, filename: str = "<snippet>") -> list[str]:
@@ -59,13 +59,14 @@ def offences(source: str, filename: str = "<snippet>") -> list[str]:
             name = name.replace("np.", "numpy.", 1) if name.startswith("np.") else name
             imported = name.split(".")[0] in {v.split(".")[0] for v in alias.values()}
             if name in NAMES or (imported and name.split(".")[0] in MODULES) or \
-                    (isinstance(node, ast.Name) and node.id in BUILTINS and node.id not in alias):
+                    (isinstance(node, ast.Name) and node.id in BUILTINS and node.id not in alias) or \
+                    (isinstance(node, ast.Name) and node.id == "__builtins__"):
                 found.append(f"{where}: {name}")
         if isinstance(node, ast.Call):
             for kw in node.keywords:
                 if kw.arg in ("allow_pickle", "shell") and not (isinstance(kw.value, ast.Constant) and not kw.value.value):
                     found.append(f"{where}: {kw.arg}={ast.unparse(kw.value)}")
-            if dotted(node.func) == "getattr" and len(node.args) > 1 and dotted(node.args[0]) in ("yaml", "pickle"):
+            if dotted(node.func) == "getattr" and len(node.args) > 1 and dotted(node.args[0]) in ("yaml", "pickle", "builtins"):
                 attr = node.args[1]
                 if not (isinstance(attr, ast.Constant) and "Safe" in str(attr.value)):
                     found.append(f"{where}: getattr({dotted(node.args[0])}, {ast.unparse(attr)})")
@@ -86,6 +87,8 @@ np.load("f.npy", allow_pickle=True)
 subprocess.run(cmd, shell=True)
 import_module(name)
 getattr(yaml, "unsafe_load")(text)
+import builtins
+builtins.exec("x = 1"); getattr(builtins, "eval")("1"); __builtins__["eval"]("1")
 """
 GOOD = """
 import re, yaml
@@ -98,7 +101,7 @@ def test_the_scanner_finds_each_way_of_running_text():
     got = offences(BAD)
     for needle in ("imports pickle", "pickle.loads", "yaml.load", "yaml.Loader", "yaml.FullLoader", "eval", "exec",
                    "compile", "__import__", "allow_pickle=True", "shell=True", "importlib.import_module",
-                   "getattr(yaml, 'unsafe_load')"):
+                   "getattr(yaml, 'unsafe_load')", "builtins.exec", "getattr(builtins, 'eval')", "__builtins__"):
         assert any(needle in g for g in got), f"{needle} not found in {got}"
     assert offences(GOOD) == []
 
