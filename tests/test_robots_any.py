@@ -106,16 +106,19 @@ def test_posture_outside_limits_and_tilted_contact_warn(tmp_path):
 # ------------------------------------------------------------------ gains
 def test_robot_gains_are_the_defaults_of_scenario_tasks(tmp_path):
     sc = load_config("g1_push")
-    assert sc.stack["torso"].kp == 400.0 and sc.stack["posture"].kp == 50.0
+    robot = sc.robot
+    assert sc.stack["torso"].kp == robot.default_gains["torso"] == pytest.approx(533.0, rel=0.01)   # auto
+    assert sc.stack["posture"].kp == robot.default_gains["posture"] == pytest.approx(106.5, rel=0.01)
     assert sc.stack["left_foot_contact"].kp == 100.0
-    assert sc.stack["torso"].kd == pytest.approx(40.0)         # 2√kp, ζ = 1
+    assert sc.stack["torso"].kd == pytest.approx(2.0 * math.sqrt(sc.stack["torso"].kp))   # 2√kp, ζ = 1
     text = (Path(wbc.__file__).parent / "data" / "scenarios" / "g1_push.yaml").read_text()
     own = tmp_path / "g1_own_gain.yaml"
     own.write_text(text.replace("{type: frame, frame: torso, mask: orientation}",
                                 "{type: frame, frame: torso, mask: orientation, kp: 50.0}")
                    .replace("robot: g1", f"robot: {ROBOTS_DIR / 'g1.yaml'}"))
     sc2 = load_config(own)
-    assert sc2.stack["torso"].kp == 50.0 and sc2.stack["posture"].kp == 50.0    # the task's kp wins
+    assert sc2.stack["torso"].kp == 50.0                                        # the task's kp wins
+    assert sc2.stack["posture"].kp == sc.stack["posture"].kp
     assert load_config("talos_push").stack["left_foot_contact"].kp == 100.0    # talos: contact: 100
 
 

@@ -18,7 +18,8 @@
       left_foot: {frame: left_sole_link, kind: surface, half_length: 0.1, half_width: 0.065, mu: 0.7}
       fl_foot: {frame: FL_foot, kind: point, radius: 0.022, offset: [0, 0, 0], mu: 0.7}   # m
     limits: {torque: {joint: N·m}, velocity: {joint: rad/s}, root_torque: [...], root_velocity: [...]}
-    gains: {com: 100.0, torso: 400.0}             # task kind or task name -> default kp (1/s²)
+    gains: {com: 100.0, torso: auto}              # task kind or task name -> default kp (1/s²), or
+                                                  # auto: from the robot's inertia (wbc.gains)
     compensate: {damping: true, friction: true,   # the controller's model adds the URDF's joint
                  friction_velocity: 0.01}         # damping and friction (wbc.joint_compensation); rad/s
 
@@ -104,7 +105,9 @@ def check_document(cfg: dict) -> dict:
     out["contacts"] = {c: _contact(spec, f"contacts.{c}") for c, spec in contacts.items()}
     out["limits"] = _limits(cfg.get("limits"), N_ROOT[out["root"]])
     gains = mapping(cfg.get("gains"), "gains", what="a mapping task kind -> default kp (1/s²)", error=RobotDefinitionError)
-    out["gains"] = {k: number(v, f"gains.{k}", ge=0, unit="1/s²", error=RobotDefinitionError) for k, v in gains.items()}
+    out["gains"] = {k: v if v == "auto" else number(v, f"gains.{k}", ge=0, unit="1/s² (or auto)",
+                                                    error=RobotDefinitionError)
+                    for k, v in gains.items()}
     out["compensate"] = _compensate(cfg.get("compensate"))
     return out
 

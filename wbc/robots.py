@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import RobotDefinitionError, RobotNotFound, WbcError, placed
+from .gains import auto_gains
 from .robot_extras import (
     add_offset_frames,
     check_robot,
@@ -260,7 +261,8 @@ def _build(src: Path, cfg: dict) -> RobotModel:
         v_max=v_max,
         tau_max=tau_max,
         differential_drive=cfg["differential_drive"],
-        default_gains=dict(cfg["gains"]),
+        default_gains=auto_gains(cfg["gains"], model, q_ref, frames, [c.frame for c in contacts.values()],
+                                 root == "free_flyer"),
         urdf_path=urdf,
         package_dirs=package_dirs,
         locked_joints=list(locked),
