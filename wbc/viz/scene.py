@@ -11,7 +11,8 @@ Interaction (:meth:`Scene.set_targets`): each force task (:class:`~wbc.tasks.For
 two arrows at its contact's point, both the force the environment applies to the robot
 along the task's directions S_f (their force part, in the world): the desired force
 S_f λ_D (a wide translucent teal sleeve) and the measured force the task uses, S_f λ_m with
-λ_m = S_fᵀ f_m (a thin opaque pink core inside it), 1 mm per ``task_force_scale`` N
+λ_m = S_fᵀ f_m (a thin opaque pink core inside it), both drawn over the robot (the hand
+would hide them), 1 mm per ``task_force_scale`` N
 (default 0.1 N: 1 cm per N, 10 N = 10 cm; the contact-force scale would draw 10 N as 5 mm);
 the diagnostics panel gives their values under the same colours. ``frames=[...]`` draws
 those robot frames' actual axes (12 cm triads; the targets' are 8 cm): the glass's frame
@@ -75,11 +76,16 @@ HUD_ASPECT = 4.0 / 3.0           # anchored to the left edge of a 4:3 view (wide
 
 
 class _OnTopMesh(mg.Mesh):
-    """A mesh drawn after everything else (with a material whose depthTest is off)."""
+    """A mesh drawn after everything else (with a material whose depthTest is off); a
+    higher ``order`` is drawn later (over a lower one)."""
+
+    def __init__(self, geometry, material, order: int = 1000) -> None:
+        super().__init__(geometry, material)
+        self.order = order
 
     def lower(self):
         data = super().lower()
-        data["object"]["renderOrder"] = 1000
+        data["object"]["renderOrder"] = self.order
         return data
 
 
@@ -187,13 +193,21 @@ class Scene:
             self.vis[f"frames/{name}"].set_object(mg.triad(FRAME_AXES))
         self.frames = list(frames)
         for t in stack:
-            if t.kind == "force":
+            if t.kind == "force" and t.contact in stack:
+                # hidden (tiny) along the task's first direction: a replay's rotation track then
+                # starts where the arrow will point (three.js skips writing a track's value while it
+                # stays the same, so a rotation keyed constant from the start must be right from it)
+                S = t.selection(stack[t.contact].surface(self.robot).force_dim)[0]
+                rest = _arrow_pose(np.zeros(3), S[:3, 0] if np.linalg.norm(S[:3, 0]) > 1e-9 else np.eye(3)[2], 1.0)[0]
                 for part, radius in TASK_FORCE_RADII.items():
                     node = self.vis[f"task_forces/{t.name}/{part}"]
-                    node.set_object(mg.Cylinder(1.0, radius), mg.MeshLambertMaterial(
+                    # drawn over the robot (the hand above the pad would hide them), the core over the sleeve
+                    node.set_object(_OnTopMesh(mg.Cylinder(1.0, radius), mg.MeshLambertMaterial(
                         color=COLORS[part], opacity=0.45 if part == "desired" else 1.0,
-                        transparent=part == "desired"))
-                    node.set_transform(HIDDEN)
+                        transparent=part == "desired", depthTest=False, depthWrite=False),
+                        order=900 if part == "desired" else 901))
+                    node.set_transform(rest @ np.diag([*HIDDEN_SCALE, 1.0]))
+                    self._poses[f"task_forces/{t.name}/{part}"] = rest
             if t.kind in ("com", "frame") and t.target is not None:
                 node = self.vis[f"targets/{t.name}"]
                 node.set_object(mg.Sphere(0.015 if t.kind == "frame" else 0.025),
