@@ -21,13 +21,20 @@ def _summary(m: dict) -> None:
           f"real-time factor: {m['real_time_factor']:.2f}")
     for name, s in m["tasks"].items():
         print(f"  {name:14s} error  rms {s['rms'] * 1e3:9.3f}  max {s['max'] * 1e3:9.3f}  "
-              f"final {s['final'] * 1e3:9.3f}  (mm or mrad)")
+              f"final {s['final'] * 1e3:9.3f}  (mm, mrad or mN)")
     for name, c in m["contacts"].items():
         print(f"  {name:14s} slip {c['slip'] * 1e3:.3f} mm   lifted: {c['lifted']}")
     if "support_margin_min" in m:
         print(f"  CoM margin inside the support polygon (min): {m['support_margin_min'] * 100:.1f} cm")
     if "base_lateral_velocity_max" in m:
         print(f"  lateral base velocity (max): {m['base_lateral_velocity_max']:.1e} m/s (differential drive)")
+    if "glass_tilt_max" in m:
+        print(f"  glass tilt (max): {m['glass_tilt_max'] * 180 / 3.141592653589793:.2f} deg   hand position error "
+              f"(max): {m['hand_position_error_max'] * 1e3:.2f} mm   elbow displacement (max): "
+              f"{m['elbow_displacement_max'] * 1e2:.1f} cm")
+    if "normal_force_rms_error" in m:
+        print(f"  normal force RMS error (after 1 s): {m['normal_force_rms_error']:.2g} N   "
+              f"path error (max): {m['path_error_max'] * 1e3:.2f} mm")
     print(f"  limit violations (cycles): {m['violations']}")
     print(f"  control cycle: median {m['cycle_time']['median'] * 1e3:.2f} ms, p99 {m['cycle_time']['p99'] * 1e3:.2f} ms")
 
@@ -54,7 +61,7 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
 
     from wbc.runner import run
     from wbc.scenario import load_config
-    from wbc.viz import Scene, viewer_callback
+    from wbc.viz import Scene, shown_frames, viewer_callback
 
     live = args.viz or bool(os.environ.get("DISPLAY"))
     sc = load_config(ROOT / "tasks" / f"{scenario}.yaml")
@@ -66,7 +73,8 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     try:
         if live:
             print(f"browser view: {scene.url}")
-        cb = viewer_callback(scene, sc.stack, sc.dt, realtime=live, speed=args.speed)
+        cb = viewer_callback(scene, sc.stack, sc.dt, realtime=live, speed=args.speed,
+                             frames=shown_frames(sc))
         m = run(sc, solver=args.solver, duration=dur, progress=True, callback=cb, series=bool(args.plot))
         if not live:
             Path(args.record).parent.mkdir(parents=True, exist_ok=True)

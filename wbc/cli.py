@@ -43,14 +43,14 @@ def _cmd_run(args) -> int:
             raise ConfigError(exc.message, key="--duration") from None
     callback, scene = None, None
     if not args.headless or args.record:
-        from .viz import Scene, viewer_callback
+        from .viz import Scene, shown_frames, viewer_callback
 
         scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps, live=not args.headless,
                       host=args.host)
         if not args.headless:
             print(f"wbc: browser view at {scene.url}  (Ctrl-C to stop)", flush=True)
         callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed,
-                                   fps=args.fps, diagnostics_hz=args.diagnostics_rate)
+                                   fps=args.fps, diagnostics_hz=args.diagnostics_rate, frames=shown_frames(sc))
     want_series = bool(args.plot or args.series)
     try:
         metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,

@@ -19,7 +19,8 @@ from functools import lru_cache
 
 HEADER = ("L", "tasks", "residual", "rank", "σmin", "limited by")
 WIDTHS = (1, 22, 8, 6, 6, 36)          # characters per column
-COLORS = {"ok": (20, 20, 20), "sacrificed": (192, 57, 43), "active": (183, 110, 0), "dim": (110, 110, 110)}
+COLORS = {"ok": (20, 20, 20), "sacrificed": (192, 57, 43), "active": (183, 110, 0), "dim": (110, 110, 110),
+          "desired": (22, 160, 133), "measured": (216, 27, 96)}   # the force tasks' arrows (wbc.viz.scene)
 
 
 def _short(names: list[str], width: int) -> str:
@@ -59,14 +60,15 @@ def cells(row: dict) -> tuple[str, ...]:
             f"{row['rank']}/{row['dof']}", f"{row['sigma_min']:.2g}", _short([row["limits"]], WIDTHS[5]))
 
 
-def table_lines(sol, t: float) -> list[tuple[str, str]]:
-    """(line, style) pairs: the status line, the header, one line per level; style is
-    ``"dim"``, ``"ok"``, ``"active"`` (limited by an active constraint) or ``"sacrificed"``."""
+def table_lines(sol, t: float, extra=()) -> list[tuple[str, str]]:
+    """(line, style) pairs: the status line, the header, one line per level, then ``extra``
+    (the scene's force-task legend); style is ``"dim"``, ``"ok"``, ``"active"`` (limited by
+    an active constraint), ``"sacrificed"``, or an arrow's ``"desired"`` / ``"measured"``."""
     lines = [(status_line(sol, t), "dim"), (" ".join(h.ljust(w) for h, w in zip(HEADER, WIDTHS)).rstrip(), "dim")]
     for row in diagnostics_rows(sol):
         style = "sacrificed" if row["sacrificed"] else "active" if row["active"] else "ok"
         lines.append((" ".join(c.ljust(w) for c, w in zip(cells(row), WIDTHS)).rstrip(), style))
-    return lines
+    return lines + list(extra)
 
 
 def text_table(sol, t: float) -> str:
@@ -93,17 +95,18 @@ def _font(size: int):
         return ImageFont.load_default(size=size)
 
 
-def render_png(sol, t: float, font_size: int = 16) -> tuple[bytes, int, int]:
+def render_png(sol, t: float, font_size: int = 16, extra=()) -> tuple[bytes, int, int]:
     """The diagnostics table as an opaque PNG (rows of ``font_size`` px, wide enough
     for every column): returns (png bytes, width, height). Sacrificed levels in red,
-    levels limited by active constraints in amber. About 4 ms."""
+    levels limited by active constraints in amber; ``extra``: more (line, style) pairs
+    (:func:`table_lines`). About 4 ms."""
     from PIL import Image, ImageDraw
 
     font = _font(font_size)
-    lines = table_lines(sol, t)
+    lines = table_lines(sol, t, extra)
     cw = font.getlength("M") if hasattr(font, "getlength") else font_size * 0.6
     line = int(font_size * 1.35)
-    width = int(16 + cw * (sum(WIDTHS) + len(WIDTHS)))
+    width = int(16 + cw * max(sum(WIDTHS) + len(WIDTHS), *(len(text) for text, _ in lines)))
     height = line * len(lines) + 10
     img = Image.new("RGB", (width, height), (250, 250, 250))
     draw = ImageDraw.Draw(img)
@@ -118,6 +121,7 @@ OVERLAY = """
 <style>
  #wbc-diagnostics .dim {color:#6e6e6e} #wbc-diagnostics .ok {color:#141414}
  #wbc-diagnostics .active {color:#b76e00} #wbc-diagnostics .sacrificed {color:#c0392b}
+ #wbc-diagnostics .desired {color:#16a085} #wbc-diagnostics .measured {color:#d81b60}
 </style>
 <pre id="wbc-diagnostics" style="position:absolute;left:8px;top:8px;margin:0;padding:6px 10px;
  background:rgba(255,255,255,0.85);color:#141414;font:12px/1.35 'DejaVu Sans Mono',monospace;

@@ -3,7 +3,20 @@
 Draws the robot with its meshes (pinocchio's MeshcatVisualizer on the URDF's visual
 geometry), the environment, each CoM/frame task's target, the CoM and its ground
 projection, the support polygon, the contact forces as arrows scaled by magnitude
-(1 mm per ``force_scale`` N) and external pushes while they act.
+(1 mm per ``force_scale`` N, default 2 N) and external pushes while they act (pointing at
+the pushed frame, 1 mm per ``push_scale`` N, default 0.5 N: 2 mm per N, at least
+``PUSH_MIN_LENGTH`` m).
+
+Interaction (:meth:`Scene.set_targets`): each force task (:class:`~wbc.tasks.Force`) gets
+two arrows at its contact's point, both the force the environment applies to the robot
+along the task's directions S_f (their force part, in the world): the desired force
+S_f λ_D (a wide translucent teal sleeve) and the measured force the task uses, S_f λ_m with
+λ_m = S_fᵀ f_m (a thin opaque pink core inside it), both drawn over the robot (the hand
+would hide them), 1 mm per ``task_force_scale`` N
+(default 0.1 N: 1 cm per N, 10 N = 10 cm; the contact-force scale would draw 10 N as 5 mm);
+the diagnostics panel gives their values under the same colours. ``frames=[...]`` draws
+those robot frames' actual axes (12 cm triads; the targets' are 8 cm): the glass's frame
+in a glass scenario, so its tilt shows against the target's axes.
 
 ``Scene(robot, environment)`` starts a Meshcat server whose page listens on 127.0.0.1
 only, or on ``host`` (:mod:`wbc.viz.server`; the viewer's JavaScript comes from the
@@ -37,7 +50,11 @@ from .diagnostics import overlay_html, render_png, table_lines
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
 #: a hidden node's scale in a recording (with a ``visible`` track set to false; not 0: singular matrices)
 HIDDEN_SCALE = (1e-6, 1e-6, 1e-6)
-COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF39C12, "push": 0x8E44AD}
+COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF39C12, "push": 0x8E44AD,
+          "desired": 0x16A085, "measured": 0xD81B60}
+PUSH_MIN_LENGTH = 0.05       # m: the shortest push arrow drawn
+TASK_FORCE_RADII = {"desired": 0.012, "measured": 0.005}   # m: the sleeve and its core
+FRAME_AXES = 0.12            # m: the axes of a frame drawn where it is (frames=...)
 
 
 def _visual_model(robot) -> pin.GeometryModel:
@@ -59,11 +76,16 @@ HUD_ASPECT = 4.0 / 3.0           # anchored to the left edge of a 4:3 view (wide
 
 
 class _OnTopMesh(mg.Mesh):
-    """A mesh drawn after everything else (with a material whose depthTest is off)."""
+    """A mesh drawn after everything else (with a material whose depthTest is off); a
+    higher ``order`` is drawn later (over a lower one)."""
+
+    def __init__(self, geometry, material, order: int = 1000) -> None:
+        super().__init__(geometry, material)
+        self.order = order
 
     def lower(self):
         data = super().lower()
-        data["object"]["renderOrder"] = 1000
+        data["object"]["renderOrder"] = self.order
         return data
 
 
@@ -100,7 +122,9 @@ def _three_decomposition(T: np.ndarray, scale) -> tuple[np.ndarray, list[float]]
 
 
 class Scene:
-    """See the module docstring. ``force_scale``: N per mm of arrow (default 1 mm per 2 N);
+    """See the module docstring. ``force_scale``: N per mm of contact-force arrow (default
+    1 mm per 2 N); ``push_scale``: N per mm of push arrow (default 2 mm per N);
+    ``task_force_scale``: N per mm of a force task's arrows (default 1 cm per N);
     ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s);
     ``live``: also draw on the server's page while recording (default: only without
     ``record``); ``host``: the address the page listens on (``zmq_url``: draw through a
@@ -108,7 +132,8 @@ class Scene:
 
     def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
                  force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0,
-                 live: bool | None = None, host: str = server.DEFAULT_HOST) -> None:
+                 live: bool | None = None, host: str = server.DEFAULT_HOST, push_scale: float = 0.5,
+                 task_force_scale: float = 0.1) -> None:
         self.robot = robot
         self.server = None          # the server process this scene started (stopped by close)
         if not zmq_url:
@@ -122,6 +147,10 @@ class Scene:
         self.viz.initViewer(viewer=self.vis, loadModel=False)
         self.viz.loadViewerModel(rootNodeName="robot")
         self.force_scale = force_scale
+        self.push_scale = push_scale
+        self.task_force_scale = task_force_scale
+        self.frames: list[str] = []     # robot frames drawn with their axes where they are
+        self._legend: list[tuple[str, str]] = []   # the force tasks' lines of the diagnostics panel
         self.record = record
         self.anim = Animation(default_framerate=fps) if record else None
         self.live = (not record) if live is None else bool(live)   # draw to the server's page too
@@ -153,11 +182,32 @@ class Scene:
                                                         mg.MeshLambertMaterial(color=0xD5D8DC, opacity=0.8))
                 self.vis[f"env/{s.name}{i}"].set_transform(T)
 
-    def set_targets(self, stack) -> None:
+    def set_targets(self, stack, frames=()) -> None:
         """One marker per CoM/frame task (created once; positions follow the targets); a frame
         task that holds an orientation also gets the target frame's axes (x red, y green, z
-        blue, 8 cm: the glass's frame in an interaction scenario)."""
+        blue, 8 cm: the glass's frame in an interaction scenario). Each force task gets its
+        desired and measured force arrows (module docstring); each robot frame named in
+        ``frames`` its actual axes (12 cm)."""
+        for name in frames:
+            self.robot.frame_id(name)        # a KeyError-like error now, not mid-run
+            self.vis[f"frames/{name}"].set_object(mg.triad(FRAME_AXES))
+        self.frames = list(frames)
         for t in stack:
+            if t.kind == "force" and t.contact in stack:
+                # hidden (tiny) along the task's first direction: a replay's rotation track then
+                # starts where the arrow will point (three.js skips writing a track's value while it
+                # stays the same, so a rotation keyed constant from the start must be right from it)
+                S = t.selection(stack[t.contact].surface(self.robot).force_dim)[0]
+                rest = _arrow_pose(np.zeros(3), S[:3, 0] if np.linalg.norm(S[:3, 0]) > 1e-9 else np.eye(3)[2], 1.0)[0]
+                for part, radius in TASK_FORCE_RADII.items():
+                    node = self.vis[f"task_forces/{t.name}/{part}"]
+                    # drawn over the robot (the hand above the pad would hide them), the core over the sleeve
+                    node.set_object(_OnTopMesh(mg.Cylinder(1.0, radius), mg.MeshLambertMaterial(
+                        color=COLORS[part], opacity=0.45 if part == "desired" else 1.0,
+                        transparent=part == "desired", depthTest=False, depthWrite=False),
+                        order=900 if part == "desired" else 901))
+                    node.set_transform(rest @ np.diag([*HIDDEN_SCALE, 1.0]))
+                    self._poses[f"task_forces/{t.name}/{part}"] = rest
             if t.kind in ("com", "frame") and t.target is not None:
                 node = self.vis[f"targets/{t.name}"]
                 node.set_object(mg.Sphere(0.015 if t.kind == "frame" else 0.025),
@@ -249,6 +299,12 @@ class Scene:
                     self._node(f"targets/{task.name}").set_transform(mt.translation_matrix(task.target))
                 elif task.kind == "frame" and task.target is not None:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
+            self._legend = [line for task in stack if task.kind == "force"
+                            for line in self._draw_task_force(task, stack)]
+        for name in self.frames:
+            fid = self.robot.frame_id(name)
+            pin.updateFramePlacement(m, d, fid)
+            self._node(f"frames/{name}").set_transform(d.oMf[fid].homogeneous)
         if sim is not None:
             self._draw_contacts(sim, t)
         for name, arrow in (arrows or {}).items():
@@ -258,6 +314,42 @@ class Scene:
                 self._place(f"extras/{name}", *_arrow_pose(*arrow), hideable=True)
         for name, p in (points or {}).items():
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
+
+    def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """(point, desired, measured) of a force task at the last drawn state: its contact's
+        point (m, world) and the forces S_f λ_D and S_f λ_m (N, world; their force part for a
+        surface contact; measured None before the task's first measurement)."""
+        m, d = self.robot.model, self.viz.data
+        surface = stack[task.contact].surface(self.robot)
+        fid = self.robot.frame_id(surface.frame)
+        pin.updateFramePlacement(m, d, fid)
+        M = d.oMf[fid]
+        S = task.selection(surface.force_dim)[0]
+        R = np.eye(3) if surface.force_dim == 3 else M.rotation     # a surface's forces: LOCAL
+        desired = R @ (S @ task.reference())[:3]
+        measured = None if task.measured is None else R @ (S @ (S.T @ task.measured))[:3]
+        return M.translation.copy(), desired, measured
+
+    def _draw_task_force(self, task, stack) -> list[tuple[str, str]]:
+        """Place a force task's two arrows (hidden below 1 mN); returns its legend lines."""
+        if task.contact not in stack:
+            return []
+        point, desired, measured = self.task_forces(task, stack)
+        lines = []
+        for part, f in (("desired", desired), ("measured", measured)):
+            path = f"task_forces/{task.name}/{part}"
+            n = 0.0 if f is None else float(np.linalg.norm(f))
+            if n < 1e-3:
+                self._hide(path)
+            else:
+                self._place(path, *_arrow_pose(point, f, n / self.task_force_scale * 1e-3), hideable=True)
+            shown = "—" if f is None else f"{n:7.3f} N"
+            if part == "desired":
+                lines.append((f"{task.name} λ_D {shown}  desired: teal sleeve, 1 cm per "
+                              f"{self.task_force_scale * 10:g} N", part))
+            else:
+                lines.append((f"{task.name} λ_m {shown}  measured: pink core", part))
+        return lines
 
     def _draw_contacts(self, sim, t) -> None:
         pts = sim.point_positions()
@@ -283,7 +375,9 @@ class Scene:
                 fid = sim.model.getFrameId(p.frame)
                 pin.updateFramePlacement(sim.model, sim.data, fid)
                 origin = sim.data.oMf[fid].translation
-                self._place(f"pushes/{k}", *_arrow_pose(origin - p.force / np.linalg.norm(p.force) * 0.3, p.force, 0.3),
+                n = np.linalg.norm(p.force)
+                length = max(n / self.push_scale * 1e-3, PUSH_MIN_LENGTH)
+                self._place(f"pushes/{k}", *_arrow_pose(origin - p.force / n * length, p.force, length),
                             hideable=True)
             else:
                 self._hide(f"pushes/{k}")
@@ -303,10 +397,10 @@ class Scene:
         for :meth:`save_html`."""
         if self.anim is not None:
             self._diag_frames.append(max(self._frame - 1, 0))
-            self._diag_text.append(table_lines(sol, t))
+            self._diag_text.append(table_lines(sol, t, self._legend))
             if not self.live:
                 return
-        png, w, h = render_png(sol, t)
+        png, w, h = render_png(sol, t, extra=self._legend)
         height = width * h / w
         half_h = np.tan(HUD_FOV / 2)
         x0, y0 = -half_h * HUD_ASPECT + 0.02, half_h - 0.02
@@ -343,11 +437,12 @@ class Scene:
 
 
 def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0,
-                    diagnostics_hz: float = 10.0):
+                    diagnostics_hz: float = 10.0, frames=()):
     """A :func:`wbc.runner.run` callback drawing ``fps`` frames per simulated second,
     paced to ``speed`` × real time when ``realtime``, and the priority diagnostics
     ``diagnostics_hz`` times per simulated second (0: never). Between frames it
-    only counts cycles."""
+    only counts cycles. ``frames``: robot frames drawn with their actual axes
+    (:meth:`Scene.set_targets`; :func:`shown_frames` gives a scenario's)."""
     import time
 
     every = max(1, round(1.0 / (fps * dt)))
@@ -358,7 +453,7 @@ def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float
         k = state["k"]
         state["k"] += 1
         if k == 0:
-            scene.set_targets(stack)
+            scene.set_targets(stack, frames)
             scene.init_contact_markers(sim)
             state["t0"] = time.perf_counter()
         if k % every:
@@ -373,3 +468,9 @@ def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float
                 time.sleep(lag)
 
     return cb
+
+
+def shown_frames(sc) -> tuple[str, ...]:
+    """The robot frames a scenario's view draws with their actual axes: the glass's frame
+    of an ``interaction:`` section (:mod:`wbc.interaction`), else none."""
+    return (sc.interaction.glass_frame,) if sc.interaction is not None else ()
