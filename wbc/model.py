@@ -61,6 +61,10 @@ class ContactSurface:
     #: a point contact's sphere radius (m): its frame is then the sphere's bottom at the
     #: default posture (:mod:`wbc.robot_extras`)
     radius: float = 0.0
+    #: a point contact's MuJoCo contact parameters against the environment, as
+    #: ``(("solref", (2,)), ("solimp", (3 to 5,)), ("solreffriction", (2,)))`` pairs (any subset);
+    #: empty: MuJoCo's defaults (:mod:`wbc.scenario_contacts`, :mod:`wbc.sim.mujoco_sim`)
+    mujoco: tuple = ()
 
     @property
     def force_dim(self) -> int:

@@ -19,7 +19,11 @@ Model (:func:`build_model`; SI units: m, kg, s, rad, N, N·m)
 - Contacts: under each sole a box of the YAML's half_length × half_width, 1 cm thick, bottom face on
   the sole plane; a sphere (r 5 mm) touching each point contact; sites at Simulator.for_robot's
   points. Robot geoms touch the environment only: HalfSpace -> plane, Box -> box (all its faces; in
-  wbc.sim its top only), with its μ (geom priority), condim 3, elliptic cones.
+  wbc.sim its top only), with its μ (geom priority), condim 3, elliptic cones. A point contact
+  with ``mujoco:`` parameters (a scenario's ``contacts:``, :mod:`wbc.scenario_contacts`) touches
+  them through explicit pairs instead: the same μ and condim, its solref / solimp /
+  solreffriction (MuJoCo's defaults for those not given; with none given a pair is bit-identical
+  to the priority rule's contact).
 - Options: timestep dt / substeps, MuJoCo's defaults otherwise (Euler, Newton, solref, solimp; no
   impratio or noslip tuning); pinocchio's gravity.
 
@@ -35,6 +39,20 @@ Conventions (each checked numerically in tests/test_mujoco_model.py)
 - ``mj_contactForce``: geom1's force on geom2 in ``contact.frame`` (rows: normal from geom1 to geom2,
   tangents). Each contact's force is kept with its point in the body's frame (:meth:`contact_wrench`
   about a frame's origin, as Simulator's) and added to its geom's nearest point (``point_forces``, world).
+
+Point contacts sliding (the wipe scenarios): MuJoCo's contact is convex and soft. At a sliding
+contact (force on the elliptic cone's surface) the friction rows' reference acceleration
+−b v_t (b = 2/(d_max t_c), solref's) is met only up to the cone, and the remainder acts along
+the cone's normal, which has a component −μ along the contact normal: the contact accelerates
+apart by about μ(b|v_t| − μ R_t f_n), against the R_n f_n that holds the penetration under a
+force f_n (R = (1 − d)/d × MuJoCo's inverse-mass estimate). The point separates once
+μ b |v_t| ≳ R_n f_n. Measured (tiago_wipe, defaults, 10 N, μ 0.3): 0.38 mm of penetration at
+rest, gone at a sliding speed of 4 cm/s, then the pad hops (61 contact-lost cycles, force RMS
+error 2.3 N); the lift is linear in the speed, ≈ 10 mm per m/s, independent of the mass. Raising
+R (a softer solimp) deepens the rest penetration; lowering the friction rows' b (solreffriction
+with a longer time constant) lowers the lift but widens the creep below which friction is
+viscous (< μ f_n until |v_t| ≈ μ R_t f_n / b). Both are per-contact choices of a scenario
+(``mujoco:`` on its point contact), not changes of MuJoCo's defaults.
 
 Differential drive (TIAGo): MuJoCo's equalities are holonomic, so the zero lateral base velocity is
 imposed as :class:`Simulator` does, along e = [−sin θ, cos θ, 0] (qvel coordinates): before the step
@@ -103,6 +121,15 @@ def _quat_wxyz(R: np.ndarray) -> np.ndarray:
     return np.array([c[3], c[0], c[1], c[2]])
 
 
+def _pair_params(params: dict) -> dict:
+    """A point contact's ``mujoco`` parameters as MjSpec pair attributes (solimp's midpoint and
+    power MuJoCo's 0.5 and 2 when not given)."""
+    out = {k: list(v) for k, v in params.items()}
+    if "solimp" in out:
+        out["solimp"] = (out["solimp"] + [0.5, 2.0][len(out["solimp"]) - 3:])[:5]
+    return out
+
+
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
                 joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
                 joint_dynamics: bool = False) -> mujoco.MjModel:
@@ -147,12 +174,18 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
         b.mass, b.ipos, b.explicitinertial = Y.mass, Y.lever.copy(), True
         b.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
     robot_geom = dict(contype=1, conaffinity=0, condim=3, group=3)
-    for i, (jname, r, kind, R, _) in enumerate(points):
+    paired = []      # (point geom name, its contact's MuJoCo parameters): explicit pairs below
+    for i, (jname, r, kind, R, cname) in enumerate(points):
         b = body_of(m.getJointId(jname))
         b.add_site(name=f"wbc_point_{i}", pos=r)
         if kind == "point":
+            c = robot.contacts.get(cname)
+            params = dict(c.mujoco) if c is not None and c.mujoco else None
+            geom = dict(robot_geom, contype=0) if params else robot_geom
             b.add_geom(name=f"wbc_point_geom_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                       pos=r + POINT_RADIUS * R[:, 2], size=[POINT_RADIUS, 0, 0], **robot_geom)
+                       pos=r + POINT_RADIUS * R[:, 2], size=[POINT_RADIUS, 0, 0], **geom)
+            if params:
+                paired.append((f"wbc_point_geom_{i}", params))
     for c in (c for c in robot.contacts.values() if c.kind == "surface"):
         f = m.frames[m.getFrameId(c.frame)]
         M = f.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, SOLE_THICKNESS / 2]))
@@ -169,6 +202,9 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
                                     size=s.size / 2, **env)
         else:
             raise WbcError(f"mujoco: unsupported environment shape {type(s).__name__}")
+        for gname, params in paired:      # what the priority rule gives, with the point's solref/solimp
+            spec.add_pair(geomname1=f"env_{k}_{s.name}", geomname2=gname, condim=3,
+                          friction=[s.mu, s.mu, 0.005, 0.0001, 0.0001], **_pair_params(params))
 
     tau_max = robot.tau_max if tau_max is None else tau_max
     for i in robot.actuated_idx:
