@@ -1,7 +1,7 @@
 """MuJoCo as a second physics back-end: :class:`MujocoSimulator`, the interface of
 :class:`wbc.sim.Simulator` on a MuJoCo model built at run time from the robot's URDF.
 
-Model (:func:`build_model`; SI units: m, kg, s, rad, N, N·m)
+Model (:func:`wbc.sim.mujoco_model.build_model`; SI units: m, kg, s, rad, N, N·m)
 - Tree: MuJoCo's URDF parser on the URDF without visuals, collisions, transmissions, mimic tags;
   ``fusestatic`` fuses fixed-joint links into their parents: bodies and pinocchio joints match one
   to one, a body's frame is its joint's. Joints the YAML locks are fixed where pinocchio locked them.
