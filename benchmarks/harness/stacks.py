@@ -28,13 +28,15 @@ TALOS_WEIGHT = 885.5
 
 
 def talos_stack(*, regularise: bool = True, left_hand_weight: float = 1.0, bilateral: bool = False,
-                limits: bool = True, torque_limits: bool = True) -> Stack:
+                limits: bool = True, torque_limits: bool = True, cop_margin: float | None = None) -> Stack:
     """The Talos stack: level 0 the hard constraints (joint limits if ``limits``, torque
     limits if ``torque_limits``, the two foot contacts, ``bilateral`` or unilateral with
     f_z ≥ 0) / CoM (kp 100) / both hands (kp 50, the left one at ``left_hand_weight``) /
     posture (kp 10), and with ``regularise`` (the bench's full stack, 5 levels) the
     contact forces regularised: each sole's wrench towards half the weight, the 6
-    internal-force directions nothing above decides.
+    internal-force directions nothing above decides. ``cop_margin``: the contacts' (default
+    :class:`~wbc.tasks.Contact`'s, 20 % of the sole; 0 keeps the CoP in the whole sole, as
+    PlaCo's planar contacts do).
 
     (An earlier bench stack had a torso-orientation level in place of the regularisation:
     on the bench trajectory it left a pelvis-yaw mode to drift until joints ran at their
@@ -43,7 +45,8 @@ def talos_stack(*, regularise: bool = True, left_hand_weight: float = 1.0, bilat
     level0 = [JointLimits()] if limits else []
     if torque_limits:
         level0.append(TorqueLimits())
-    level0 += [Contact("left_foot", bilateral=bilateral), Contact("right_foot", bilateral=bilateral)]
+    opts = {} if cop_margin is None else {"cop_margin": cop_margin}
+    level0 += [Contact("left_foot", bilateral=bilateral, **opts), Contact("right_foot", bilateral=bilateral, **opts)]
     levels = [
         level0,
         [CoM(kp=100.0)],
