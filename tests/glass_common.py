@@ -32,3 +32,18 @@ def assert_clean(m: dict) -> None:
     """No fall, no solver failure, no limit violated."""
     assert not m["fell"] and m["solver_failures"] == 0
     assert sum(m["violations"].values()) == 0, m["violations"]
+
+
+def check_selective(m: dict, tilt: float = TWO_DEG, hand: float = 0.01) -> None:
+    """The issue's acceptance of a selective-compliance run: clean, glass tilt < ``tilt`` (rad),
+    hand error < ``hand`` (m), the elbow moved > 3 cm; and the robot's own support held:
+    TIAGo's differential drive (no lateral base velocity), Talos's feet (no slip, no lift)."""
+    assert_clean(m)
+    assert m["glass_tilt_max"] < tilt
+    assert m["hand_position_error_max"] < hand
+    assert m["elbow_displacement_max"] > 0.03
+    if "base_lateral_velocity_max" in m:
+        assert m["base_lateral_velocity_max"] < 1e-6
+    for foot in ("left_foot", "right_foot"):
+        if foot in m.get("contacts", {}):
+            assert m["contacts"][foot]["slip"] < 1e-3 and not m["contacts"][foot]["lifted"]

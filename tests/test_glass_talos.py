@@ -1,8 +1,8 @@
 """talos_glass (5.3.5): Talos on both feet with a glass in its right hand, 30 N sideways on
 the right elbow from 1 s to 2 s. Selective compliance keeps the glass (tilt < 2°, hand
 < 1 cm) while the elbow yields (> 3 cm) and the feet hold; one joint impedance everywhere
-tilts it (> 10°). Short runs by default; the full runs, the observer's estimate and MuJoCo
-are marked slow. Also the ``interaction:`` section's and ``protect:``'s input errors."""
+tilts it (> 10°). Short runs here; the full runs (every solver, the observer's estimate, MuJoCo) are
+tests/test_glass_full.py, marked slow. Also the ``interaction:`` section's and ``protect:``'s input errors."""
 
 from __future__ import annotations
 
@@ -12,18 +12,9 @@ import yaml
 from wbc.errors import ConfigError
 from wbc.scenario import load_config
 
-from .glass_common import TASKS, TEN_DEG, TWO_DEG, assert_clean, glass_run
+from .glass_common import TASKS, TEN_DEG, TWO_DEG, assert_clean, check_selective, glass_run
 
 PUSH_END = 2.1      # s: the push acts from 1 s to 2 s
-
-
-def check_selective(m: dict, tilt: float = TWO_DEG, hand: float = 0.01) -> None:
-    assert_clean(m)
-    assert m["glass_tilt_max"] < tilt
-    assert m["hand_position_error_max"] < hand
-    assert m["elbow_displacement_max"] > 0.03
-    for foot in ("left_foot", "right_foot"):
-        assert m["contacts"][foot]["slip"] < 1e-3 and not m["contacts"][foot]["lifted"]
 
 
 def test_talos_glass_keeps_the_glass_while_the_elbow_yields():
@@ -34,27 +25,6 @@ def test_talos_glass_keeps_the_glass_while_the_elbow_yields():
 
 def test_talos_glass_without_selective_compliance_tilts_the_glass():
     m = glass_run("talos_glass_compliant", duration=PUSH_END)
-    assert_clean(m)
-    assert m["glass_tilt_max"] > TEN_DEG
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("simulator", ["pinocchio", "mujoco"])
-@pytest.mark.parametrize("solver", ["hqp", "projection", "weighted"])
-def test_talos_glass_full_run(solver, simulator):
-    check_selective(glass_run("talos_glass", solver=solver, simulator=simulator))
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("simulator", ["pinocchio", "mujoco"])
-def test_talos_glass_with_the_momentum_observers_estimate(simulator):
-    check_selective(glass_run("talos_glass_observer", simulator=simulator))
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("simulator", ["pinocchio", "mujoco"])
-def test_talos_glass_compliant_full_run(simulator):
-    m = glass_run("talos_glass_compliant", simulator=simulator)
     assert_clean(m)
     assert m["glass_tilt_max"] > TEN_DEG
 
