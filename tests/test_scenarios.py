@@ -65,3 +65,15 @@ def test_talos_balance_with_sensor_noise_and_one_cycle_latency():
     assert not m["fell"] and m["solver_failures"] == 0
     assert m["tasks"]["com"]["rms"] < 5e-3
     assert all(c["slip"] < 1e-3 and not c["lifted"] for c in m["contacts"].values())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("solver", ["hqp", "projection"])
+def test_g1_reach_keeps_the_joint_limits(solver):
+    """The G1's hip roll is pushed onto its upper limit by the posture (kp 106); the
+    projection solver once let it creep 4.5e-5 rad past (2246 cycles) with its SNS
+    saturating exactly on the bound (see tests/test_joint_limits.py)."""
+    m = run(load_config("g1_reach"), solver=solver)
+    assert not m["fell"] and m["solver_failures"] == 0
+    assert m["tasks"]["right_hand"]["final"] < 5e-3 and m["tasks"]["left_hand"]["final"] < 5e-3
+    _no_violations(m)

@@ -14,7 +14,7 @@ def test_talos_wipe_short_meets_the_acceptance():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("solver", ["hqp", "weighted"])
+@pytest.mark.parametrize("solver", ["hqp", "weighted", "projection"])
 @pytest.mark.parametrize("source", ["simulator", "observer"])
 def test_talos_wipe_full(solver, source):
     assert_accepted(wipe("talos_wipe", source=source, solver=solver), "talos_wipe", stroke=0.29, feet=True)

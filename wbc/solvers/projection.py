@@ -18,7 +18,12 @@ bound by an equality inserted just above that level, inside the higher levels'
 null space, and the level is solved again; when saturating no longer helps, the
 level's step is scaled down (task scaling). Higher levels are never disturbed,
 a saturated joint stays saturated below, and no joint ends outside its bounds
-unless level 0's equalities force it there.
+unless level 0's equalities force it there. The bounds the SNS works with are the
+box tightened by ``margin`` (min(margin, ¼ of the range) on each side, the HQP's rule and
+default): a joint saturated exactly on its bound is at the mercy of how the plant
+realises q̈ (on a joint at its position limit the bound is −q̇/dt, no velocity left,
+and a realised q̈ a few 1e-2 rad/s² above the planned one, as the simulator's contact
+impulses give, let it creep past the limit cycle after cycle).
 
 Contact forces and torques (floating base): q̈ satisfies every contact's
 acceleration constraint, so the unactuated rows of the dynamics,
@@ -71,8 +76,6 @@ class RecursiveProjection:
     distributes_forces = True
     #: general inequality rows (torque limits, friction cones) are not met in the cascade
     enforces_inequality_rows = False
-    #: room kept from a limit (none: saturation puts a joint on its bound)
-    margin = 0.0
     #: QP answers rejected or failed (it solves no QP: always 0)
     backend_failures = 0
 
@@ -100,12 +103,17 @@ class RecursiveProjection:
                            res.degraded, fres.dynamics_gap, fres.dynamics_scale)
 
     def __init__(self, weighting: str = "identity", damping: Damping | None = None,
-                 backend: str = "daqp", box_tol: float = 1e-9) -> None:
+                 backend: str = "daqp", box_tol: float = 1e-9, margin: float = 1.0) -> None:
         if weighting not in ("identity", "inertia"):
             raise SolverError(f"weighting must be 'identity' or 'inertia', got {weighting!r}")
         self.weighting = weighting
         self.damping = damping or Damping()
         self.box_tol = box_tol
+        #: room kept from a joint-acceleration bound (rad/s² or m/s²; min(margin, ¼ of the
+        #: bound's range), as :class:`~wbc.solvers.hqp.HierarchicalQP`): a joint saturates
+        #: ``margin`` inside its bound, so a plant that realises q̈ slightly off does not push
+        #: it past its position limit (0: saturation puts a joint on its bound)
+        self.margin = margin
         # weights of the force-distribution rows: the unactuated dynamics must hold to
         # ~1e-9 of the wrench targets' conflict ((wrench/dynamics)² = 1e-10), a ramping
         # contact's normal force comes first of all (10 × the dynamics)
@@ -147,6 +155,10 @@ class RecursiveProjection:
         else:
             b_idx = np.zeros(0, dtype=int)
             b_lo = b_hi = np.zeros(0)
+        if self.margin > 0 and len(b_idx):
+            # the box the SNS keeps: ``margin`` inside each bound, where the range allows
+            d = np.clip(0.25 * (b_hi - b_lo), 0.0, self.margin)
+            b_lo, b_hi = b_lo + d, b_hi - d
         cas = Cascade(nv, self._hints)
         if len(b_idx):
             # start from the feasible point nearest q̈ = 0 (a joint braking towards its
