@@ -188,6 +188,13 @@ def test_robot_init_guesses_soles_point_feet_and_a_planar_base(tmp_path):
     out.write_text(dump_robot_yaml(go2))
     r = wbc.load_robot(out)                       # what init writes loads, levelled on its feet
     assert r.nv == 18 and len(r.contacts) == 4
+    assert go2["gains"] == {"com": 100.0, "frame": 50.0, "posture": 10.0}     # a quadruped: no 'auto'
+    # a biped with a torso gets its torso and posture gains derived from its inertia (wbc.gains)
+    assert g1["frames"]["torso"] == "torso_link" and g1["gains"]["torso"] == g1["gains"]["posture"] == "auto"
+    out = tmp_path / "g1.yaml"
+    out.write_text(dump_robot_yaml(g1))
+    g = wbc.load_robot(out).default_gains
+    assert 300.0 < g["torso"] < 800.0 and g["posture"] == pytest.approx(0.447 ** 2 * g["torso"])
 
 
 def test_wbc_robots_file_describes_the_robot(capsys):

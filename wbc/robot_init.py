@@ -223,7 +223,17 @@ def guess_robot(urdf: Path, srdf: Path | None = None) -> tuple[dict, list[str]]:
         doc["contacts"] = contacts
     doc["limits"] = {}
     doc["gains"] = {"com": 100.0, "frame": 50.0, "posture": 10.0}
-    notes.append("gains are the library's defaults (kp, 1/s²): see docs/robots.md to choose them for this robot")
+    torsos = sorted((n for n in links if "torso" in n.lower() and not any(w in n.lower() for w in ("imu", "sensor"))),
+                    key=lambda n: (not n.lower().startswith("torso"), len(n)))
+    torso = torsos[0] if torsos else None
+    if root == "free_flyer" and len(contacts) == 2 and torso is not None:
+        # a biped with a torso: its torso and posture gains from its inertia (wbc.gains)
+        frames.setdefault("torso", torso)
+        doc["gains"] = {"com": 100.0, "frame": 50.0, "torso": "auto", "posture": "auto"}
+        notes.append(f"gains: torso ('{torso}') and posture 'auto', derived from the robot's inertia at its "
+                     "default posture (docs/robots.md); com, frame: the library's defaults (kp, 1/s²)")
+    else:
+        notes.append("gains are the library's defaults (kp, 1/s²): see docs/robots.md to choose them for this robot")
     return doc, notes
 
 
