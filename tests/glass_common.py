@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import math
 from pathlib import Path
+
+import pytest
 
 from wbc.runner import run
 from wbc.scenario import load_config
@@ -12,6 +15,9 @@ from wbc.scenario import load_config
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 TWO_DEG = math.radians(2.0)
 TEN_DEG = math.radians(10.0)
+#: both physics back-ends, MuJoCo (the optional [mujoco] extra) skipped where it is not installed
+SIMULATORS = ["pinocchio", pytest.param("mujoco", marks=pytest.mark.skipif(
+    importlib.util.find_spec("mujoco") is None, reason="MuJoCo is the optional [mujoco] extra"))]
 
 
 def glass_run(name: str, duration: float | None = None, solver: str | None = None, simulator: str | None = None,

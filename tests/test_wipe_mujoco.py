@@ -8,6 +8,8 @@ short runs (2 s) reach 0.15 m/s, well past the 4 cm/s where the default contact 
 
 from __future__ import annotations
 
+import importlib.util
+
 import pytest
 
 from wbc.errors import ConfigError
@@ -15,6 +17,10 @@ from wbc.scenario import load_config
 from wbc.sim.backends import make_simulator
 
 from .wipe import figures, wipe
+
+#: the tests that simulate need MuJoCo, the optional [mujoco] extra (not in the peer environment)
+needs_mujoco = pytest.mark.skipif(importlib.util.find_spec("mujoco") is None,
+                                  reason="MuJoCo is the optional [mujoco] extra")
 
 
 def _accepted_on_mujoco(m: dict, name: str, stroke: float) -> None:
@@ -28,11 +34,13 @@ def _accepted_on_mujoco(m: dict, name: str, stroke: float) -> None:
     assert f["slide_length"] > stroke
 
 
+@needs_mujoco
 @pytest.mark.parametrize("name", ["tiago_wipe", "talos_wipe"])
 def test_wipe_short_on_mujoco_keeps_the_contact(name):
     _accepted_on_mujoco(wipe(name, simulator="mujoco", duration=2.0), name, stroke=0.06)
 
 
+@needs_mujoco
 def test_the_pads_mujoco_parameters_reach_the_model():
     sc = load_config("tiago_wipe")
     sim = make_simulator("mujoco", sc.robot, sc.environment, dt=sc.dt, tau_limits=sc.robot.tau_max)
@@ -53,6 +61,7 @@ def test_a_bad_mujoco_key_is_refused():
         with_contacts(robot, {"pad2": {"frame": "hand", "kind": "surface", "mujoco": {"solref": [0.02, 1]}}})
 
 
+@needs_mujoco
 @pytest.mark.slow
 @pytest.mark.parametrize("solver", ["hqp", "weighted"])
 @pytest.mark.parametrize("name", ["tiago_wipe", "talos_wipe"])
