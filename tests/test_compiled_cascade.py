@@ -107,3 +107,36 @@ def test_compiled_run_on_relaxed_and_single_levels(certify):
         stops += any(d.used_qp for d in a.levels)
     print(f"\n{relaxed} problems with a relaxed level above another, {stops} with a QP")
     assert relaxed > 20 and stops > 50
+
+
+@pytest.mark.parametrize("weighting", ["identity", "inertia"])
+def test_compiled_projection_equals_the_reference_loop(weighting):
+    """The projection solver's compiled run, with the inertia weighting too (q̈ = T y, the box
+    on q̈), gives what its Python SNS loop (:mod:`tests.reference_projection`) gives: the same
+    q̈, saturated joints, task scalings and ranks, on random states and targets."""
+    from functools import partial
+
+    from .reference_projection import reference_solve_accelerations
+
+    rng = np.random.default_rng(9)
+    robot_a, robot_b = wbc.load_robot("talos"), wbc.load_robot("talos")
+    stack_a, stack_b = talos_stack(), talos_stack()
+    fast = wbc.Controller(robot_a, stack_a, solver="projection", weighting=weighting)
+    plain = wbc.Controller(robot_b, stack_b, solver="projection", weighting=weighting)
+    plain.solver.solve_accelerations = partial(reference_solve_accelerations, plain.solver)
+    saturated = 0
+    for _ in range(60):
+        q, v = random_state(robot_a, rng)
+        seed = int(rng.integers(1 << 30))
+        for robot, stack in ((robot_a, stack_a), (robot_b, stack_b)):
+            robot.update(q, v)
+            randomise_targets(stack, robot, np.random.default_rng(seed))
+        a, b = fast.solve(q, v), plain.solve(q, v)
+        np.testing.assert_allclose(a.qdd, b.qdd, rtol=0, atol=1e-8 * (1 + np.abs(b.qdd).max()))
+        assert a.status == b.status
+        for da, db in zip(a.diagnostics, b.diagnostics, strict=True):
+            assert (da.rank, da.dof_before, da.saturated_joints) == (db.rank, db.dof_before, db.saturated_joints)
+            assert da.sigma_min == pytest.approx(db.sigma_min, rel=1e-9, abs=1e-12)
+            saturated += len(da.saturated_joints)
+    print(f"\n{weighting}: {saturated} saturated joints")
+    assert saturated > 0

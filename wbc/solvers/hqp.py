@@ -188,28 +188,34 @@ class HierarchicalQP:
     def _stacked_rows(self, levels: list[Level], nx: int, damp: list, key: tuple) -> _LevelRows:
         """The levels' rows copied into one set of arrays, laid out as the row buffer's; the
         arrays are kept and refilled while the same Level objects come with the same shapes
-        (the weighted QP's folded level), else made afresh."""
+        (the weighted QP's folded level), else made afresh. When only the buffer's own
+        leading levels have inequality rows (the folded level has none), the inequalities
+        are read from the buffer itself."""
         ineq = [lvl.inequalities(nx) for lvl in levels]
+        buf, own = buffered_prefix(levels)
         plan = self._stack_plan
-        if plan is None or plan[0] != key or len(plan[1]) != len(levels) or \
+        if plan is None or plan[0] != key or len(plan[1]) != len(levels) or plan[7] is not buf or \
                 any(a is not lvl or sh != (lvl.A.shape[0], len(lo)) for a, sh, lvl, (_, lo, _)
                     in zip(plan[1], plan[2], levels, ineq)):
             shapes = [(lvl.A.shape[0], len(lo)) for lvl, (_, lo, _) in zip(levels, ineq)]
             e_end = np.cumsum([0] + [me for me, _ in shapes], dtype=np.int64)
             i_end = np.cumsum([0] + [mi for _, mi in shapes], dtype=np.int64)
-            ne, ni = int(e_end[-1]), int(i_end[-1])
+            from_buffer = own > 0 and not any(mi for _, mi in shapes[own:])
+            ne, ni = int(e_end[-1]), (0 if from_buffer else int(i_end[-1]))
             arrays = (np.zeros((ne, nx)), np.zeros(ne), np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni))
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).reshape(len(levels), 3).T.copy()
-            plan = self._stack_plan = (key, list(levels), shapes, e_end, i_end, arrays, tols)
-        _, _, _, e_end, i_end, (A, b, C, lo, hi), tols = plan
+            plan = self._stack_plan = (key, list(levels), shapes, e_end, i_end, arrays, tols, buf, from_buffer)
+        _, _, _, e_end, i_end, (A, b, C, lo, hi), tols, _, from_buffer = plan
         for k, (lvl, (Ck, lk, hk)) in enumerate(zip(levels, ineq)):
             e0, e1, i0, i1 = e_end[k], e_end[k + 1], i_end[k], i_end[k + 1]
             A[e0:e1] = lvl.A
             b[e0:e1] = lvl.b
-            if i1 > i0:
+            if i1 > i0 and not from_buffer:
                 C[i0:i1] = Ck
                 lo[i0:i1] = lk
                 hi[i0:i1] = hk
+        if from_buffer:     # the buffer's own levels' rows, where the rest add none
+            return _LevelRows(A, b, e_end[1:], buf.C, buf.lo, buf.hi, i_end[1:], tols, True)
         return _LevelRows(A, b, e_end[1:], C, lo, hi, i_end[1:], tols, False)
 
     def _backend_level(self, lvl: Level, step, rows: _LevelRows, k: int, cas: Cascade, key: str,
