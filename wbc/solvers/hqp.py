@@ -177,7 +177,7 @@ class HierarchicalQP:
             (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
         buf, own = buffered_prefix(levels)
         if own < n:
-            return self._stacked_rows(levels, nx, damp, key)
+            return self._stacked_rows(levels, nx, damp, key, buf, own)
         got = self._prefix_plan
         if got is None or got[0] is not buf or got[1] != key:
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
@@ -185,19 +185,16 @@ class HierarchicalQP:
         _, _, e_end, i_end, tols = got
         return _LevelRows(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, tols, True)
 
-    def _stacked_rows(self, levels: list[Level], nx: int, damp: list, key: tuple) -> _LevelRows:
+    def _stacked_rows(self, levels: list[Level], nx: int, damp: list, key: tuple, buf, own: int) -> _LevelRows:
         """The levels' rows copied into one set of arrays, laid out as the row buffer's; the
         arrays are kept and refilled while the same Level objects come with the same shapes
         (the weighted QP's folded level), else made afresh. When only the buffer's own
         leading levels have inequality rows (the folded level has none), the inequalities
         are read from the buffer itself."""
-        ineq = [lvl.inequalities(nx) for lvl in levels]
-        buf, own = buffered_prefix(levels)
+        shapes = [(lvl.A.shape[0], lvl.n_in) for lvl in levels]
         plan = self._stack_plan
-        if plan is None or plan[0] != key or len(plan[1]) != len(levels) or plan[7] is not buf or \
-                any(a is not lvl or sh != (lvl.A.shape[0], len(lo)) for a, sh, lvl, (_, lo, _)
-                    in zip(plan[1], plan[2], levels, ineq)):
-            shapes = [(lvl.A.shape[0], len(lo)) for lvl, (_, lo, _) in zip(levels, ineq)]
+        if plan is None or plan[0] != key or plan[2] != shapes or plan[7] is not buf or \
+                any(a is not lvl for a, lvl in zip(plan[1], levels)):
             e_end = np.cumsum([0] + [me for me, _ in shapes], dtype=np.int64)
             i_end = np.cumsum([0] + [mi for _, mi in shapes], dtype=np.int64)
             from_buffer = own > 0 and not any(mi for _, mi in shapes[own:])
@@ -206,14 +203,12 @@ class HierarchicalQP:
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).reshape(len(levels), 3).T.copy()
             plan = self._stack_plan = (key, list(levels), shapes, e_end, i_end, arrays, tols, buf, from_buffer)
         _, _, _, e_end, i_end, (A, b, C, lo, hi), tols, _, from_buffer = plan
-        for k, (lvl, (Ck, lk, hk)) in enumerate(zip(levels, ineq)):
+        for k, lvl in enumerate(levels):
             e0, e1, i0, i1 = e_end[k], e_end[k + 1], i_end[k], i_end[k + 1]
             A[e0:e1] = lvl.A
             b[e0:e1] = lvl.b
             if i1 > i0 and not from_buffer:
-                C[i0:i1] = Ck
-                lo[i0:i1] = lk
-                hi[i0:i1] = hk
+                C[i0:i1], lo[i0:i1], hi[i0:i1] = lvl.inequalities(nx)
         if from_buffer:     # the buffer's own levels' rows, where the rest add none
             return _LevelRows(A, b, e_end[1:], buf.C, buf.lo, buf.hi, i_end[1:], tols, True)
         return _LevelRows(A, b, e_end[1:], C, lo, hi, i_end[1:], tols, False)
