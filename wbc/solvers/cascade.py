@@ -20,10 +20,11 @@ and the step uses σ/(σ² + λ²) in place of 1/σ. Rank counts σ > ``rank_tol
 One level is one call of a compiled kernel (:func:`wbc.solvers.kernels.factorizations.level_step`):
 the products, the factorisation and the new basis without the interpreter in between
 (measured on Talos, 5 levels: the cascade's Python and f2py overhead was about half
-of its 0.19 ms; see ``benchmarks/optimisation.md``). The solvers go further on their
-common path: every level that needs no QP (or meets no joint limit) runs in one call
-(:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`), and this class takes over where one
-does, with the same mathematics step for step.
+of its 0.19 ms; see ``benchmarks/optimisation.md``). The solvers go further: their levels
+run in one call (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`,
+:func:`~wbc.solvers.kernels.sns_run.projection_prefix`); this class holds the state between
+calls and takes the single steps of a level the hierarchical QP hands to its back-end (and
+of the tests' Python references).
 """
 
 from __future__ import annotations

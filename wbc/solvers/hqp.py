@@ -23,6 +23,12 @@ optimum), posed on the rows that answer violates and checked on all of them
 (:func:`~wbc.solvers.kernels.qp_rows.certified_higher`: the higher rows are never all
 projected on the free directions); the back-end solves the QPs where that fails.
 
+The cascade is one compiled run over every level's rows
+(:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`): it stops only at a level whose
+QP needs the back-end, which :meth:`HierarchicalQP.solve_levels` solves before resuming it
+(with that level's bounds relaxed by its slack, if it needed one). The same cascade level
+by level in Python is the tests' reference (``tests/reference_hqp.py``).
+
 Every cycle is a function of its state and stack: the least-norm choices start from a
 reference the controller computes from the state (:meth:`solve_levels`), and what the
 solver keeps across cycles (route hints, the back-ends' problem objects) changes how an
@@ -91,13 +97,13 @@ class HierarchicalQP:
         self.backend_failures = 0
         #: largest violation of its rows a QP answer may have (units of the rows)
         self.qp_tol = 1e-6
-        #: leading levels that need no QP in one compiled call (False: the Python loop
-        #: for every level, the reference the tests compare it with)
-        self.compiled = True
         self._hints = hint_table()
         #: the fallback back-end (:meth:`_fallback`), made when first needed
         self._fb: Backend | None = None
-        #: (row buffer, damping key, level ends, tolerances) of the last compiled prefix
+        #: (row buffer, damping key, level ends, tolerances) of the last compiled run's rows
+        #: when they are the buffer's, and the arrays they are copied into when they are not
+        #: (:meth:`_stacked_rows`)
+        self._stack_plan: tuple | None = None
         self._prefix_plan: tuple | None = None
         prepare()
 
@@ -131,117 +137,134 @@ class HierarchicalQP:
         cas = Cascade(nx, self._hints)
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
-        acc_C: list[np.ndarray] = []
-        acc_lo: list[np.ndarray] = []
-        acc_hi: list[np.ndarray] = []
+        rows = self._rows(levels, nx, dampings or {})
         infos, ok, qp_count, msg = [], True, 0, ""
         degraded: list[str] = []
-        tol = self.tol
-        dampings = dampings or {}
-        k, n_levels, pending = 0, len(levels), None
-        resume = self.compiled
+        k, n_levels = 0, len(levels)
         while k < n_levels:
-            if resume:
-                # every level from k that needs no QP, in one compiled call; it hands over the
-                # step it took where it stopped
-                stop, pending, certified = self._compiled_prefix(levels, cas, dampings, infos, k)
-                stop = max(stop, k)
-                qp_count += certified
-                if stop == n_levels:
-                    break
-                for lvl in levels[k:stop]:
-                    C, lo, hi = lvl.inequalities(nx)
-                    if len(lo):
-                        acc_C.append(C)
-                        acc_lo.append(lo)
-                        acc_hi.append(hi)
-                k = stop
-            lvl = levels[k]
-            k += 1
-            margin = self.margin if k < n_levels else 0.0
-            info = LevelInfo(lvl.index, dof_before=cas.dof)
-            # (1) the level's equalities, in the null space of every higher level
-            if pending is not None:          # the compiled prefix's step at the level it stopped
-                step, pending = pending, None
-            else:
-                step = cas.ls_step(lvl.A, lvl.b, dampings.get(lvl.index, self.damping))
-            info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
-            if acc_C and step.rank and _violated(acc_C, acc_lo, acc_hi, cas.candidate(step), tol):
-                info.used_qp = True
-                qp_count += 1
-                z, _, status = self._qp(cas, step.AZ, step.r, None, None, None, acc_C, acc_lo, acc_hi,
-                                        f"{key}{lvl.index}e", margin)
-                info.qp_status = status
-                if z is None:
-                    # z = 0 is feasible and keeps every higher level: hold there
-                    degraded.append(f"level {lvl.index}: QP failed ({status}); level held at its "
-                                    "highest-priority feasible point")
-                    z = np.zeros(cas.dof)
-                cas.commit(step, z)
-            else:
-                cas.commit(step)
-            # (2) its inequalities in what is left: nearest point to the least-squares
-            # one that meets them; if none does, least-squares slack
-            C, lo, hi = lvl.inequalities(nx)
-            if len(lo):
-                w = None
-                if _violated(acc_C + [C], acc_lo + [lo], acc_hi + [hi], cas.x, tol):
-                    info.used_qp = True
-                    qp_count += 1
-                    z, status = self._nearest_feasible(cas, C, lo, hi, acc_C, acc_lo, acc_hi, f"{key}{lvl.index}h",
-                                                       margin)
-                    w = np.zeros(len(lo))
-                    if z is None:
-                        qp_count += 1
-                        z, w, status = self._qp(cas, None, None, C, lo, hi, acc_C, acc_lo, acc_hi,
-                                                f"{key}{lvl.index}i", margin)
-                    info.qp_status = status
-                    if z is None:
-                        ok, msg = False, f"level {lvl.index}: QP failed ({status})"
-                        w = self._needed_slack(C, lo, hi, cas.x)
-                    else:
-                        cas.x = cas.x + cas.Z @ z
-                        w = np.where(np.abs(w) > tol, w, 0.0)
-                    info.relaxed = bool(np.any(w != 0.0))
-                acc_C.append(C)
-                acc_lo.append(lo if w is None else lo - w)
-                acc_hi.append(hi if w is None else hi - w)
+            # every level from k that needs no back-end QP, in one compiled call; it hands
+            # over the step it took where it stopped
+            Z, identity = cas.kernel_basis()
+            out = cascade_prefix(rows.A, rows.b, rows.e_end, rows.C, rows.lo, rows.hi, rows.i_end, cas.x, Z,
+                                 identity, k, cas.calls, self._hints, rows.rank_tol, rows.threshold,
+                                 rows.max_damping, GRAM_MIN_RATIO, self.tol, self.certify, self.regularization,
+                                 self.margin)
+            stop, pending, certified = adopt_run(levels, cas, infos, k, *out)
+            qp_count += certified
+            if stop == n_levels:
+                break
+            k = stop + 1
+            info, used, failed, w = self._backend_level(levels[stop], pending, rows, stop, cas, key, degraded,
+                                                        self.margin if k < n_levels else 0.0)
+            qp_count += used
+            if failed:
+                ok, msg = False, failed
             infos.append(info)
-            # the compiled prefix checks the rows' own bounds: not once a level is relaxed
-            resume = resume and not info.relaxed and ok
+            if info.relaxed:            # the lower levels keep its bounds relaxed by the slack
+                rows.relax(stop, w)
         res = SolveResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))
         res.degraded = bool(degraded)
         return res
 
-    def _compiled_prefix(self, levels: list[Level], cas: Cascade, dampings: dict, infos: list,
-                         start: int = 0) -> tuple:
-        """The leading levels that come straight from the stack's row buffer, in one call of
-        :func:`~wbc.solvers.kernels.cascade_run.cascade_prefix` for as long as none needs a QP
-        (the same steps as the loop of :meth:`solve_levels`, without the interpreter);
-        fills ``infos`` and ``cas``; returns (the index of the first level left, the step
-        taken there or None, the QPs it solved by certificate)."""
-        buf, n = buffered_prefix(levels)
-        if n - start < 2:               # one level: the call costs what it saves
-            return start, None, 0
-        if dampings:
-            damp = [dampings.get(lvl.index, self.damping) for lvl in levels[:n]]
-        else:
-            damp = [self.damping] * n
+    def _rows(self, levels: list[Level], nx: int, dampings: dict) -> _LevelRows:
+        """Every level's rows as the compiled run reads them: the row buffer's arrays when
+        the levels are the buffer's own, else the levels' rows stacked afresh (the weighted
+        QP's folded level, :func:`scaled_level`'s copies)."""
+        n = len(levels)
+        damp = [dampings.get(lvl.index, self.damping) for lvl in levels] if dampings else [self.damping] * n
         d0 = self.damping
         key = (n, d0.rank_tol, d0.threshold, d0.max_damping) if not dampings else \
             (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
+        buf, own = buffered_prefix(levels)
+        if own < n:
+            return self._stacked_rows(levels, nx, damp, key, buf, own)
         got = self._prefix_plan
         if got is None or got[0] is not buf or got[1] != key:
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
             got = self._prefix_plan = (buf, key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
         _, _, e_end, i_end, tols = got
-        Z, identity = cas.kernel_basis()
-        out = cascade_prefix(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, cas.x, Z, identity, start,
-                             cas.calls, self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.tol,
-                             self.certify, self.regularization, self.margin)
-        return adopt_run(levels, cas, infos, start, *out)
+        return _LevelRows(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, tols, True)
 
-    def _nearest_feasible(self, cas: Cascade, C, lo, hi, acc_C, acc_lo, acc_hi, key, margin: float | None = None):
+    def _stacked_rows(self, levels: list[Level], nx: int, damp: list, key: tuple, buf, own: int) -> _LevelRows:
+        """The levels' rows copied into one set of arrays, laid out as the row buffer's; the
+        arrays are kept and refilled while the same Level objects come with the same shapes
+        (the weighted QP's folded level), else made afresh. When only the buffer's own
+        leading levels have inequality rows (the folded level has none), the inequalities
+        are read from the buffer itself."""
+        shapes = [(lvl.A.shape[0], lvl.n_in) for lvl in levels]
+        plan = self._stack_plan
+        if plan is None or plan[0] != key or plan[2] != shapes or plan[7] is not buf or \
+                any(a is not lvl for a, lvl in zip(plan[1], levels)):
+            e_end = np.cumsum([0] + [me for me, _ in shapes], dtype=np.int64)
+            i_end = np.cumsum([0] + [mi for _, mi in shapes], dtype=np.int64)
+            from_buffer = own > 0 and not any(mi for _, mi in shapes[own:])
+            ne, ni = int(e_end[-1]), (0 if from_buffer else int(i_end[-1]))
+            arrays = (np.zeros((ne, nx)), np.zeros(ne), np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni))
+            tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).reshape(len(levels), 3).T.copy()
+            plan = self._stack_plan = (key, list(levels), shapes, e_end, i_end, arrays, tols, buf, from_buffer)
+        _, _, _, e_end, i_end, (A, b, C, lo, hi), tols, _, from_buffer = plan
+        for k, lvl in enumerate(levels):
+            e0, e1, i0, i1 = e_end[k], e_end[k + 1], i_end[k], i_end[k + 1]
+            A[e0:e1] = lvl.A
+            b[e0:e1] = lvl.b
+            if i1 > i0 and not from_buffer:
+                C[i0:i1], lo[i0:i1], hi[i0:i1] = lvl.inequalities(nx)
+        if from_buffer:     # the buffer's own levels' rows, where the rest add none
+            return _LevelRows(A, b, e_end[1:], buf.C, buf.lo, buf.hi, i_end[1:], tols, True)
+        return _LevelRows(A, b, e_end[1:], C, lo, hi, i_end[1:], tols, False)
+
+    def _backend_level(self, lvl: Level, step, rows: _LevelRows, k: int, cas: Cascade, key: str,
+                       degraded: list, margin: float) -> tuple:
+        """Level k, where the compiled run stopped: the QPs its certificates did not settle
+        (or all, without ``certify``) go to the back-end; ``step`` the level's least-squares
+        step the run took there (None if it took none: no rows, or no free direction).
+        Returns (its LevelInfo, the QPs posed, the failure message or "", the slack of its
+        inequalities or None); a QP of its equalities that fails is appended to ``degraded``."""
+        info = LevelInfo(lvl.index, dof_before=cas.dof)
+        if step is None:
+            step = cas.ls_step(lvl.A, lvl.b, self.damping)
+        info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
+        i0, i1 = rows.i_end[k - 1] if k else 0, rows.i_end[k]
+        Ca, la, ha = rows.C[:i0], rows.lo[:i0], rows.hi[:i0]
+        used, failed, w = 0, "", None
+        tol = self.tol
+        # (1) its equalities in the null space of every higher level, kept inside their rows
+        if i0 and step.rank and max_violation(Ca, la, ha, cas.candidate(step)) > tol:
+            info.used_qp = True
+            used += 1
+            z, _, status = self._qp(cas, step.AZ, step.r, None, None, None, Ca, la, ha, f"{key}{lvl.index}e", margin)
+            info.qp_status = status
+            if z is None:
+                # z = 0 is feasible and keeps every higher level: hold there
+                degraded.append(f"level {lvl.index}: QP failed ({status}); level held at its "
+                                "highest-priority feasible point")
+                z = np.zeros(cas.dof)
+            cas.commit(step, z)
+        else:
+            cas.commit(step)
+        # (2) its inequalities in what is left: nearest point to the least-squares one that
+        # meets them; if none does, least-squares slack
+        if i1 > i0:
+            C, lo, hi = rows.C[i0:i1], rows.lo[i0:i1], rows.hi[i0:i1]
+            if max_violation(rows.C[:i1], rows.lo[:i1], rows.hi[:i1], cas.x) > tol:
+                info.used_qp = True
+                used += 1
+                z, status = self._nearest_feasible(cas, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}h", margin)
+                w = np.zeros(len(lo))
+                if z is None:
+                    used += 1
+                    z, w, status = self._qp(cas, None, None, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}i", margin)
+                info.qp_status = status
+                if z is None:
+                    failed = f"level {lvl.index}: QP failed ({status})"
+                    w = self._needed_slack(C, lo, hi, cas.x)
+                else:
+                    cas.x = cas.x + cas.Z @ z
+                    w = np.where(np.abs(w) > tol, w, 0.0)
+                info.relaxed = bool(np.any(w != 0.0))
+        return info, used, failed, w
+
+    def _nearest_feasible(self, cas: Cascade, C, lo, hi, Ca, la, ha, key, margin: float | None = None):
         """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
         feasible set nearest its least-squares point (H = I, well conditioned).
 
@@ -252,7 +275,6 @@ class HierarchicalQP:
         margin = self.margin if margin is None else margin
         r = cas.dof
         H, g = np.eye(r), np.zeros(r)
-        Ca, la, ha = _stacked(acc_C, acc_lo, acc_hi, len(cas.x))
         Z, identity = cas.kernel_basis()
         C = np.ascontiguousarray(C)
         for tighten in ((True, False) if margin > 0 else (False,)):
@@ -271,12 +293,11 @@ class HierarchicalQP:
                 return res.z, res.status
         return None, res.status
 
-    def _higher_rows(self, cas: Cascade, acc_C, acc_lo, acc_hi, margin: float | None = None):
+    def _higher_rows(self, cas: Cascade, Ca, la, ha, margin: float | None = None):
         """Higher levels' inequality rows in z; z = 0 stays feasible (a row at, or a hair
         past, its bound stays there). Rows Z has no say on are dropped. Rows with room
         keep ``margin`` (default the solver's) of it, so the solution stays off the limits
         where it can."""
-        Ca, la, ha = _stacked(acc_C, acc_lo, acc_hi, len(cas.x))
         Z, identity = cas.kernel_basis()
         return higher_rows(Ca, la, ha, cas.x, Z, identity, self.margin if margin is None else margin)
 
@@ -293,7 +314,7 @@ class HierarchicalQP:
         y = C @ x
         return np.where(y < lo, lo - y, np.where(y > hi, hi - y, 0.0))
 
-    def _qp(self, cas: Cascade, AZ, r_eq, C, lo, hi, acc_C, acc_lo, acc_hi, key, margin: float | None = None):
+    def _qp(self, cas: Cascade, AZ, r_eq, C, lo, hi, Ca, la, ha, key, margin: float | None = None):
         """QP in the free directions z of x = x̂ + Z z.
 
         Equality sub-level (``AZ`` given): min ‖AZ z − r‖² + ε‖z‖² s.t. higher rows.
@@ -306,15 +327,14 @@ class HierarchicalQP:
             # equality sub-level (the common case): no slack, the higher rows as they are
             H, g = least_squares_objective(AZ, r_eq, self.regularization)
             eps = self.regularization
-            if acc_C and self.certify:
-                Ca, la, ha = _stacked(acc_C, acc_lo, acc_hi, len(cas.x))
+            if len(la) and self.certify:
                 Z, identity = cas.kernel_basis()
                 ok, z = certified_higher(H, g, Ca, la, ha, cas.x, Z, identity,
                                          self.margin if margin is None else margin, self.tol)
                 if ok:
                     return z, np.zeros(0), CERTIFIED
-            if acc_C:
-                Cq, lq, hq = self._higher_rows(cas, acc_C, acc_lo, acc_hi, margin)
+            if len(la):
+                Cq, lq, hq = self._higher_rows(cas, Ca, la, ha, margin)
             else:
                 Cq, lq, hq = np.zeros((0, r)), np.zeros(0), np.zeros(0)
             return self._solve_qp(H, g, Cq, lq, hq, r, 0, eps, key)
@@ -340,13 +360,13 @@ class HierarchicalQP:
             rows.append(Cl)
             los.append(lo - y)
             his.append(hi - y)
-        if acc_C:
-            CaZ, la, ha = self._higher_rows(cas, acc_C, acc_lo, acc_hi, margin)
+        if len(la):
+            CaZ, lz, hz = self._higher_rows(cas, Ca, la, ha, margin)
             Cr = np.zeros((CaZ.shape[0], n))
             Cr[:, :r] = CaZ
             rows.append(Cr)
-            los.append(la)
-            his.append(ha)
+            los.append(lz)
+            his.append(hz)
         Cq = np.vstack(rows) if rows else np.zeros((0, n))
         lq = np.concatenate(los) if los else np.zeros(0)
         hq = np.concatenate(his) if his else np.zeros(0)
@@ -400,22 +420,27 @@ class HierarchicalQP:
         return res.z[:r], res.z[r:], res.status
 
 
-def _stacked(acc_C, acc_lo, acc_hi, nx: int) -> tuple:
-    """The higher levels' inequality blocks as one (C, lo, hi), C contiguous."""
-    if not acc_C:
-        return np.zeros((0, nx)), np.zeros(0), np.zeros(0)
-    if len(acc_C) == 1:
-        return np.ascontiguousarray(acc_C[0]), acc_lo[0], acc_hi[0]
-    return np.vstack(acc_C), np.concatenate(acc_lo), np.concatenate(acc_hi)
+class _LevelRows:
+    """Every level's rows for the compiled run (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`):
+    level k's equalities rows [e_end[k−1], e_end[k]) of (A, b), its inequalities rows
+    [i_end[k−1], i_end[k]) of (C, lo, hi), its damping (rank_tol, threshold, max_damping);
+    ``shared``: lo and hi are the row buffer's (copied before a relaxation changes them)."""
 
+    __slots__ = ("A", "b", "e_end", "C", "lo", "hi", "i_end", "rank_tol", "threshold", "max_damping", "shared")
 
-def _violated(Cs, los, his, x, tol: float) -> bool:
-    """Whether x violates any block l ≤ C x ≤ u by more than ``tol`` (block by block:
-    nothing is stacked on the path where no QP is needed)."""
-    for C, lo, hi in zip(Cs, los, his):
-        if C.shape[0] and max_violation(C, lo, hi, x) > tol:
-            return True
-    return False
+    def __init__(self, A, b, e_end, C, lo, hi, i_end, tols, shared: bool) -> None:
+        self.A, self.b, self.e_end, self.C, self.lo, self.hi, self.i_end = A, b, e_end, C, lo, hi, i_end
+        self.rank_tol, self.threshold, self.max_damping = tols[0], tols[1], tols[2]
+        self.shared = shared
+
+    def relax(self, k: int, w: np.ndarray) -> None:
+        """Level k's inequality bounds relaxed by its slack w (l − w ≤ C x ≤ u − w), as the
+        lower levels keep them."""
+        if self.shared:
+            self.lo, self.hi, self.shared = self.lo.copy(), self.hi.copy(), False
+        i0, i1 = self.i_end[k - 1] if k else 0, self.i_end[k]
+        self.lo[i0:i1] = self.lo[i0:i1] - w
+        self.hi[i0:i1] = self.hi[i0:i1] - w
 
 
 def scaled_level(lvl: Level, d: np.ndarray) -> Level:

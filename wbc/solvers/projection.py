@@ -61,7 +61,6 @@ from ..problem.rows import Layout, Level
 from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping, adopt_run
 from .kernels import prepare
 from .kernels.forces import dynamics_rows, forces_from, nnls_on_support
-from .kernels.qp_rows import box_excess_max
 from .kernels.records import hint_table
 from .kernels.sns_run import projection_prefix
 
@@ -131,15 +130,29 @@ class RecursiveProjection:
         prepare()
         self._rows_cache: dict = {}
         self._force_plan: _ForcePlan | None = None
+        #: (row buffer, damping key, each level's motion rows in it, tolerances) of the last run
         self._prefix = None
-        #: leading levels whose steps keep the joint limits in one compiled call (False:
-        #: the Python loop for every level, the reference the tests compare it with)
-        self.compiled = True
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, dynamics) -> SolveResult:
-        """q̈ of the levels' motion rows; ``dynamics`` has M (the inertia weighting's)."""
+        """q̈ of the levels' motion rows; ``dynamics`` has M (the inertia weighting's). Every
+        level, joint-limit saturations and task scaling included, in one call of
+        :func:`~wbc.solvers.kernels.sns_run.projection_prefix`."""
         nv = layout.nv
+        T, cas, box = self._start(levels, dynamics, nv)
+        A, b, rows, tols = self._motion(levels, T, nv)
+        b_idx, b_lo, b_hi = box
+        out = projection_prefix(A, b, rows, nv, cas.x, b_idx, b_lo, b_hi, _NO_T if T is None else T, T is not None,
+                                self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.box_tol,
+                                NO_DAMPING.rank_tol)
+        infos: list = []
+        adopt_run(levels, cas, infos, 0, *out)
+        return SolveResult(cas.x if T is None else T @ cas.x, infos)
+
+    def _start(self, levels: list[Level], dynamics, nv: int) -> tuple:
+        """(T, the cascade at its starting point, the joint-acceleration box (b_idx, b_lo,
+        b_hi) the SNS keeps) of a cycle: q̈ = T y, T = L⁻ᵀ for the inertia weighting (None
+        for the identity); the start is the point of the box nearest q̈ = 0."""
         T = None
         if self.weighting == "inertia":
             c, lower = cho_factor(dynamics.M, lower=True, check_finite=False)
@@ -153,7 +166,7 @@ class RecursiveProjection:
             b_idx, b_lo, b_hi = (np.concatenate(p) for p in zip(*boxes))
             b_idx = b_idx.astype(np.int64, copy=False)
         else:
-            b_idx = np.zeros(0, dtype=int)
+            b_idx = np.zeros(0, dtype=np.int64)
             b_lo = b_hi = np.zeros(0)
         if self.margin > 0 and len(b_idx):
             # the box the SNS keeps: ``margin`` inside each bound, where the range allows
@@ -166,118 +179,42 @@ class RecursiveProjection:
             x0 = np.zeros(nv)
             x0[b_idx] = np.minimum(np.maximum(b_lo, 0.0), b_hi)
             cas.x = x0 if T is None else L.T @ x0
-        box = (b_idx, b_lo, b_hi)
-        infos = []
-        start = 0
-        if T is None and self.compiled:
-            start = self._compiled_prefix(levels, cas, box, infos, nv)
-        for lvl in levels[start:]:
-            info = LevelInfo(lvl.index, dof_before=cas.dof)
-            rows = self._motion_rows(lvl)
-            if rows is None:                # no rows on q̈ (force-only tasks): nothing to do here
-                infos.append(info)
-                continue
-            A = lvl.A[rows, :nv]
-            Ay = A if T is None else A @ T
-            step = self._sns_level(cas, Ay, lvl.b[rows], box, T, info, scale=lvl.index > 0)
-            info.rank, info.sigma_min, info.damping, info.R = step.rank, step.sigma_min, step.damping, step.R
-            infos.append(info)
-        return SolveResult(cas.x if T is None else T @ cas.x, infos)
+        return T, cas, (b_idx, b_lo, b_hi)
 
-    def _compiled_prefix(self, levels: list[Level], cas: Cascade, box, infos: list, nv: int) -> int:
-        """The leading levels that come straight from the stack's row buffer, joint-limit
-        saturations included, in one call of
-        :func:`~wbc.solvers.kernels.sns_run.projection_prefix` (the loop of
-        :meth:`solve_accelerations` without the interpreter); fills ``infos`` and ``cas``;
-        returns the index of the first level left."""
-        buf, n = buffered_prefix(levels)
-        if n == 0:
-            return 0
+    def _motion(self, levels: list[Level], T, nv: int) -> tuple:
+        """(A, b, rows, tolerances) of :func:`~wbc.solvers.kernels.sns_run.projection_prefix`:
+        the row buffer's arrays when the levels are its own, with the identity weighting and
+        each level's motion rows one block of it; else the levels' motion rows (times T)
+        stacked afresh."""
+        n = len(levels)
         d = self.damping
         key = (n, d.rank_tol, d.threshold, d.max_damping)
+        buf, own = buffered_prefix(levels)
         got = self._prefix
-        if got is None or got[0] is not buf or got[1] != key:
+        if T is None and own == n and got is not None and got[0] is buf and got[1] == key:
+            return buf.A, buf.b, got[2], got[3]
+        tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * n).reshape(n, 3).T.copy()
+        sels = [self._motion_rows(lvl) for lvl in levels]
+        if T is None and own == n and all(sel is None or isinstance(sel, slice) for sel in sels):
             rows = np.empty((n, 2), dtype=np.int64)
-            for k, lvl in enumerate(levels[:n]):
-                sel, e0 = self._motion_rows(lvl), buf.spans[k][0]
-                if sel is None:
-                    rows[k] = (-1, -1)
-                elif isinstance(sel, slice):
-                    rows[k] = (e0 + sel.start, e0 + sel.stop)
-                else:
-                    rows[k] = (-2, -2)
-            tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * n).T.copy()
-            got = self._prefix = (buf, key, rows, tols)
-        _, _, rows, tols = got
-        b_idx, b_lo, b_hi = box
-        out = projection_prefix(buf.A, buf.b, rows, nv, cas.x, b_idx, b_lo, b_hi, self._hints, tols[0], tols[1],
-                                tols[2], GRAM_MIN_RATIO, self.box_tol, NO_DAMPING.rank_tol)
-        return adopt_run(levels, cas, infos, 0, *out)[0]
-
-    def _sns_level(self, cas: Cascade, Ay, b, box, T, info: LevelInfo, scale: bool):
-        """One level with Saturation in the Null Space, then task scaling if needed.
-
-        Invariant: no joint's box violation grows (x̂ starts inside the box, so it
-        stays inside). A saturation is accepted only if it keeps that invariant;
-        when no saturation helps any more, the level's step is scaled by the largest
-        s ∈ [0, 1] that keeps it (Flacco et al.'s task scaling). Level 0 is never
-        scaled: its equalities (contacts) come first, as in the HQP. (Compiled, for the
-        identity weighting: :func:`~wbc.solvers.kernels.sns_run.projection_prefix`.)
-        """
-        b_idx, b_lo, b_hi = box
-        tol = self.box_tol
-        step = cas.ls_step(Ay, b, self.damping)
-        if not len(b_idx) or (T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol):
-            cas.commit(step)            # the common case: no joint limit in the way
-            return step
-
-        def q_of(y):
-            return (y if T is None else T @ y)[b_idx]
-
-        def over(qb):
-            return np.maximum(b_lo - qb, 0.0) + np.maximum(qb - b_hi, 0.0)
-
-        blocked: set[int] = set()
-        first = True
-        while True:
-            if not first:
-                step = cas.ls_step(Ay, b, self.damping)
-            first = False
-            if T is None and box_excess_max(cas.x, step.x_next, b_idx, b_lo, b_hi) <= tol:
-                cas.commit(step)
-                return step
-            q_now = q_of(cas.x)
-            v_now = over(q_now)
-            q_new = q_of(cas.candidate(step))
-            excess = over(q_new) - v_now
-            if excess.max() <= tol:
-                cas.commit(step)
-                return step
-            excess[list(blocked)] = -np.inf
-            j = int(np.argmax(excess))
-            if excess[j] <= tol:
-                break
-            blocked.add(j)
-            target = b_lo[j] if q_new[j] < b_lo[j] else b_hi[j]
-            nv = cas.n
-            e = np.zeros((1, nv))
-            e[0, b_idx[j]] = 1.0
-            sat = cas.ls_step(e if T is None else e @ T, np.array([target]), NO_DAMPING)
-            if sat.rank and np.all(over(q_of(cas.candidate(sat))) <= v_now + tol):
-                cas.commit(sat)
-                info.saturated.append(int(b_idx[j]))
-        # no saturation left that helps: scale the step
-        if not scale:
-            cas.commit(step)
-            return step
-        d = q_new - q_now
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s_up = np.where(d > 0, (np.maximum(b_hi, q_now) - q_now) / d, np.inf)
-            s_dn = np.where(d < 0, (np.minimum(b_lo, q_now) - q_now) / d, np.inf)
-        s = float(np.clip(min(s_up.min(), s_dn.min(), 1.0), 0.0, 1.0))
-        info.scale = s
-        cas.commit(step, s * step.z)
-        return step
+            for k, sel in enumerate(sels):
+                e0 = buf.spans[k][0]
+                rows[k] = (-1, -1) if sel is None else (e0 + sel.start, e0 + sel.stop)
+            self._prefix = (buf, key, rows, tols)
+            return buf.A, buf.b, rows, tols
+        rows = np.full((n, 2), -1, dtype=np.int64)
+        As, bs, e = [], [], 0
+        for k, (lvl, sel) in enumerate(zip(levels, sels)):
+            if sel is None:             # no rows on q̈ (force-only tasks): nothing to do here
+                continue
+            A = lvl.A[sel, :nv]
+            As.append(A if T is None else A @ T)
+            bs.append(lvl.b[sel])
+            rows[k] = (e, e + A.shape[0])
+            e += A.shape[0]
+        A = np.vstack(As) if As else np.zeros((0, nv))
+        b = np.concatenate(bs) if bs else np.zeros(0)
+        return A, b, rows, tols
 
     def _motion_rows(self, lvl: Level) -> slice | np.ndarray | None:
         """The level's equality rows on q̈ (not on contact forces): a slice when they are
@@ -342,6 +279,10 @@ class RecursiveProjection:
         res = SolveResult(f, [LevelInfo(0)])
         res.dynamics_gap, res.dynamics_scale = gap, scale
         return res
+
+
+#: stands for T with the identity weighting (the compiled run then reads q̈ = y)
+_NO_T = np.zeros((0, 0))
 
 
 class _ForcePlan:

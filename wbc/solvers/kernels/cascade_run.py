@@ -3,8 +3,10 @@
 One call runs level after level (the least-squares step of :mod:`.factorizations`, the
 higher levels' inequalities checked, a QP solved by KKT certificate where one is needed,
 :mod:`.qp_rows`) until a level needs what only Python does (a back-end QP); the solver
-(:class:`~wbc.solvers.hqp.HierarchicalQP`) takes over there from the state the run hands
-over (decoded by :func:`.records.decode`).
+(:class:`~wbc.solvers.hqp.HierarchicalQP`) solves that QP from the state the run hands
+over (decoded by :func:`.records.decode`) and resumes the run below it. This is the
+cascade's only copy in the package; ``tests/reference_hqp.py`` is the same level by level
+in Python, the reference it is tested against.
 """
 
 from __future__ import annotations
@@ -32,9 +34,9 @@ from .records import (
 @nb.njit(cache=True)
 def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
                    max_damping, gram_min_ratio, tol, certify, regularization, margin):
-    """The strict cascade's levels, one after the other, for as long as none needs a QP:
-    the hierarchical QP's common case in one call (its per-level Python is the same
-    mathematics, step for step, see :meth:`~wbc.solvers.hqp.HierarchicalQP.solve_levels`).
+    """The strict cascade's levels, one after the other, for as long as none needs a
+    back-end QP: the hierarchical QP's common case in one call (``tests/reference_hqp.py``
+    is the same mathematics, step for step, in Python).
 
     Level k's equalities are rows [e_end[k−1], e_end[k]) of (A, b) and its inequalities
     (general and box rows) rows [i_end[k−1], i_end[k]) of (C, lo, hi), so the rows of
@@ -46,7 +48,8 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
     its certificate holds (no margin at the last level, L − 1: as the Python loop). The
     point is kept if it then meets the level's own rows too;
     the first level where any of this fails is where the caller takes over, with the
-    state before it and the step it took there.
+    state before it and the step it took there. (lo, hi) are the bounds as the levels keep
+    them: the caller passes a relaxed level's bounds relaxed by its slack.
     It starts at level ``k0`` from x̂ = ``x0`` and Z = ``Z0`` (``identity0``: Z is the
     identity, ``Z0`` then empty) after ``calls0`` steps (the caller resumes it after a
     level it solved itself). ``hints``: the solver's :func:`hint_table`, read and updated

@@ -32,18 +32,20 @@ from .records import (
 
 
 @nb.njit(cache=True)
-def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, threshold, max_damping,
-                      gram_min_ratio, box_tol, saturation_rank_tol):
+def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints, rank_tol, threshold,
+                      max_damping, gram_min_ratio, box_tol, saturation_rank_tol):
     """The projection solver's levels in q̈, one after the other, each with Saturation in
     the Null Space where a joint limit is in the way (the steps of
-    :meth:`~wbc.solvers.projection.RecursiveProjection._sns_level`, identity weighting).
+    :class:`~wbc.solvers.projection.RecursiveProjection`; ``tests/reference_projection.py``
+    is the same in Python, level by level).
 
-    Level k's motion rows are rows [rows[k, 0], rows[k, 1]) of (A[:, :nv], b), or none
-    when rows[k, 0] = −1 (a level of force-only tasks: no step); rows[k, 0] = −2 (rows not
-    in one block) stops there. A level's step is kept when no box bound (b_idx, b_lo,
-    b_hi) is violated more than before by ``box_tol``. Otherwise the joint whose
+    The cascade's variable is y with q̈ = T y (``weighted``: the inertia weighting's T = L⁻ᵀ,
+    the rows then J T; else q̈ = y, ``T`` unused). Level k's motion rows are rows
+    [rows[k, 0], rows[k, 1]) of (A[:, :nv], b), or none when rows[k, 0] = −1 (a level of
+    force-only tasks: no step). A level's step is kept when no box bound (b_idx, b_lo,
+    b_hi, on q̈) is violated more than before by ``box_tol``. Otherwise the joint whose
     violation would grow most is moved to the bound it crosses by a step of its own
-    (a unit row, undamped, rank tolerance ``saturation_rank_tol``), kept if it makes no
+    (a unit row of q̈, undamped, rank tolerance ``saturation_rank_tol``), kept if it makes no
     bound worse, and the level is solved again in what is left; when no joint is left to
     saturate, the step is scaled by the largest s ∈ [0, 1] that keeps every bound (level 0
     is never scaled). Returns as :func:`cascade_prefix` (the stop level, if any, with no
@@ -66,8 +68,6 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
     target = np.zeros(1)
     blocked = np.zeros(nb, dtype=np.bool_)
     for k in range(L):
-        if rows[k, 0] == -2:
-            return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         dof = nv if identity else Z.shape[1]
         start_level(ints, floats, k, m, dof)
@@ -90,7 +90,9 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                 x_next = packed[dof:dof + nv]
                 r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + nv, r0)
                 calls += 1
-                if not nb or box_excess_max(x, x_next, b_idx, b_lo, b_hi) <= box_tol:
+                qx = T @ x if weighted else x           # q̈ before the step and after it
+                qn = T @ x_next if weighted else x_next
+                if not nb or box_excess_max(qx, qn, b_idx, b_lo, b_hi) <= box_tol:
                     x, Z, identity = x_next, Z_next, False
                     break
                 # the joint whose violation would grow most, not saturated yet in this level
@@ -99,8 +101,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                 for i in range(nb):
                     if blocked[i]:
                         continue
-                    grow = (box_violation(x_next[b_idx[i]], b_lo[i], b_hi[i])
-                            - box_violation(x[b_idx[i]], b_lo[i], b_hi[i]))
+                    grow = (box_violation(qn[b_idx[i]], b_lo[i], b_hi[i])
+                            - box_violation(qx[b_idx[i]], b_lo[i], b_hi[i]))
                     if grow > worst:
                         worst, j = grow, i
                 if j < 0 or worst <= box_tol:
@@ -108,8 +110,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                     s = 1.0
                     if k > 0:
                         for i in range(nb):
-                            a = x[b_idx[i]]
-                            d = x_next[b_idx[i]] - a
+                            a = qx[b_idx[i]]
+                            d = qn[b_idx[i]] - a
                             if d > 0:
                                 s = min(s, (max(b_hi[i], a) - a) / d)
                             elif d < 0:
@@ -123,10 +125,13 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                     Z, identity = Z_next, False
                     break
                 blocked[j] = True
-                c = x_next[b_idx[j]]
+                c = qn[b_idx[j]]
                 target[0] = b_lo[j] if c < b_lo[j] else b_hi[j]
-                unit[0, :] = 0.0
-                unit[0, b_idx[j]] = 1.0
+                if weighted:
+                    unit[0, :] = T[b_idx[j], :]
+                else:
+                    unit[0, :] = 0.0
+                    unit[0, b_idx[j]] = 1.0
                 path = hint_route(hints, calls, 1, dof)
                 _, route, rank, _, _, _, sat, Z_sat = level_step(
                     unit, target, x, Z, identity, path, False, saturation_rank_tol, 0.0, 0.0, gram_min_ratio)
@@ -134,10 +139,11 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, hints, rank_tol, th
                 calls += 1
                 if rank:
                     x_sat = sat[dof:dof + nv]
+                    qs = T @ x_sat if weighted else x_sat
                     keeps = True
                     for i in range(nb):
-                        if box_violation(x_sat[b_idx[i]], b_lo[i], b_hi[i]) > \
-                                box_violation(x[b_idx[i]], b_lo[i], b_hi[i]) + box_tol:
+                        if box_violation(qs[b_idx[i]], b_lo[i], b_hi[i]) > \
+                                box_violation(qx[b_idx[i]], b_lo[i], b_hi[i]) + box_tol:
                             keeps = False
                             break
                     if keeps:
