@@ -49,8 +49,10 @@ def _svd_step(cas: Cascade, A, b, d):
     return cas.route_step(A, b, d, routes.SVD)
 
 
-@pytest.mark.parametrize("m,n", [(18, 50), (12, 29), (8, 9)])
+@pytest.mark.parametrize("m,n", [(18, 50), (12, 29), (8, 9), (3, 32)])
 def test_qr_path_equals_svd_path(m, n):
+    """(3, 32): few rows over many free directions, where the QR route forms the next basis as
+    (Z Q)[:, m:] instead of Z·Q[:, m:] (:func:`~wbc.solvers.kernels.factorizations._qr`)."""
     rng = np.random.default_rng(m * 100 + n)
     d = Damping()
     for _trial in range(20):
@@ -512,3 +514,27 @@ def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
     # the prefix was cut short at several levels (the projection's only stop is a joint
     # limit: it has no QP), and ran through
     assert len(seen - {"end"}) >= (3 if solver == "hqp" else 1) and "end" in seen
+
+
+def test_unit_rows_are_read_off_the_basis_bit_for_bit():
+    """projected_rows reads unit rows (a posture's, a wrench target's) off Z and x̂: the same
+    numbers as the products, to the last bit; any other row takes the products."""
+    from wbc.solvers.kernels.factorizations import projected_rows, unit_columns
+
+    rng = np.random.default_rng(3)
+    n, k = 12, 7
+    Z = np.linalg.qr(rng.standard_normal((n, k)))[0]
+    x, b = rng.standard_normal(n), rng.standard_normal(5)
+    A = np.zeros((5, n))
+    A[np.arange(5), [3, 0, 11, 3, 7]] = 1.0
+    assert unit_columns(A).tolist() == [3, 0, 11, 3, 7]
+    for identity in (False, True):
+        AZ, r = projected_rows(A, b, x, Z, identity)
+        assert np.array_equal(AZ, A if identity else A @ Z) and np.array_equal(r, b - A @ x)
+    for bad in ((0, 1, 2.0), (1, 4, 1e-3), (4, 7, 0.0)):      # a 2, a second entry, a zero row
+        B = A.copy()
+        B[bad[0], bad[1]] = bad[2]
+        assert len(unit_columns(B)) == 0
+        AZ, r = projected_rows(B, b, x, Z, False)
+        np.testing.assert_allclose(AZ, B @ Z, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(r, b - B @ x, rtol=0, atol=1e-15)

@@ -168,7 +168,10 @@ class RobotModel:
         )
 
     # ------------------------------------------------------------------ state
-    def check_state(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def check_state(self, q: np.ndarray, v: np.ndarray, finite: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) as flat float arrays of sizes (nq, nv), else TargetError; with ``finite``
+        (default) also refused if not finite (the controller passes False: its fault
+        monitor has checked that already, :mod:`wbc.faults`)."""
         q = np.asarray(q, dtype=float).reshape(-1)
         v = np.asarray(v, dtype=float).reshape(-1)
         if q.shape != (self.nq,) or v.shape != (self.nv,):
@@ -178,7 +181,7 @@ class RobotModel:
             )
         # a sum is finite iff every term is (one reduction instead of two isfinite passes);
         # a sum that overflows is checked term by term
-        if not math.isfinite(q.sum() + v.sum()) and not (np.isfinite(q).all() and np.isfinite(v).all()):
+        if finite and not math.isfinite(q.sum() + v.sum()) and not (np.isfinite(q).all() and np.isfinite(v).all()):
             raise TargetError(f"robot '{self.name}': q or v contains NaN or inf")
         return q, v
 

@@ -6,6 +6,7 @@ it into torques and a :class:`~wbc.solution.Solution` without knowing which solv
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,14 +42,18 @@ class LevelInfo:
     relaxed: bool = False
     saturated: list = field(default_factory=list)
     scale: float = 1.0
-    #: triangular factor of J̄_k when the solver did not compute its singular values;
-    #: ``sigma()`` works them out
+    #: triangular factor of J̄_k when the solver did not compute its singular values
+    #: (square, or flat row by row as a compiled run hands it over); ``sigma()`` works them out
     R: np.ndarray | None = None
 
     def sigma(self) -> float:
         """σ_min of J̄_k (computed on demand from ``R`` if the solver took the QR path)."""
-        if self.R is not None:
-            self.sigma_min = singular_values(self.R)[0]
+        R = self.R
+        if R is not None:
+            if R.ndim == 1:
+                m = math.isqrt(R.shape[0])
+                R = R.reshape(m, m)
+            self.sigma_min = singular_values(R)[0]
             self.R = None
         return self.sigma_min
 

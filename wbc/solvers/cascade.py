@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..problem.result import CERTIFIED, LevelInfo
 from .kernels.factorizations import AUTO, damping_lambda2, level_step
 from .kernels.records import decode, hint_record, hint_route
 
@@ -219,23 +218,11 @@ def adopt_run(levels: list, cas: Cascade, infos: list, start: int, stop: int, x,
     :func:`~wbc.solvers.kernels.sns_run.projection_prefix`): a LevelInfo per level it solved
     appended to ``infos``, its point and basis into ``cas``. Returns (the first level
     left, the step the kernel took there or None, the QPs it solved by certificate)."""
-    decoded, calls = decode(ints, floats, start, stop)
-    qps = 0
-    for lvl, rec in zip(levels[start:stop], decoded):
-        info = LevelInfo(lvl.index, dof_before=rec.dof)
-        if rec.certified:
-            info.used_qp, info.qp_status = True, CERTIFIED
-            qps += rec.certified
-        if rec.saturated:
-            info.saturated = rec.saturated
-        info.scale = rec.scale
-        if rec.call >= 0:
-            info.rank, info.sigma_min, info.damping, info.R = rec.rank, rec.sigma_min, rec.lambda2, rec.R
-        infos.append(info)
+    decoded, at, calls, qps = decode(ints, floats, levels, start, stop)
+    infos += decoded
     step = None
     if len(packed):
-        rec = decoded[stop - start]
-        step = Step.unpacked(packed, Z_next, rec.rank, rec.sigma_min, rec.sigma_max, rec.lambda2, levels[stop].A,
-                             levels[stop].b, x, None if identity else Z, rec.dof, True, rec.route)
+        step = Step.unpacked(packed, Z_next, at.rank, at.sigma_min, at.sigma_max, at.lambda2, levels[stop].A,
+                             levels[stop].b, x, None if identity else Z, at.dof, True, at.route)
     cas.adopt(x, Z, identity, calls)
     return stop, step, qps

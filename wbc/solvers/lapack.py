@@ -4,7 +4,7 @@ scipy exports LAPACK as a ``cython_lapack`` table of function pointers; each rou
 used here is registered with LLVM under a name of ours and declared as an external
 function with every argument a pointer (Fortran's calling convention). Character
 arguments are passed as pointers into ``UPLO_DIAG`` ("U", "N") and ``SIDE_TRANS``
-("R", "T").
+("R", "T") or ``LEFT_TRANS`` ("L", "T").
 """
 
 from __future__ import annotations
@@ -32,3 +32,4 @@ dormqr = _lapack("dormqr", 13)   # side, trans, m, n, k, a, lda, tau, c, ldc, wo
 
 UPLO_DIAG = np.frombuffer(b"UN", dtype=np.uint8)
 SIDE_TRANS = np.frombuffer(b"RT", dtype=np.uint8)
+LEFT_TRANS = np.frombuffer(b"LT", dtype=np.uint8)

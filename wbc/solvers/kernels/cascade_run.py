@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factorizations import step_from
+from .factorizations import projected_rows, step_from
 from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
 from .records import (
     CERTIFIED,
@@ -83,9 +83,7 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
         start_level(ints, floats, k, m, dof)
         x_next = x
         if m and dof:
-            Ak = A[e0:e_end[k]]
-            AZ = Ak if identity else Ak @ Z
-            rk = b[e0:e_end[k]] - Ak @ x
+            AZ, rk = projected_rows(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity)
             path = hint_route(hints, calls, m, dof)
             _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
                 AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)

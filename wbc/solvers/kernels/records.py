@@ -5,7 +5,8 @@ A run over L levels (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`,
 and floats, because a numba kernel returns fixed-type arrays cheaply. This module owns
 both sides of that format: the kernels write it through :func:`start_level`,
 :func:`record_level` and :func:`set_calls`, and Python reads it only through
-:func:`decode` (a :class:`RunLevel` per level), so no offset appears anywhere else.
+:func:`decode` (a :class:`~wbc.problem.result.LevelInfo` per level solved, a
+:class:`RunLevel` for the level it stopped at), so no offset appears anywhere else.
 
 Per level k: ints[LEVEL_INTS·k + field] for the fields ``CALL`` (index of its step among the
 run's steps, −1 for none), ``ROWS``, ``DOF`` (free directions before it), ``ROUTE``,
@@ -23,6 +24,8 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from ...problem.result import CERTIFIED as CERTIFIED_STATUS
+from ...problem.result import LevelInfo
 from .factorizations import AUTO, GRAM, QR
 
 #: entries per level in the ints and floats of a compiled run, and their fields
@@ -111,51 +114,52 @@ def saturated_start(L):
 
 @dataclass(slots=True)
 class RunLevel:
-    """One level of a compiled run, decoded: ``call`` the index of its step among the
-    run's steps (−1: it took none), ``rows`` its equality rows, ``dof`` the free
-    directions before it, ``route`` and ``rank`` of its factorisation, ``certified`` the
-    QPs solved by certificate, ``saturated`` the joints SNS saturated, σ_min, σ_max, λ²
-    of the damping, ``scale`` of its step, ``R`` the triangular factor (σ from it on
-    demand) or None."""
+    """The level where a run stopped, decoded (what the caller needs to take its step
+    over): the free directions before it, ``route`` and ``rank`` of its factorisation, and
+    σ_min, σ_max, λ² of the damping."""
 
-    call: int
-    rows: int
     dof: int
     route: int
     rank: int
-    certified: int
-    saturated: list
     sigma_min: float
     sigma_max: float
     lambda2: float
-    scale: float
-    R: np.ndarray | None
 
 
-def decode(ints: np.ndarray, floats: np.ndarray, start: int, stop: int) -> tuple[list[RunLevel], int]:
-    """The levels ``start`` .. ``stop`` (the level where the run stopped included, if it is
-    a level) of a run's (ints, floats), and the count of steps it took."""
+def decode(ints: np.ndarray, floats: np.ndarray, levels: list, start: int,
+           stop: int) -> tuple[list[LevelInfo], RunLevel | None, int, int]:
+    """A run's (ints, floats) read once: (a :class:`LevelInfo` per level ``start`` ..
+    ``stop`` − 1 it solved, ``levels[k].index`` its index; the :class:`RunLevel` of level
+    ``stop`` if the run stopped at a level; the count of steps it took; the QPs it
+    solved by certificate). A level's R factor is handed over as the flat view of its
+    rows in ``floats`` (``LevelInfo.sigma`` reshapes it when asked)."""
     L = int(ints[-1])
     head = LEVEL_INTS * L
     iv, fv = ints[:head + L + 2].tolist(), floats[:LEVEL_FLOATS * L].tolist()
     sat_at = head + L + 2
-    out = []
-    for k in range(start, min(stop + 1, L)):
+    infos = []
+    certified = 0
+    for k in range(start, min(stop, L)):
         i, f = LEVEL_INTS * k, LEVEL_FLOATS * k
-        n_sat = iv[i + SATURATED]
+        n_sat, certs = iv[i + SATURATED], iv[i + CERTIFIED]
         saturated = []
         if n_sat:
             saturated = ints[sat_at:sat_at + n_sat].tolist()
             sat_at += n_sat
-        R = None
-        a, b = iv[head + k], iv[head + k + 1]
-        if iv[i + CALL] >= 0 and b > a:
-            mr = round((b - a) ** 0.5)
-            R = floats[a:b].reshape(mr, mr)
-        out.append(RunLevel(iv[i + CALL], iv[i + ROWS], iv[i + DOF], iv[i + ROUTE], iv[i + RANK],
-                            iv[i + CERTIFIED], saturated, fv[f + SIGMA_MIN], fv[f + SIGMA_MAX],
-                            fv[f + LAMBDA2], fv[f + SCALE], R))
-    return out, iv[head + L + 1]
+        certified += certs
+        status = CERTIFIED_STATUS if certs else ""
+        if iv[i + CALL] >= 0:
+            a, b = iv[head + k], iv[head + k + 1]
+            infos.append(LevelInfo(levels[k].index, iv[i + RANK], fv[f + SIGMA_MIN], fv[f + LAMBDA2], iv[i + DOF],
+                                   certs > 0, status, False, saturated, fv[f + SCALE], floats[a:b] if b > a else None))
+        else:
+            infos.append(LevelInfo(levels[k].index, 0, np.inf, 0.0, iv[i + DOF], certs > 0, status, False, saturated,
+                                   fv[f + SCALE], None))
+    at = None
+    if stop < L:
+        i, f = LEVEL_INTS * stop, LEVEL_FLOATS * stop
+        at = RunLevel(iv[i + DOF], iv[i + ROUTE], iv[i + RANK], fv[f + SIGMA_MIN], fv[f + SIGMA_MAX], fv[f + LAMBDA2])
+    return infos, at, iv[head + L + 1], certified
 
 
 #: cycles a level goes straight to the route it last needed before its first route is retried
