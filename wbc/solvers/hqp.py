@@ -175,10 +175,13 @@ class HierarchicalQP:
         d0 = self.damping
         key = (n, d0.rank_tol, d0.threshold, d0.max_damping) if not dampings else \
             (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
-        buf, own = buffered_prefix(levels)
-        if own < n:
-            return self._stacked_rows(levels, nx, damp, key, buf, own)
         got = self._prefix_plan
+        if got is not None and got[0] is not None and levels is got[0].levels and got[1] == key:
+            buf = got[0]            # the buffer's own level list, as last cycle
+        else:
+            buf, own = buffered_prefix(levels)
+            if own < n:
+                return self._stacked_rows(levels, nx, damp, key, buf, own)
         if got is None or got[0] is not buf or got[1] != key:
             tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
             got = self._prefix_plan = (buf, key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
