@@ -257,7 +257,7 @@ def test_compiled_joint_acceleration_bounds_match_the_docstring_formula():
     task = wbc.tasks.JointLimits(margin=0.01)
     rng = np.random.default_rng(7)
     dt, T, amax, mg = task.dt, task.horizon, task.max_acceleration, task.margin
-    qi, _, _ = task._indices(robot)
+    qi = task._indices(robot)[0]
     crossed = 0
     for trial in range(20):
         q, v = random_state(robot, rng)
@@ -284,6 +284,19 @@ def test_compiled_joint_acceleration_bounds_match_the_docstring_formula():
             assert lo[k] == pytest.approx(low, rel=1e-12, abs=1e-9)
             assert hi[k] == pytest.approx(u, rel=1e-12, abs=1e-9)
     assert crossed > 0
+    # TIAGo's planar base: velocity-only coordinates after the joints, (±v_max − v)/dt; the
+    # index array is the same object every cycle (the row buffer then skips comparing it)
+    tiago = wbc.load_robot("tiago")
+    task = wbc.tasks.JointLimits()
+    q, v = random_state(tiago, rng)
+    tiago.update(q, v)
+    vi, lo, hi = task.bounds(tiago)
+    qi, vj, extra = task._indices(tiago)[:3]
+    assert len(extra) > 0 and vi.tolist() == vj.tolist() + extra.tolist()
+    np.testing.assert_allclose(lo[len(vj):], (-tiago.v_max[extra] - v[extra]) / task.dt, rtol=1e-15)
+    np.testing.assert_allclose(hi[len(vj):], (tiago.v_max[extra] - v[extra]) / task.dt, rtol=1e-15)
+    tiago.update(q, 2.0 * v)
+    assert task.bounds(tiago)[0] is vi
 
 
 def test_a_qp_answer_outside_its_rows_is_not_accepted():

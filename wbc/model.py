@@ -137,6 +137,7 @@ class RobotModel:
         #: the known external generalised force τ_e (nv, N·m or N, applied *to* the robot) of
         #: the last ``update``, already subtracted from ``h``; zeros when none was given
         self.external_torque = np.zeros(self.nv)
+        self._external = False      # whether the last update had one (external_torque ≠ 0 then)
         self.cycle = 0
         self.update(self.q, self.v)
 
@@ -192,14 +193,16 @@ class RobotModel:
         self.q, self.v = q, v
         whole_body_terms(self.model, self.data, q, v, self._zero_v)
         if external_torque is None:
-            if self.external_torque.any():
+            if self._external:
                 self.external_torque = np.zeros(self.nv)
+                self._external = False
         else:
             tau_e = np.asarray(external_torque, dtype=float)
             if tau_e.shape != (self.nv,) or not np.all(np.isfinite(tau_e)):
                 raise TargetError(f"robot '{self.name}': external_torque must be {self.nv} finite numbers, "
                                   f"got shape {tau_e.shape}")
             self.external_torque = tau_e.copy()
+            self._external = True
             self.data.nle -= tau_e
         if self.compensation is not None:
             self._h_eff = self.data.nle + self.compensation.torque(v)

@@ -62,7 +62,7 @@ from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping, adopt_run
 from .kernels import prepare
 from .kernels.forces import dynamics_rows, forces_from, nnls_on_support
 from .kernels.records import hint_table
-from .kernels.sns_run import projection_prefix
+from .kernels.sns_run import projection_prefix, sns_box
 
 
 class RecursiveProjection:
@@ -168,16 +168,12 @@ class RecursiveProjection:
         else:
             b_idx = np.zeros(0, dtype=np.int64)
             b_lo = b_hi = np.zeros(0)
-        if self.margin > 0 and len(b_idx):
-            # the box the SNS keeps: ``margin`` inside each bound, where the range allows
-            d = np.clip(0.25 * (b_hi - b_lo), 0.0, self.margin)
-            b_lo, b_hi = b_lo + d, b_hi - d
         cas = Cascade(nv, self._hints)
         if len(b_idx):
-            # start from the feasible point nearest q̈ = 0 (a joint braking towards its
-            # limit needs a non-zero acceleration even before any task)
-            x0 = np.zeros(nv)
-            x0[b_idx] = np.minimum(np.maximum(b_lo, 0.0), b_hi)
+            # the box the SNS keeps, ``margin`` inside each bound where the range allows, and
+            # the start: its point nearest q̈ = 0 (a joint braking towards its limit needs a
+            # non-zero acceleration even before any task)
+            b_lo, b_hi, x0 = sns_box(b_idx, b_lo, b_hi, self.margin, nv)
             cas.x = x0 if T is None else L.T @ x0
         return T, cas, (b_idx, b_lo, b_hi)
 

@@ -49,27 +49,25 @@ class JointLimits(Task):
                 if j.nq == 1 and j.nv == 1:
                     qi.append(j.idx_q)
                     vi.append(j.idx_v)
-            qi, vi = np.array(qi, dtype=int), np.array(vi, dtype=int)
+            qi, vi = np.array(qi, dtype=np.int64), np.array(vi, dtype=np.int64)
             # velocity-only coordinates (e.g. a planar base with finite v_max)
-            extra = np.array([i for i in range(robot.nv) if i not in set(vi) and np.isfinite(robot.v_max[i])], dtype=int)
-            # the robot's limits, read once (they do not change)
-            self._lim = (robot.q_max[qi].copy(), robot.q_min[qi].copy(), robot.v_max[vi].copy())
-            self._map = (qi.astype(np.int64), vi.astype(np.int64), extra)
+            extra = np.array([i for i in range(robot.nv) if i not in set(vi) and np.isfinite(robot.v_max[i])],
+                             dtype=np.int64)
+            # the robot's limits, read once (they do not change), and the bounds' indices:
+            # one array for every cycle
+            self._lim = (robot.q_max[qi].copy(), robot.q_min[qi].copy(), robot.v_max[vi].copy(),
+                         robot.v_max[extra].copy())
+            self._map = (qi, vi, extra, np.concatenate([vi, extra]))
         return self._map
 
     def bounds(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(v indices, lower, upper) acceleration bounds in rad/s² or m/s²."""
-        qi, vi, extra = self._indices(robot)
-        qmax, qmin, vmax = self._lim
+        """(v indices, lower, upper) acceleration bounds in rad/s² or m/s²: the joints', then
+        the velocity-only coordinates' (v_min − v)/dt ≤ q̈ ≤ (v_max − v)/dt."""
+        qi, vi, extra, idx = self._indices(robot)
+        qmax, qmin, vmax, vmax_extra = self._lim
         lo, hi = acceleration_bounds(robot.q, robot.v, qi, vi, qmax, qmin, vmax, self.margin, self.dt,
-                                     self.horizon, self.max_acceleration)
-        if len(extra):
-            ve = robot.v[extra]
-            vme = robot.v_max[extra]
-            vi = np.concatenate([vi, extra])
-            lo = np.concatenate([lo, (-vme - ve) / self.dt])
-            hi = np.concatenate([hi, (vme - ve) / self.dt])
-        return vi, lo, hi
+                                     self.horizon, self.max_acceleration, extra, vmax_extra)
+        return idx, lo, hi
 
     def rows(self, robot, layout: Layout) -> Rows:
         return Rows(box=self.bounds(robot))
@@ -83,16 +81,17 @@ class JointLimits(Task):
 
 
 @nb.njit(cache=True)
-def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, amax):
-    """(lower, upper) bounds on q̈[vi] of :class:`JointLimits`, joint by joint, compiled.
+def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, amax, extra, vmax_extra):
+    """(lower, upper) bounds on q̈[vi] of :class:`JointLimits`, joint by joint, compiled,
+    then on q̈[extra], velocity-only coordinates: (∓v_max − v)/dt.
 
     The upper bound is the tightest of (v_max − v)/dt, 2(q_max − margin − q − v T)/T² and
     (√(2 ā d) − v)/dt with d = max(q_max − margin − q − v dt, 0); the lower bound is the
     upper bound of the mirrored joint (q, v, q_max) → (−q, −v, −q_min), negated. Crossed
     bounds collapse to their midpoint."""
     n = qi.shape[0]
-    lo = np.empty(n)
-    hi = np.empty(n)
+    lo = np.empty(n + extra.shape[0])
+    hi = np.empty(n + extra.shape[0])
     c = 2.0 / (horizon * horizon)
     for k in range(n):
         bound = np.empty(2)
@@ -109,4 +108,8 @@ def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, ama
             up = low = 0.5 * (low + up)
         lo[k] = low
         hi[k] = up
+    for k in range(extra.shape[0]):
+        ve = v[extra[k]]
+        lo[n + k] = (-vmax_extra[k] - ve) / dt
+        hi[n + k] = (vmax_extra[k] - ve) / dt
     return lo, hi

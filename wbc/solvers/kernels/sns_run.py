@@ -32,6 +32,23 @@ from .records import (
 
 
 @nb.njit(cache=True)
+def sns_box(idx, lo, hi, margin, nv):
+    """(lo', hi', q̈₀) of a cycle's joint-acceleration box: the bounds ``margin`` inside,
+    where the range allows (d = min(margin, ¼ (hi − lo)), none for an empty range), and the
+    point of that box nearest q̈ = 0 (zeros off the box's joints), in one call."""
+    n = idx.shape[0]
+    lo2 = np.empty(n)
+    hi2 = np.empty(n)
+    x0 = np.zeros(nv)
+    for j in range(n):
+        d = min(max(0.25 * (hi[j] - lo[j]), 0.0), margin) if margin > 0.0 else 0.0
+        lo2[j] = lo[j] + d
+        hi2[j] = hi[j] - d
+        x0[idx[j]] = min(max(lo2[j], 0.0), hi2[j])
+    return lo2, hi2, x0
+
+
+@nb.njit(cache=True)
 def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints, rank_tol, threshold,
                       max_damping, gram_min_ratio, box_tol, saturation_rank_tol):
     """The projection solver's levels in q̈, one after the other, each with Saturation in
