@@ -129,15 +129,41 @@ def run_case(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, ba
     return out
 
 
+class CycleRun:
+    """One case's controller driven along the bench trajectory from the robot's default
+    posture at rest: :meth:`step` sets the targets of cycle k, times ``ctrl.solve`` and
+    integrates the state with its q̈ (neither timed)."""
+
+    def __init__(self, robot: RobotModel, make_stack: Callable[[], Stack], solver: str, backend: str | None,
+                 circles: tuple[str, ...]) -> None:
+        self.robot = robot
+        self.stack = make_stack()
+        self.ctrl = Controller(robot, self.stack, solver=solver, backend=backend or "daqp")
+        self.q, self.v = robot.q_default.copy(), np.zeros(robot.nv)
+        robot.update(self.q, self.v)
+        self._targets = moving_targets(robot, self.stack, circles)
+
+    def step(self, k: int, before_solve: Callable[[], None] | None = None) -> tuple[float, object]:
+        """Cycle k: (the time of ``ctrl.solve`` in s, its Solution); ``before_solve`` is
+        called after the targets are set, just before the timed call."""
+        self._targets(k * DT)
+        if before_solve is not None:
+            before_solve()
+        clock = time.perf_counter
+        t0 = clock()
+        sol = self.ctrl.solve(self.q, self.v)
+        t1 = clock()
+        self.v = self.v + sol.qdd * DT
+        self.q = pin.integrate(self.robot.model, self.q, self.v * DT)
+        return t1 - t0, sol
+
+
 def _timed_pass(robot: RobotModel, make_stack: Callable[[], Stack], solver: str, backend: str | None,
                 cycles: int, warmup: int, circles: tuple[str, ...], instrumented: bool,
                 budget_s: float | None) -> dict:
-    """One pass of :func:`run_case` from the default posture at rest."""
-    stack = make_stack()
-    ctrl = Controller(robot, stack, solver=solver, backend=backend or "daqp")
-    q, v = robot.q_default.copy(), np.zeros(robot.nv)
-    robot.update(q, v)
-    set_targets = moving_targets(robot, stack, circles)
+    """One pass of :func:`run_case` (a :class:`CycleRun`)."""
+    run = CycleRun(robot, make_stack, solver, backend, circles)
+    ctrl = run.ctrl
     timer = PhaseTimer()
     if instrumented:
         timer.instrument(ctrl)
@@ -147,7 +173,7 @@ def _timed_pass(robot: RobotModel, make_stack: Callable[[], Stack], solver: str,
     statuses: Counter = Counter()
     warns: Counter = Counter()
     qp_count = 0
-    model, clock = robot.model, time.perf_counter
+    clock = time.perf_counter
     warm = np.zeros(warmup)
     done = 0
     t_case = clock()
@@ -155,17 +181,14 @@ def _timed_pass(robot: RobotModel, make_stack: Callable[[], Stack], solver: str,
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             for k in range(warmup + cycles):
-                set_targets(k * DT)
-                timer.reset()
-                t0 = clock()
-                sol = ctrl.solve(q, v)
+                dt, sol = run.step(k, timer.reset)
                 t1 = clock()
                 if instrumented:
                     _ = sol.diagnostics              # worked out on demand: timed apart
                 t2 = clock()
                 if k >= warmup:
                     i = k - warmup
-                    total[i] = t1 - t0
+                    total[i] = dt
                     diag[i] = t2 - t1
                     for p in PHASES:
                         per_phase[p][i] = timer.acc[p]
@@ -173,20 +196,18 @@ def _timed_pass(robot: RobotModel, make_stack: Callable[[], Stack], solver: str,
                     qp_count += sol.qp_count
                     done = i + 1
                 else:
-                    warm[k] = t1 - t0
+                    warm[k] = dt
                 if caught:
                     for w in caught:
                         warns[f"{w.category.__name__}: {str(w.message)[:90]}"] += 1
                     caught.clear()
-                v = v + sol.qdd * DT
-                q = pin.integrate(model, q, v * DT)
                 if budget_s is not None and clock() - t_case > budget_s and k + 1 < warmup + cycles:
                     break
     finally:
         timer.restore()
     return {"total": total, "diag": diag, "phases": per_phase, "statuses": statuses, "warns": warns,
-            "qp_count": qp_count, "warm": warm, "done": done, "levels": len(stack), "nx": ctrl.layout.nx,
-            "finite": bool(np.all(np.isfinite(q)) and np.all(np.isfinite(v)))}
+            "qp_count": qp_count, "warm": warm, "done": done, "levels": len(run.stack), "nx": ctrl.layout.nx,
+            "finite": bool(np.all(np.isfinite(run.q)) and np.all(np.isfinite(run.v)))}
 
 
 def main_cases(robots: dict[str, RobotModel], backends: list[str], cycles: int, warmup: int,
