@@ -1,7 +1,7 @@
 """The browser view really draws the robot, in headless Chromium:
 
-(a) a recorded HTML replay (``--record``): screenshots at two animation times
-    (Chromium's --virtual-time-budget advances the page's clock);
+(a) a recorded HTML replay (``--record``): screenshots at two animation times, the
+    page driven over the DevTools protocol (as in (c));
 (b) the LIVE Meshcat server page while a run is being served: Chromium is driven
     over the DevTools protocol (``--remote-debugging-port``; a websocket client from
     tornado, which meshcat's server already needs), so each screenshot is taken
@@ -55,25 +55,6 @@ def _kill(proc: subprocess.Popen) -> None:
     proc.wait()
 
 
-def screenshot(url: str, out: Path, budget_ms: int) -> np.ndarray:
-    from PIL import Image
-
-    for attempt in range(3):
-        # headless Chromium occasionally hangs at start-up (zygote): give it 60 s, then retry
-        proc = subprocess.Popen([CHROMIUM, *FLAGS, f"--user-data-dir={out.parent / f'profile{attempt}{budget_ms}'}",
-                                 f"--virtual-time-budget={budget_ms}", f"--screenshot={out}", url],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-        try:
-            proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            pass
-        finally:
-            _kill(proc)
-        if out.is_file():
-            return np.asarray(Image.open(out).convert("RGB"), dtype=float)
-    pytest.fail(f"chromium wrote no screenshot of {url}")
-
-
 def differing_share(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean(np.linalg.norm(a - b, axis=2) > 30.0))
 
@@ -111,13 +92,13 @@ def recordings(chromium, tmp_path_factory):
     return d, robot_html, empty_html
 
 
-def test_recorded_replay_draws_the_robot_and_moves(recordings):
+def test_recorded_replay_draws_the_robot_and_moves(chromium, recordings):
     d, robot_html, empty_html = recordings
     assert "wbc-diagnostics" in robot_html.read_text()      # the diagnostics panel rides along
-    background = screenshot(empty_html.as_uri(), d / "empty.png", 3000)
-    early = screenshot(robot_html.as_uri() + "#no-diagnostics", d / "early.png", 300)
-    late = screenshot(robot_html.as_uri() + "#no-diagnostics", d / "late.png", 6000)
-    panel = screenshot(robot_html.as_uri(), d / "late_diagnostics.png", 6000)
+    background = replay_screenshots(chromium, empty_html.as_uri(), d / "empty", [0.0])[0.0]
+    shots = replay_screenshots(chromium, robot_html.as_uri() + "#no-diagnostics", d / "reach", [0.1, 1.9])
+    early, late = shots[0.1], shots[1.9]
+    panel = replay_screenshots(chromium, robot_html.as_uri(), d / "reach_diagnostics", [1.9])[1.9]
     drawn = differing_share(early, background)
     moved = differing_share(early, late)
     h, w = panel.shape[:2]
@@ -201,6 +182,11 @@ HUD_NODES = """(function () {
                     .children["<object>"].children["wbc_diagnostics"];
         return c.children["<object>"].object.material.map ? 1 : 0; } catch (e) { return 0; } })()"""
 
+# the replay's animation loaded and played to its end (the player then rewinds, paused)
+ANIMATION_DONE = """(function () {
+  try { var a = viewer.animator; return (a.actions.length > 0 && !a.playing) ? a.actions.length : -1; }
+  catch (e) { return -1; } })()"""
+
 
 async def _wait_for(dt: DevTools, expr: str, minimum: int, timeout: float) -> int:
     t_end = time.monotonic() + timeout
@@ -209,6 +195,33 @@ async def _wait_for(dt: DevTools, expr: str, minimum: int, timeout: float) -> in
         await asyncio.sleep(0.2)
         value = await dt.evaluate(expr)
     return value
+
+
+def replay_screenshots(chromium: str, url: str, root: Path, times: list[float]) -> dict[float, np.ndarray]:
+    """Screenshots of a recorded replay page (``root`` holds them and the profiles) at the
+    animation times ``times`` (s): the page's animation played once to its end, then paused
+    and set to each time over the DevTools protocol. (Chromium's --screenshot with a
+    --virtual-time-budget hung now and then on these WebGL pages, 3 attempts in a row once
+    in CI, where DevTools screenshots of the same pages never did.)"""
+    root.mkdir(parents=True, exist_ok=True)
+    proc, port = launch_devtools(chromium, url, root)
+
+    async def drive():
+        dt = await DevTools.attach(port)
+        loaded = await _wait_for(dt, ANIMATION_DONE, 1, 30)
+        assert loaded > 0, f"the replay's animation never played: {url}"
+        shots = {}
+        for t in times:
+            await dt.evaluate(f"viewer.animator.pause(); viewer.animator.seek({t}); 0")
+            await asyncio.sleep(0.5)                          # drawn by the page's animation loop
+            shots[t] = await dt.screenshot(root / f"t{t}.png")
+        dt.conn.close()
+        return shots
+
+    try:
+        return asyncio.run(asyncio.wait_for(drive(), 60))
+    finally:
+        _kill(proc)
 
 
 def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_path):
@@ -286,10 +299,6 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
 
 
 # ------------------------------------------------------------ (c) a recorded push, animation times set
-# the replay's animation loaded and played to its end (the player then rewinds, paused)
-ANIMATION_DONE = """(function () {
-  try { var a = viewer.animator; return (a.actions.length > 0 && !a.playing) ? a.actions.length : -1; }
-  catch (e) { return -1; } })()"""
 # the push arrow's and the contact-force arrows' states in the page: [visible, scale x, y, z]
 ARROW_STATES = """(function () {
   function state(o) { return [o.visible, o.scale.x, o.scale.y, o.scale.z]; }
