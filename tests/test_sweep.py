@@ -100,6 +100,20 @@ def test_case_hash_is_stable_across_processes_and_follows_the_resolved_case(tmp_
     assert again.hash == c0.hash
     assert case_hash(c0.doc, Perturbation(mass_scale=1.1), 0) != c0.hash
     assert case_hash(c0.doc, Perturbation(), 1) != c0.hash
+    # the robot YAML's content is an input too: the same document with the robot file edited
+    # (one gain) is another case, so a resumed sweep does not keep the old file's result
+    from wbc.robots import robot_yaml_path
+
+    robot_file = tmp_path / "robot.yaml"
+    text = robot_yaml_path(c0.doc["robot"]).read_text()
+    robot_file.write_text(text)
+    doc = {**c0.doc, "robot": str(robot_file)}
+    h1 = case_hash(doc, Perturbation(), 0)
+    robot_file.write_text(text + "\n# a comment is the same robot\n")
+    assert case_hash(doc, Perturbation(), 0) == h1
+    assert "posture: 10.0," in text
+    robot_file.write_text(text.replace("posture: 10.0,", "posture: 12.0,"))
+    assert case_hash(doc, Perturbation(), 0) != h1
 
 
 def test_more_random_samples_keep_the_earlier_draws(tmp_path):

@@ -5,8 +5,8 @@ the case's axis values applied by key path (:func:`wbc.sweep.keypath.apply_all`)
 ``model.*`` values turned into a :class:`~wbc.sweep.perturb.Perturbation`. Its ``hash``
 (16 hex digits) is the SHA-256 of that document, the perturbation and the seed, in
 canonical JSON: the same case gets the same hash in any process, on any machine and in
-any order, which is what the results store resumes by (editing the base scenario changes
-the hashes, so its cases run again).
+any order, which is what the results store resumes by (editing the base scenario, or the
+robot YAML it names, changes the hashes, so its cases run again).
 
 Seeds: ``grid`` and ``bisect`` cases share the spec's ``seed`` (common random numbers:
 solvers compared under the same sensor noise); in ``random`` mode draw ``i`` has seed
@@ -30,8 +30,9 @@ from .axes import Axis
 from .perturb import Perturbation, perturbation
 from .spec import SweepSpec
 
-#: bump when the meaning of a resolved case changes (the runner's inputs, the hash's layout)
-CASE_VERSION = 1
+#: bump when the meaning of a resolved case changes (the runner's inputs, the hash's layout);
+#: 2: the robot YAML's content is hashed too
+CASE_VERSION = 2
 
 
 @dataclass(eq=False)
@@ -56,10 +57,33 @@ class Case:
 
 
 def case_hash(doc: dict, pert: Perturbation, seed: int) -> str:
-    """Stable 16-hex-digit hash of a resolved case."""
-    blob = json.dumps({"v": CASE_VERSION, "doc": doc, "model": pert.as_dict(), "seed": seed},
+    """Stable 16-hex-digit hash of a resolved case: its document, perturbation and seed, and
+    the content of the robot YAML its ``robot:`` names (a bundled name or a path), so that
+    editing the robot (its gains, say) runs the case again instead of resuming a stale
+    result."""
+    blob = json.dumps({"v": CASE_VERSION, "doc": doc, "model": pert.as_dict(), "seed": seed,
+                       "robot_file": robot_file_digest(doc.get("robot"))},
                       sort_keys=True, separators=(",", ":"), allow_nan=True, default=plain)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def robot_file_digest(robot: Any) -> str:
+    """SHA-256 of the data of the robot YAML a ``robot:`` value names, in canonical JSON (a
+    comment or a layout edit is the same robot); "" for an inline robot, or for a name or
+    file that gives none (the case then fails with that error when it runs)."""
+    if not isinstance(robot, str):
+        return ""
+    import yaml
+
+    from ..errors import WbcError
+    from ..robots import robot_yaml_path
+
+    try:
+        data = yaml.safe_load(robot_yaml_path(robot).read_text(encoding="utf-8"))
+    except (WbcError, OSError, UnicodeError, yaml.YAMLError):
+        return ""
+    blob = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()
 
 
 def make_case(spec: SweepSpec, values: dict[str, Any], seed: int, index: str, group: int | None = None) -> Case:
