@@ -111,6 +111,18 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
 
 
 @nb.njit(cache=True)
+def _apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
+    """LAPACK's dormqr: C (m × n, Fortran layout, leading dimension ``ldc``) times Q or Qᵀ as
+    ``side_trans`` says ("LT": Qᵀ C, "RT": C Qᵀ), Q the k reflectors a QR left in ``a``
+    with factors ``tau``; returns LAPACK's info (0: done)."""
+    io = np.array([m, n, k, lda, ldc, work.shape[0], 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
+    dormqr(side_trans[0:].ctypes, side_trans[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
+           a.ctypes, io[3:].ctypes, tau.ctypes, c.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
+           io[6:].ctypes)
+    return io[6]
+
+
+@nb.njit(cache=True)
 def _qr(AZ, r, rank_tol, threshold, Z, identity):
     """Wide level (m < k) by Householder QR of (AZ)ᵀ = Q [R; 0] (module doc). Returns (ok, z,
     the next basis Z·null(AZ), R); null(AZ) = Q[:, m:]. The next basis is Q[:, m:] as Q
@@ -153,11 +165,7 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
     if not identity and 4 * n * m < 2 * nm * m + n * nm:
         # (Z Q)ᵀ = Qᵀ Zᵀ by LAPACK's dormqr from the left: Z's C layout is Zᵀ's Fortran one
         W = Z.copy()
-        io = np.array([k, n, m, k, k, lwork, 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
-        dormqr(LEFT_TRANS[0:].ctypes, LEFT_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
-               Q.ctypes, io[3:].ctypes, tau.ctypes, W.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
-               io[6:].ctypes)
-        if io[6] != 0:
+        if _apply_q(LEFT_TRANS, k, n, m, Q, k, tau, W, k, work) != 0:
             return False, np.empty(0), np.empty((0, 0)), R
         return True, z, np.ascontiguousarray(W[:, m:]), R
     # null(AZ) = Q[0; I], the last k − m columns of Q, without forming Q: as (Eᵀ Qᵀ)ᵀ with
@@ -166,11 +174,7 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
     null = np.zeros((k, nm))
     for j in range(nm):
         null[m + j, j] = 1.0
-    io = np.array([nm, k, m, k, nm, lwork, 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
-    dormqr(SIDE_TRANS[0:].ctypes, SIDE_TRANS[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
-           Q.ctypes, io[3:].ctypes, tau.ctypes, null.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
-           io[6:].ctypes)
-    if io[6] != 0:
+    if _apply_q(SIDE_TRANS, nm, k, m, Q, k, tau, null, nm, work) != 0:
         return False, np.empty(0), np.empty((0, 0)), R
     return True, z, null if identity else Z @ null, R
 
