@@ -43,6 +43,18 @@ def random_state(robot: wbc.RobotModel, rng: np.random.Generator, speed: float =
     return q, v
 
 
+def same_random_case(rng: np.random.Generator, *pairs: tuple[wbc.RobotModel, wbc.Stack]):
+    """One random state (:func:`random_state`, from the first robot) and one seed of random
+    targets (:func:`randomise_targets`) given to every (robot, stack) pair: the same case
+    for controllers that are compared. Returns (q, v)."""
+    q, v = random_state(pairs[0][0], rng)
+    seed = int(rng.integers(1 << 30))
+    for robot, stack in pairs:
+        robot.update(q, v)
+        randomise_targets(stack, robot, np.random.default_rng(seed))
+    return q, v
+
+
 def randomise_targets(stack: wbc.Stack, robot: wbc.RobotModel, rng: np.random.Generator) -> None:
     """Targets a few cm to a couple of dm from the current values (robot.update done)."""
     for task in stack:

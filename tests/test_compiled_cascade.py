@@ -12,7 +12,7 @@ import wbc
 from wbc.solvers.hqp import HierarchicalQP
 
 from .reference_hqp import reference_solve_levels
-from .stacks import random_state, randomise_targets, talos_stack
+from .stacks import same_random_case, talos_stack
 
 
 class _Reference:
@@ -48,11 +48,7 @@ def test_compiled_run_equals_the_reference_loop(solver, force_scale):
     fast.force_scale = plain.force_scale = force_scale
     qps = relaxed = 0
     for _ in range(60):
-        q, v = random_state(robot_a, rng)
-        seed = int(rng.integers(1 << 30))
-        for robot, stack in ((robot_a, stack_a), (robot_b, stack_b)):
-            robot.update(q, v)
-            randomise_targets(stack, robot, np.random.default_rng(seed))
+        q, v = same_random_case(rng, (robot_a, stack_a), (robot_b, stack_b))
         a = fast.solve(q, v)
         with _Reference(plain.solver):
             b = plain.solve(q, v)
@@ -126,11 +122,7 @@ def test_compiled_projection_equals_the_reference_loop(weighting):
     plain.solver.solve_accelerations = partial(reference_solve_accelerations, plain.solver)
     saturated = 0
     for _ in range(60):
-        q, v = random_state(robot_a, rng)
-        seed = int(rng.integers(1 << 30))
-        for robot, stack in ((robot_a, stack_a), (robot_b, stack_b)):
-            robot.update(q, v)
-            randomise_targets(stack, robot, np.random.default_rng(seed))
+        q, v = same_random_case(rng, (robot_a, stack_a), (robot_b, stack_b))
         a, b = fast.solve(q, v), plain.solve(q, v)
         np.testing.assert_allclose(a.qdd, b.qdd, rtol=0, atol=1e-8 * (1 + np.abs(b.qdd).max()))
         assert a.status == b.status

@@ -31,7 +31,7 @@ from wbc.stack import assemble_level
 
 from .reference_hqp import reference_solve_levels
 from .reference_projection import reference_solve_accelerations, sns_level
-from .stacks import random_state, randomise_targets, talos_stack
+from .stacks import random_state, randomise_targets, same_random_case, talos_stack
 
 
 def _cascade_with_free(n: int, k: int, rng, d: Damping) -> Cascade:
@@ -501,11 +501,7 @@ def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
                 targets_a(k * DT)
                 targets_b(k * DT)
             else:
-                q, v = random_state(robot_a, rng)
-                seed = int(rng.integers(1 << 30))
-                for robot, stack in ((robot_a, stack_a), (robot_b, stack_b)):
-                    robot.update(q, v)
-                    randomise_targets(stack, robot, np.random.default_rng(seed))
+                q, v = same_random_case(rng, (robot_a, stack_a), (robot_b, stack_b))
             # each cycle a function of its state alone (both at the fast one's state: a
             # rounding-level difference, which BLAS may make depending on memory alignment,
             # is not fed back)
