@@ -59,8 +59,8 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     parser.add_argument("--plot", metavar="FILE.png", help="also plot the run (task errors, contact forces, torques)")
     args = parser.parse_args(argv)
 
-    from wbc.runner import run
-    from wbc.scenario import load_config
+    from wbc.runner.loop import run
+    from wbc.scenario.loader import load_config
     from wbc.viz import Scene, shown_frames, viewer_callback
 
     live = args.viz or bool(os.environ.get("DISPLAY"))
@@ -84,7 +84,7 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     finally:
         scene.close()
     if args.plot:
-        from wbc.plot import plot_metrics
+        from wbc.runner.plot import plot_metrics
 
         print(f"plot written to {plot_metrics(m, args.plot)}")
     _summary(m)

@@ -1,4 +1,4 @@
-"""The sweep spec YAML: read (``yaml.safe_load`` semantics, :mod:`wbc.yamlio`) and checked.
+"""The sweep spec YAML: read (``yaml.safe_load`` semantics, :mod:`wbc.validation.yamlio`) and checked.
 
     base: talos_push                  # bundled scenario, or a path relative to this file
     mode: bisect                      # grid (default) | random | bisect
@@ -45,9 +45,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from wbc.validation.schema import integer, mapping, number, sequence, text
+from wbc.validation.yamlio import Document, read_document
+
 from ..errors import ConfigError, WbcError, placed
-from ..schema import integer, mapping, number, sequence, text
-from ..yamlio import Document, read_document
 from .axes import MAX_CASES, Axis, check_key, check_mode, grid_size, max_probes, parse_axis
 
 MODES = ("grid", "random", "bisect")
@@ -159,7 +160,7 @@ def _build(doc: Document, src: Path) -> SweepSpec:
 
 
 def _base_path(value: Any, src: Path) -> Path:
-    from ..examples import scenario_path
+    from wbc.scenario.examples import scenario_path
 
     name = text(value, "base", what="a bundled scenario name or a path to a scenario YAML")
     p = Path(name)

@@ -6,11 +6,12 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from ..checks import se3_from
+from wbc.robot.model import WORLD_ALIGNED
+from wbc.validation.inputs import se3_from
+from wbc.validation.schema import found, is_number, matrix, show, suggest, text
+
 from ..errors import TargetError, TaskDefinitionError
-from ..model import WORLD_ALIGNED
 from ..problem.rows import Layout, Rows
-from ..schema import found, is_number, matrix, show, suggest, text
 from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _MASKS = {
