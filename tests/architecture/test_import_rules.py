@@ -157,3 +157,13 @@ def test_imports_follow_the_rules(package):
 def test_at_most_12_modules_directly_under_wbc():
     top = sorted(p.name for p in WBC.glob("*.py"))
     assert len(top) <= 12, top
+
+
+def test_the_bench_harness_does_not_import_the_command_that_loads_it():
+    """``wbc.cli.bench`` imports ``benchmarks.harness.cli`` (from a source tree); the harness
+    owns its defaults (``benchmarks/harness/options.py``) and imports no ``wbc.cli``."""
+    harness = WBC.parent / "benchmarks" / "harness"
+    modules = {module_name(p) for p in WBC.rglob("*.py")}
+    bad = {p.name: sorted(m for m in imports_of(p, modules) if m.startswith("wbc.cli"))
+           for p in harness.glob("*.py")}
+    assert not {k: v for k, v in bad.items() if v}

@@ -145,7 +145,7 @@ def test_level_buffers_equal_rows_stacked_afresh():
 
 
 def _moving_run(warm: bool, cycles: int = 600):
-    from .stacks import DT, bench_stack, moving_targets
+    from tests.helpers.stacks import DT, bench_stack, moving_targets
 
     robot = wbc.load_robot("talos")
     stack = bench_stack()
@@ -477,7 +477,7 @@ def test_compiled_cascade_prefix_equals_the_level_by_level_loop(solver):
     limits, in one call) gives what the per-level Python loop gives: the same x, statuses,
     QP counts and per-level diagnostics, on random states and targets (where limits and
     QPs cut the prefix short at various levels) and along the benchmark's trajectory."""
-    from .stacks import DT, bench_stack, moving_targets
+    from tests.helpers.stacks import DT, bench_stack, moving_targets
 
     rng = np.random.default_rng(11)
     robot_a, robot_b = wbc.load_robot("talos"), wbc.load_robot("talos")

@@ -111,7 +111,7 @@ def test_compiled_projection_equals_the_reference_loop(weighting):
     q̈, saturated joints, task scalings and ranks, on random states and targets."""
     from functools import partial
 
-    from .reference_projection import reference_solve_accelerations
+    from tests.helpers.reference_projection import reference_solve_accelerations
 
     rng = np.random.default_rng(9)
     robot_a, robot_b = wbc.load_robot("talos"), wbc.load_robot("talos")

@@ -106,7 +106,7 @@ def test_torque_limits_hold_where_projection_would_break_them(talos):
 def test_projection_meets_root_dynamics_with_contact_wrench_targets(talos):
     """Wrench targets (a regularisation level) are secondary in the projection solver's
     force distribution: the unactuated dynamics still hold (and the status says ok)."""
-    from .stacks import DT, bench_stack, moving_targets
+    from tests.helpers.stacks import DT, bench_stack, moving_targets
 
     stack = bench_stack()
     ctrl = wbc.Controller(talos, stack, solver="projection")

@@ -55,7 +55,7 @@ def test_not_added_when_off_given_or_not_needed(talos, tiago):
     stack.add(ContactWrench("right_foot_contact"), 3)
     assert _solve(talos, stack)[0].lowest_tasks() == []
     # no contacts, no force to decide
-    from .stacks import tiago_stack
+    from tests.helpers.stacks import tiago_stack
 
     assert _solve(tiago, tiago_stack())[0].lowest_tasks() == []
     with pytest.raises(wbc.SolverError, match="contact_regularization"):

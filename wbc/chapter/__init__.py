@@ -10,6 +10,9 @@ Force control (5.3): stiffness (:mod:`.stiffness`), impedance (:mod:`.impedance`
 admittance (:mod:`.admittance`), hybrid force/motion (:mod:`.hybrid_force_motion`),
 multi-priority interaction (:mod:`.null_space_impedance`); those with force
 feedback are called ``(q, v, t, h_e=...) -> τ`` (conventions in :mod:`._opspace`).
+
+May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.null_space`,
+:mod:`wbc.sim` (the elastic measurement). Nothing of the stack of tasks imports it.
 """
 
 from .admittance import AdmittanceControl
