@@ -45,8 +45,8 @@ import pytest
 
 import wbc
 import wbc.tasks
-from tests.stacks import random_state
-from wbc.scenario_contacts import with_contacts
+from tests.helpers.stacks import random_state
+from wbc.scenario.contacts import with_contacts
 from wbc.tasks import (
     CoM,
     Contact,
