@@ -54,8 +54,10 @@ from wbc.tasks.frame import to_se3
 from wbc.trajectories.position import frame_reference
 
 
-def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
-    """A timeline event: release a contact, touch down, add or remove a task."""
+def _apply_event(ev, ctrl, robot, measured, refs, start, t, switched) -> None:
+    """A timeline event: release a contact, touch down, add or remove a task. ``measured`` is
+    this cycle's one measurement (q, v): the simulator is measured once per control cycle,
+    since ``measure()`` advances its latency queue and draws its sensor noise."""
     stack = ctrl.stack
     if ev["kind"] == "release":
         ctrl.release_contact(ev["name"], ev["duration"])
@@ -65,12 +67,12 @@ def _apply_event(ev, ctrl, robot, sim, refs, start, t, switched) -> None:
             stack.remove(ev["name"])
         refs.pop(ev["name"], None)
     elif ev["kind"] == "touchdown":
-        robot.update(*sim.measure())
+        robot.update(*measured)
         ctrl.make_contact(ev["task"], level=ev["level"], duration=ev["duration"])
         switched.add(ev["task"].name)
     else:
         task = ev["task"]
-        robot.update(*sim.measure())
+        robot.update(*measured)
         task.bind(robot)
         given = ev.get("target")            # the add's own target (world), else the pose when added
         if task.kind == "frame":
@@ -182,9 +184,10 @@ class ScenarioRun:
         sc, stack, sim, ctrl = self.sc, self.stack, self.sim, self.ctrl
         t = k * sc.dt
         pending = self.pending
+        q, v = sim.measure()                # once per cycle: events and the solve see the same sample
         if k == 0 or (pending and pending[0]["time"] <= t + 1e-9):
             while pending and pending[0]["time"] <= t + 1e-9:
-                _apply_event(pending.pop(0), ctrl, self.robot, sim, self.refs, self.start, t, self.switched)
+                _apply_event(pending.pop(0), ctrl, self.robot, (q, v), self.refs, self.start, t, self.switched)
             self.measured.watch(stack, self.switched)     # what the metrics watch changes only at events
         for tname, (traj, absolute, t0) in self.refs.items():
             x, dx, ddx = traj.sample(t - t0)
@@ -193,7 +196,6 @@ class ScenarioRun:
                 task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, self.start[tname], t - t0))
-        q, v = sim.measure()
         if self.interaction is not None:
             self.interaction.before_solve(q, v, self.last_sol)
         tau_e = self.external.before_solve(t, q, v, sim) if self.external is not None else None
