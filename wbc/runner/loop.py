@@ -111,6 +111,7 @@ class ScenarioRun:
                  wrap_simulator=None, joint_dynamics: bool | None = None) -> None:
         robot, stack = sc.robot, sc.stack
         self.sc, self.robot, self.stack, self.progress, self.callback = sc, robot, stack, progress, callback
+        self.tty = progress and sys.stderr.isatty()      # how the progress line is written (cycle)
         opts = dict(sc.solver)
         self.solver_name = solver or opts.pop("type", "hqp")
         opts.pop("type", None)
@@ -231,8 +232,10 @@ class ScenarioRun:
             return False
         if self.progress and (k % 500 == 0 or k == self.n - 1):
             rtf = (k + 1 - self.k_wall) * sc.dt / max(time.perf_counter() - self.t_wall, 1e-9)
-            sys.stderr.write(f"\r  t = {t + sc.dt:6.2f} s / {self.duration:.2f} s   real-time factor {rtf:5.2f}   "
-                             f"solver failures {self.failures}")
+            # a terminal gets one line redrawn in place; a log or pipe one plain line per report
+            start, end = ("\r", "") if self.tty else ("", "\n")
+            sys.stderr.write(f"{start}  t = {t + sc.dt:6.2f} s / {self.duration:.2f} s   real-time factor {rtf:5.2f}   "
+                             f"solver failures {self.failures}{end}")
             sys.stderr.flush()
         return True
 
@@ -240,7 +243,7 @@ class ScenarioRun:
         """The metrics dict of the cycles run (see the module docstring)."""
         if self.k_wall == 0:      # no cycle ran
             self.notice.stop()
-        if self.progress:
+        if self.progress and self.tty:
             sys.stderr.write("\n")
         sc, robot, sim = self.sc, self.robot, self.sim
         ct = self.cycle_times[~np.isnan(self.cycle_times)]
