@@ -11,6 +11,7 @@ import json
 import math
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -23,6 +24,7 @@ import pytest
 import yaml
 
 from wbc.cli.main import main as wbc_main
+from wbc.errors import ConfigError
 from wbc.sweep import keypath
 from wbc.sweep.axes import Axis
 from wbc.sweep.bisect import Bisection
@@ -424,3 +426,14 @@ def test_summary_and_plots_report_each_group(tmp_path):
     assert f"| hqp | 9 | {n_hqp} | {n_hqp / 9:.3f} |" in text
     assert {p.name for p in plot_all(res)} == {"push_map.png"}
     assert all(p.stat().st_size > 10_000 for p in res.out_dir.glob("*.png"))
+
+
+@pytest.mark.parametrize("survive", [{"fell": "maybe"}, {"fell": 0}, {"contacts.*.lifted": "no"},
+                                     {"contacts.left_foot.lifted": 1}])
+def test_a_boolean_metric_compared_with_anything_but_true_or_false_is_a_config_error(tmp_path, survive):
+    """``survive: {fell: maybe}`` used to validate and then fail every case (a string never
+    equals a boolean metric): now the spec is refused, naming the key."""
+    column = next(iter(survive))
+    with pytest.raises(ConfigError, match=rf"survive\.{re.escape(column)}.*true or false"):
+        load_spec(write_spec(tmp_path, axes={"solver.type": ["hqp"]}, survive=survive))
+    load_spec(write_spec(tmp_path, "ok.yaml", axes={"solver.type": ["hqp"]}, survive={column: False}))

@@ -17,6 +17,10 @@ from scipy.spatial import ConvexHull, QhullError
 
 from wbc.runner.stats import Running
 
+#: the metrics a run reports as true/false (flattened names, ``*`` one part): a sweep's
+#: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
+BOOLEAN_METRICS = ("fell", "contacts.*.lifted")
+
 
 def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (m) of p to the boundary of the convex hull of points (> 0 inside)."""

@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from wbc.runner.metrics import BOOLEAN_METRICS
 from wbc.validation.schema import integer, mapping, number, sequence, text
 from wbc.validation.yamlio import Document, read_document
 
@@ -187,6 +188,17 @@ def _robot_value(key: str, value: Any, src: Path) -> Any:
     return value
 
 
+def _is_boolean_metric(column: str) -> bool:
+    """Whether ``column`` names one of the run's true/false metrics (``BOOLEAN_METRICS``),
+    wildcards on either side matching one part of a name."""
+    parts = column.split(".")
+    for name in BOOLEAN_METRICS:
+        known = name.split(".")
+        if len(known) == len(parts) and all(a == b or "*" in (a, b) for a, b in zip(parts, known)):
+            return True
+    return False
+
+
 def _survive(spec: Any) -> list[Condition]:
     out = []
     for col, v in mapping(spec, "survive").items():
@@ -197,6 +209,8 @@ def _survive(spec: Any) -> list[Condition]:
                 raise ConfigError("give max: or min:", key=where)
             out += [Condition(col, op, number(m[op], f"{where}.{op}")) for op in ("max", "min") if op in m]
         elif isinstance(v, (bool, int, float, str)):
+            if _is_boolean_metric(col) and not isinstance(v, bool):
+                raise ConfigError(f"is a true/false metric: give true or false, got {v!r}", key=where)
             out.append(Condition(col, "eq", v))
         else:
             raise ConfigError(f"must be a value (equal) or {{max: x}} / {{min: x}}, got {v!r}", key=where)
