@@ -285,6 +285,18 @@ class RunMetrics:
         self.errs: dict[str, Running] = {t.name: Running() for t in stack if t.error(robot) is not None
                                          and t.kind not in ("contact",)}
         self.err_tasks = [(name, stack[name]) for name in self.errs]
+        #: per task its error's unit ("m", "rad", "N", ...; "m+rad" for a pose) and, when it mixes
+        #: units, the components of each (their norms are recorded apart, in ``err_parts``)
+        self.err_units: dict[str, str] = {}
+        self.err_split: dict[str, list[tuple[str, np.ndarray]]] = {}
+        self.err_parts: dict[str, dict[str, Running]] = {}
+        for name, task in self.err_tasks:
+            units = task.error_units(robot)
+            kinds = list(dict.fromkeys(units))
+            self.err_units[name] = "+".join(kinds) if kinds else "unitless"
+            if len(kinds) > 1:
+                self.err_split[name] = [(u, np.flatnonzero([x == u for x in units])) for u in kinds]
+                self.err_parts[name] = {u: Running() for u in kinds}
         self.viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
         self.slip = {c.name: 0.0 for c in contacts}
         self.lifted = {c.name: False for c in contacts}
@@ -322,12 +334,19 @@ class RunMetrics:
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
         self.tau_ratio_max = max(self.tau_ratio_max, float(np.max(np.abs(sol.tau) * self.inv_tau_max, initial=0.0)))
         errs, robot = self.errs, self.robot
+        split, parts = self.err_split, self.err_parts
         for name, task, live in self.err_live:
             if live:
                 e = task.error(robot)
                 errs[name].add(math.sqrt(float(e @ e)))
+                if name in split:
+                    for unit, idx in split[name]:
+                        ei = e[idx]
+                        parts[name][unit].add(math.sqrt(float(ei @ ei)))
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].add(errs[name].last)
+                for r in parts.get(name, {}).values():
+                    r.add(r.last)
 
     def record_state(self, t: float, sim, sol, stack) -> None:
         """The true (simulated) state after the step."""
@@ -371,10 +390,18 @@ class RunMetrics:
         if self.robot.differential_drive:
             self.lateral = max(self.lateral, abs(vs[1]))
 
+    def _task_summary(self, name: str, err: Running) -> dict:
+        out = {**err.stats(), "unit": self.err_units[name]}
+        if name in self.err_parts:
+            out["parts"] = {u: {**r.stats(), "unit": u} for u, r in self.err_parts[name].items()}
+        return out
+
     def summary(self, switched: set) -> dict:
         """The run's metrics on tasks, limits and contacts (the runner adds the rest)."""
         out = {
-            "tasks": {k: v.stats() for k, v in self.errs.items() if v},
+            # per task the norm of its error (rms, max, final over the cycles) in "unit"; a
+            # task that mixes units (a pose: m and rad) also has each unit's part apart
+            "tasks": {k: self._task_summary(k, v) for k, v in self.errs.items() if v},
             "violations": self.viol,
             "contacts": {c.contact: {"slip": math.sqrt(self.slip[c.name]), "lifted": self.lifted[c.name],
                                      **self.contact_metrics.summary(c.name)}
