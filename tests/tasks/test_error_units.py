@@ -13,12 +13,11 @@ import math
 import pytest
 import yaml
 
+from tests.tasks.test_task_jacobians import CASES, robots, setup  # noqa: F401 (robots: the fixture)
 from wbc.runner.loop import run
 from wbc.scenario.examples import SCENARIOS_DIR
 from wbc.scenario.loader import load_config
 from wbc.tasks import Frame, Posture
-
-from tests.tasks.test_task_jacobians import CASES, robots, setup  # noqa: F401 (robots: the fixture)
 
 UNITS = {"m", "rad", "N", "N·m", "N|N·m", "rad|m"}
 

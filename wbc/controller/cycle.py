@@ -125,11 +125,6 @@ class Controller:
         self._x_ref: np.ndarray | None = None
         self._last_forces: dict[str, np.ndarray] = {}
         self.dt = float(dt)
-        # The cascade can make its least-norm choices in x̃ = (q̈, f / force_scale).
-        # Measured: 100 makes level 0 pick interior forces (no QP there) but worsens
-        # the conditioning of the lower levels' QPs (9/40 random states degraded vs 0),
-        # with no net gain in cycle time; kept at 1 until the QPs are rescaled.
-        self.force_scale = 1.0
         self._ramps: dict[str, tuple] = {}   # contact task name -> (f_start, f_end, cycles, k, remove)
         self.layout: Layout | None = None
         self.levels: list[Level] = []
@@ -266,17 +261,13 @@ class Controller:
                                      lowest if layout.nf else ())
         t = clock and clock.lap("rows", t)
         self.layout, self.levels = layout, levels
-        scale = None
-        if layout.nf and self.force_scale != 1.0:
-            scale = np.ones(layout.nx)
-            scale[layout.nv:] = self.force_scale
         x_ref = None
         if self.warm_start and self.solver.uses_reference:
             x_ref = self._reference(layout, weights_of, levels)
         contacts = []
         if self.solver.distributes_forces and layout.nf:
             contacts = [t.contact_data() for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale, contacts)
+        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, contacts)
         t = clock and clock.lap(None, t)
         res = self.solver.solve(problem)
         t = clock and clock.lap("solve", t)

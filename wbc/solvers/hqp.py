@@ -109,14 +109,12 @@ class HierarchicalQP:
 
     def solve(self, problem: Problem) -> SolveResult:
         """The problem's levels by the strict cascade (:meth:`solve_levels`)."""
-        return self.solve_levels(problem.levels, problem.layout.nx, scale=problem.scale, x_ref=problem.x_ref)
+        return self.solve_levels(problem.levels, problem.layout.nx, x_ref=problem.x_ref)
 
-    def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None,
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
                      dampings: dict | None = None) -> SolveResult:
         """Solve the cascade. ``dampings``: level index -> :class:`Damping` for the levels
-        that do not use the solver's own (the weighted QP's folded level). ``scale``: per-variable scale D, x = D x̃; the cascade's
-        least-norm choices are then made in x̃ (see :class:`~wbc.controller.cycle.Controller`).
+        that do not use the solver's own (the weighted QP's folded level).
 
         ``x_ref``: the reference of the least-norm choices (default 0). Every level's
         step is the smallest change that solves it, starting from x_ref instead of the
@@ -129,11 +127,6 @@ class HierarchicalQP:
         of the lower levels' QPs (:func:`~wbc.solvers.kernels.qp_rows.higher_rows`), depend
         on it; a previous solution as x_ref let the directions no task decides (the
         internal contact forces) drift from cycle to cycle."""
-        if scale is not None:
-            levels = [scaled_level(lvl, scale) for lvl in levels]
-            res = self.solve_levels(levels, nx, key, x_ref=None if x_ref is None else x_ref / scale, dampings=dampings)
-            res.x = scale * res.x
-            return res
         cas = Cascade(nx, self._hints)
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
@@ -169,7 +162,7 @@ class HierarchicalQP:
     def _rows(self, levels: list[Level], nx: int, dampings: dict) -> _LevelRows:
         """Every level's rows as the compiled run reads them: the row buffer's arrays when
         the levels are the buffer's own, else the levels' rows stacked afresh (the weighted
-        QP's folded level, :func:`scaled_level`'s copies)."""
+        QP's folded level, levels built outside a stack)."""
         n = len(levels)
         damp = [dampings.get(lvl.index, self.damping) for lvl in levels] if dampings else [self.damping] * n
         d0 = self.damping
@@ -445,9 +438,3 @@ class _LevelRows:
         self.lo[i0:i1] = self.lo[i0:i1] - w
         self.hi[i0:i1] = self.hi[i0:i1] - w
 
-
-def scaled_level(lvl: Level, d: np.ndarray) -> Level:
-    """The level's rows in the variable x̃ with x = diag(d) x̃ (box bounds become rows)."""
-    C, lo, hi = lvl.inequalities(len(d))
-    return Level(lvl.index, lvl.tasks, lvl.A * d, lvl.b, C * d, lo, hi, None, lvl.eq_slices, lvl.in_slices, lvl.blocks,
-                 lvl.regularizers_only)
