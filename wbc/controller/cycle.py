@@ -47,7 +47,7 @@ from wbc.problem.problem import Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
-from wbc.solvers import SOLVER_CLASSES
+from wbc.solvers import create_solver
 from wbc.solvers.backends import Backend
 from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
@@ -64,10 +64,13 @@ class Controller:
     (analytic recursive null-space projection, q̈ only, SNS joint limits) or
     ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
     back-end (``"proxqp"``, ``"daqp"``, any qpsolvers name, or a
-    :class:`~wbc.solvers.backends.Backend` instance). ``weighting``:
-    generalised-inverse weight W of the projection solver (``"identity"``, or
+    :class:`~wbc.solvers.backends.Backend` instance). ``weighting`` (projection only):
+    generalised-inverse weight W of the projection solver (``"identity"``, the default, or
     ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
     joints such as grippers are the cheapest to accelerate and saturate first).
+    ``level_weight`` (weighted only, default 1e-3): the weight ratio between consecutive folded
+    levels. An option the chosen solver does not take is a ConfigError
+    (:func:`wbc.solvers.create_solver`).
     ``sacrifice_tol`` and ``sacrifice_rel``: a task is reported as sacrificed when its
     residual exceeds sacrifice_tol + sacrifice_rel·‖b‖, b what its rows ask (units of its
     rows, m/s², rad/s², N): by default 0.1 % of the request, so a task met to the QPs'
@@ -87,8 +90,8 @@ class Controller:
     """
 
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
-                 weighting: str = "identity", damping: Damping | None = None,
-                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
+                 weighting: str | None = None, damping: Damping | None = None,
+                 sacrifice_tol: float = 1e-6, level_weight: float | None = None, dt: float = 1e-3,
                  warm_start: bool = True, sacrifice_rel: float = 1e-3,
                  contact_regularization: bool | ContactRegularization = True,
                  faults: FaultPolicy | None = None, solve_timeout: float | None = None) -> None:
@@ -99,8 +102,8 @@ class Controller:
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol = sacrifice_tol
         self.sacrifice_rel = sacrifice_rel
-        self.solver = SOLVER_CLASSES[solver].create(backend=backend, damping=damping, weighting=weighting,
-                                                    level_weight=level_weight)
+        options = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
@@ -153,7 +156,7 @@ class Controller:
         task.reference = None
         task.fmax = 0.0
         self.stack.add(task, level)
-        weight = self.robot.mass * 9.81
+        weight = self.robot.weight
         self._ramps[task.name] = (0.0, weight, max(1, int(round(duration / self.dt))), 0, False)
 
     def _advance_ramps(self) -> None:

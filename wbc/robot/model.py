@@ -242,7 +242,18 @@ class RobotModel:
 
     @property
     def mass(self) -> float:
+        """Total mass (kg)."""
         return float(self.data.mass[0])
+
+    @property
+    def gravity(self) -> float:
+        """|g| (m/s²), the model's gravity (``model.gravity``), not an assumed 9.81."""
+        return float(np.linalg.norm(self.model.gravity.linear))
+
+    @property
+    def weight(self) -> float:
+        """m |g| (N): what the contacts carry at rest."""
+        return self.mass * self.gravity
 
     def frame_placement(self, fid: int) -> pin.SE3:
         return self.data.oMf[fid]

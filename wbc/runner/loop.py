@@ -42,10 +42,11 @@ import pinocchio as pin
 
 from wbc.controller.cycle import Controller
 from wbc.controller.faults import FaultPolicy, diverged, simulation_diverged
+from wbc.errors import ConfigError
 from wbc.interaction.external_force import ExternalForceRun
 from wbc.interaction.measurement import InteractionRun
 from wbc.runner.compile_notice import CompileNotice
-from wbc.runner.metrics import RunMetrics, tilt
+from wbc.runner.metrics import RunMetrics, fallen
 from wbc.scenario.loader import Scenario
 from wbc.scenario.sections import duration_value
 from wbc.sim.backends import make_simulator
@@ -114,7 +115,7 @@ class ScenarioRun:
         self.tty = progress and sys.stderr.isatty()      # how the progress line is written (cycle)
         opts = dict(sc.solver)
         self.solver_name = solver or opts.pop("type", "hqp")
-        opts.pop("type", None)
+        given = opts.pop("type", "hqp")
         if backend:
             opts["backend"] = backend
         self.backend = opts.get("backend", "daqp")        # a name, or a Backend instance
@@ -122,8 +123,12 @@ class ScenarioRun:
         self.joint_dynamics = sc.joint_dynamics if joint_dynamics is None else bool(joint_dynamics)
         self.notice = CompileNotice(enabled=progress)    # a first run compiles the kernels: say so
         self.notice.start()
-        self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
-                               faults=faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
+        try:
+            self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
+                                   faults=faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
+        except ConfigError as exc:    # a solver chosen over the scenario's, given the scenario's options
+            raise ConfigError(f"{exc.message} (the scenario's solver is '{given}'; this run's is "
+                              f"'{self.solver_name}')", key=exc.key, file=sc.source) from None
         sim = make_simulator(self.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
                              joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
                              tau_limits=robot.tau_max, **sc.sensing)
@@ -226,8 +231,7 @@ class ScenarioRun:
             self.callback(t, sim, sol)
         self.measured.record_state(t, sim, sol, stack)
         qs = sim.q
-        if self.base_z0 is not None and (qs[2] < 0.6 * self.base_z0 or tilt(qs) > np.pi / 3
-                                         or not np.all(np.isfinite(qs))):
+        if self.base_z0 is not None and fallen(qs, self.base_z0):
             self.fell = True
             return False
         if self.progress and (k % 500 == 0 or k == self.n - 1):

@@ -21,6 +21,12 @@ from wbc.runner.stats import Running
 #: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
 BOOLEAN_METRICS = ("fell", "contacts.*.lifted")
 
+#: a floating-base robot has fallen when its base is below this fraction of its starting
+#: height (unitless) ...
+FALL_HEIGHT_FRACTION = 0.6
+#: ... or tilted beyond this angle from the vertical (rad, 60°), or its state is not finite
+FALL_TILT = math.pi / 3
+
 
 def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (m) of p to the boundary of the convex hull of points (> 0 inside)."""
@@ -155,6 +161,12 @@ class ContactMetrics:
         return {"mean": self.internal.mean, "max_abs": self.internal.max_abs}
 
 
+def fallen(q: np.ndarray, base_z0: float) -> bool:
+    """Whether a free-flyer base that started at height ``base_z0`` (m) has fallen: below
+    :data:`FALL_HEIGHT_FRACTION` of it, tilted beyond :data:`FALL_TILT`, or not finite."""
+    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT or not np.all(np.isfinite(q)))
+
+
 def tilt(q: np.ndarray) -> float:
     """Angle (rad) between a free-flyer base's z axis and the vertical (R_zz = 1 − 2(x² + y²))."""
     x, y = float(q[3]), float(q[4])
@@ -205,6 +217,7 @@ class Series:
         self.torque_ratio = np.zeros((n, len(a)), dtype=np.float32)
         self.support_margin = np.full(n, np.nan)
         self.mass = float(robot.mass)
+        self.gravity = robot.gravity
 
     def record(self, t: float, errors: list[float], sol, contact_forces, margin: float) -> None:
         k = self.k
@@ -244,7 +257,7 @@ class Series:
         nl = max(len(self.levels), int(np.max(np.nonzero(np.isfinite(self.level_residual[:nd]).any(axis=0))[0],
                                                 initial=-1)) + 1)
         return {
-            "dt": self.dt, "mass": self.mass, "g": 9.81, "mu": self.mu,
+            "dt": self.dt, "mass": self.mass, "g": self.gravity, "mu": self.mu,
             "t": lst(self.t),
             "levels": self.levels,
             "task_level": {name: self.level_of.get(name) for name in self.error_names},
@@ -309,7 +322,7 @@ class RunMetrics:
         self.tau_hi = robot.tau_max[robot.actuated_idx] * (1 + 1e-6) + 1e-9
         self.inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
         self.hull = SupportPolygon()
-        self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.mass * 9.81)
+        self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
         self.relaxed_cycles = self.saturated_cycles = 0
         self.tau_ratio_max = self.tau_ratio_asked = 0.0
         self.rec = Series(n, dt, robot, stack, [c.name for c in contacts], mu_max, lowest=lowest) if series else None

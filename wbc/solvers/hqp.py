@@ -58,6 +58,10 @@ from .kernels.qp_rows import (
 )
 from .kernels.records import hint_table
 
+#: the last fallback of a level's QP that both back-ends failed: its Hessian's diagonal raised by
+#: this fraction of its mean diagonal (at least 1; unitless), trading the level's optimum
+#: for a well-conditioned QP; the result is reported degraded
+LAST_RESORT_REGULARIZATION = 1e-3
 
 class HierarchicalQP:
     """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names;
@@ -77,9 +81,12 @@ class HierarchicalQP:
     #: meets inequality rows at every level (else they are reported as not enforced)
     enforces_inequality_rows = True
 
+    #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
+    options: tuple[str, ...] = ()
+
     @classmethod
-    def create(cls, backend: str = "daqp", damping: Damping | None = None, **_options) -> HierarchicalQP:
-        """The solver from the controller's options (those it has no use for ignored)."""
+    def create(cls, backend: str = "daqp", damping: Damping | None = None) -> HierarchicalQP:
+        """The solver from the controller's options (:func:`wbc.solvers.create_solver` checks them)."""
         return cls(backend=backend, damping=damping)
 
     def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
@@ -407,7 +414,7 @@ class HierarchicalQP:
                 H[np.arange(r), np.arange(r)] += self.slack_regularization
             res2 = self._attempt(fb, H, g, Cq, lq, hq, key)
             if not res2.ok:
-                H[np.arange(r), np.arange(r)] += 1e-3 * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
+                H[np.arange(r), np.arange(r)] += LAST_RESORT_REGULARIZATION * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
                 res3 = self._attempt(self.backend, H, g, Cq, lq, hq, key)
                 if not res3.ok:
                     return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}; regularised: {res3.status}"

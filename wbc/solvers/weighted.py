@@ -24,10 +24,13 @@ class WeightedQP(HierarchicalQP):
 
     name = "weighted"
 
+    #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
+    options: tuple[str, ...] = ("level_weight",)
+
     @classmethod
-    def create(cls, backend: str = "daqp", damping: Damping | None = None, level_weight: float = 1e-3,
-               **_options) -> WeightedQP:
-        """The solver from the controller's options (those it has no use for ignored)."""
+    def create(cls, backend: str = "daqp", damping: Damping | None = None,   # type: ignore[override]
+               level_weight: float = 1e-3) -> WeightedQP:
+        """The solver from the controller's options (:func:`wbc.solvers.create_solver` checks them)."""
         return cls(backend=backend, damping=damping, level_weight=level_weight)
 
     def __init__(self, *args, level_weight: float = 1e-3, **kwargs) -> None:
