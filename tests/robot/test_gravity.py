@@ -1,6 +1,6 @@
-"""The robot's weight comes from the model's gravity, never an assumed 9.81 m/s²: on a model
-with the Moon's gravity the touchdown ramp's end, the contact metrics and the plot's m g line
-all follow it (they read RobotModel.weight / .gravity)."""
+"""The robot's weight comes from the model's gravity, never an assumed 9.81 m/s²: the touchdown
+ramp's end, the contact metrics and the plot's m g line read RobotModel.weight / .gravity, and
+those follow the model (here set to the Moon's)."""
 
 from __future__ import annotations
 
