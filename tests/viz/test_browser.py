@@ -224,6 +224,10 @@ def replay_screenshots(chromium: str, url: str, root: Path, times: list[float]) 
         _kill(proc)
 
 
+class _Stopped(Exception):
+    """Raised in the run's callback to end a served run early."""
+
+
 def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_path):
     from wbc.runner.loop import run
     from wbc.scenario.loader import load_config
@@ -233,7 +237,7 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
     n_meshes = None
     scene = Scene(sc.robot, sc.environment)
     proc = None
-    runner = None
+    stop, started = threading.Event(), []      # the run's stop signal, its thread once started
     try:
         assert scene.url.startswith("http://127.0.0.1:")
         n_meshes = len(scene.geom.geometryObjects)
@@ -242,10 +246,18 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
         scene.show(q)
         proc, port = launch_devtools(chromium, scene.url, tmp_path)
         done = threading.Event()
+        draw = viewer_callback(scene, sc.stack, sc.dt, realtime=True)
+
+        def until_stopped(t, sim, sol):
+            if stop.is_set():          # the test is over: end the run before the scene closes
+                raise _Stopped
+            draw(t, sim, sol)
 
         def serve():          # the run, played at real time into the live page
             try:
-                run(sc, duration=2.5, callback=viewer_callback(scene, sc.stack, sc.dt, realtime=True))
+                run(sc, duration=2.5, callback=until_stopped)
+            except _Stopped:
+                pass
             finally:
                 done.set()
 
@@ -256,6 +268,7 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
             await asyncio.sleep(1.0)                           # meshes parsed and drawn
             background = await dt.screenshot(tmp_path / "live_empty.png")
             runner_thread = threading.Thread(target=serve, daemon=True)
+            started.append(runner_thread)
             runner_thread.start()
             hud = await _wait_for(dt, HUD_NODES, 1, 20)
             await asyncio.sleep(0.8)
@@ -265,13 +278,16 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
             dt.conn.close()
             return background, first, second, hud, runner_thread
 
-        background, first, second, hud, runner = asyncio.run(asyncio.wait_for(drive(), 55))
+        background, first, second, hud, _ = asyncio.run(asyncio.wait_for(drive(), 55))
         hud_box = scene.hud_box
     finally:
         if proc is not None:
             _kill(proc)
-        if runner is not None:
-            runner.join(timeout=30)
+        # the scene's transport is not thread-safe: closing it while the run still draws aborts
+        # the process (zmq), so the run is stopped and joined first, however slow the machine
+        stop.set()
+        for th in started:
+            th.join()
         scene.close()
     h, w = first.shape[:2]
     # the diagnostics panel's pixels (its box in camera units at depth 1: view height 2 tan(fov/2))
