@@ -60,7 +60,7 @@ def test_the_metrics_come_last_and_user_observers_see_the_command():
     r.ctrl.solve = lambda q, v, tau_e=None: sols.append(solve(q, v, tau_e)) or sols[-1]
     for k in range(r.n):
         assert r.cycle(k)
-    for (q, tau), sol in zip(log.seen, sols):
+    for (_q, tau), sol in zip(log.seen, sols):
         np.testing.assert_array_equal(tau, sol.tau_full)
 
 
