@@ -39,7 +39,13 @@ def _as_level(obj) -> list[Task]:
 @builds
 class Stack:
     """Ordered priority levels, each a list of tasks; tasks addressable by name.
-    ``(a + b) / c`` builds one too (:mod:`wbc.tasks.group`)."""
+    ``(a + b) / c`` builds one too (:mod:`wbc.tasks.group`).
+
+    Args:
+        levels: the levels, highest first; each a :class:`~wbc.tasks.Task`, a task group
+            (``a + b``) or a list of tasks. Default: no level. Two tasks of one name, or a
+            level that holds something else than tasks, is a StackError.
+    """
 
     def __init__(self, levels: Iterable = ()) -> None:
         self.levels: list[list[Task]] = []
@@ -65,9 +71,19 @@ class Stack:
 
     # ------------------------------------------------------------- building
     def __truediv__(self, other) -> Stack:
+        """``stack / level``: a new stack with ``other`` as one more, lowest, level.
+
+        Args:
+            other: a task, a task group or a list of tasks.
+        """
         return Stack(self.levels + [_as_level(other)])
 
     def __getitem__(self, name: str) -> Task:
+        """The task named ``name``; a KeyError listing the stack's tasks if none.
+
+        Args:
+            name: the task's name (``Task.name``).
+        """
         for lvl in self.levels:
             for t in lvl:
                 if t.name == name:
@@ -75,6 +91,11 @@ class Stack:
         raise KeyError(f"no task named '{name}' in the stack; tasks: {self.names()}")
 
     def __contains__(self, name: str) -> bool:
+        """Whether a task of the stack is named ``name``.
+
+        Args:
+            name: a task name.
+        """
         return name in self.names()
 
     def __iter__(self) -> Iterator[Task]:
@@ -85,16 +106,29 @@ class Stack:
         return len(self.levels)
 
     def names(self) -> list[str]:
+        """The tasks' names, level by level, highest first."""
         return [t.name for t in self]
 
     def level_of(self, name: str) -> int:
+        """The level index (0 = highest) of the task named ``name``; a KeyError if none.
+
+        Args:
+            name: the task's name.
+        """
         for k, lvl in enumerate(self.levels):
             if any(t.name == name for t in lvl):
                 return k
         raise KeyError(f"no task named '{name}' in the stack; tasks: {self.names()}")
 
     def add(self, task: Task, level: int) -> None:
-        """Insert ``task`` in ``level`` (== len(stack) appends a new lowest level)."""
+        """Insert ``task`` in ``level``.
+
+        Args:
+            task: the task; its name must not be in the stack yet (else a StackError, the
+                stack unchanged).
+            level: level index, 0 (highest) to ``len(stack)`` (appends a new lowest level);
+                outside that range a StackError.
+        """
         if not 0 <= level <= len(self.levels):
             raise StackError(f"level must be in [0, {len(self.levels)}], got {level}")
         if level == len(self.levels):
@@ -107,7 +141,11 @@ class Stack:
             raise
 
     def remove(self, name: str) -> Task:
-        """Remove the task named ``name`` (empty levels are dropped) and return it."""
+        """Remove the task named ``name`` (empty levels are dropped) and return it.
+
+        Args:
+            name: the task's name; a KeyError if none.
+        """
         k = self.level_of(name)
         task = self[name]
         self.levels[k].remove(task)
@@ -117,11 +155,18 @@ class Stack:
         return task
 
     def move(self, name: str, level: int) -> None:
-        """Re-prioritise a task."""
+        """Re-prioritise a task: remove it, then add it at ``level``.
+
+        Args:
+            name: the task's name; a KeyError if none.
+            level: its new level index, counted after the removal (0 = highest); beyond the
+                last level it goes to a new lowest one.
+        """
         task = self.remove(name)
         self.add(task, min(level, len(self.levels)))
 
     def contacts(self) -> list[Contact]:
+        """The stack's :class:`~wbc.tasks.Contact` tasks, in stack order (a new list)."""
         got = self._contacts
         if got is None or got[0] != self.version:
             got = self._contacts = (self.version, [t for t in self if isinstance(t, Contact)])
@@ -145,7 +190,11 @@ class Stack:
     def layout(self, robot) -> Layout:
         """Force variables: one block per contact task, in stack order. The Layout is
         reused (its J_f refilled) while the stack's structure is unchanged: like the
-        levels, it is valid until the next call."""
+        levels, it is valid until the next call.
+
+        Args:
+            robot: the :class:`~wbc.robot.model.RobotModel`, updated to this cycle's state.
+        """
         key = (self.version, id(robot))
         got = self._layout
         if got is not None and got[0] == key:
@@ -171,13 +220,19 @@ class Stack:
                  extra_lowest: Iterable[Task] = ()) -> list[Level]:
         """Rows of every level for the robot's current state (``robot.update`` done).
 
-        ``extra_level0``: tasks the controller adds to level 0 (the floating-base dynamics);
-        ``extra_lowest``: tasks it adds as one more level below the stack's own (the default
-        contact regularisation), which is then always the lowest, whatever levels events add.
-
         The levels' arrays are views of one buffer this stack owns and refills every
         cycle (:class:`RowBuffer`; rebuilt only when the stack's structure changes): a
-        Level is valid until the next call."""
+        Level is valid until the next call.
+
+        Args:
+            robot: the :class:`~wbc.robot.model.RobotModel`, updated to this cycle's state.
+            layout: this cycle's :meth:`layout` (where each contact's force lives in x).
+            extra_level0: tasks the controller adds to level 0 (the floating-base dynamics);
+                default none.
+            extra_lowest: tasks it adds as one more level below the stack's own (the default
+                contact regularisation), which is then always the lowest, whatever levels
+                events add; default none.
+        """
         extra = list(extra_level0)
         lowest = list(extra_lowest)
         groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]

@@ -72,35 +72,57 @@ class ForceRamp:
     remove: bool = False
 
 class Controller:
-    """Whole-body controller of ``robot`` for ``stack``.
+    """Whole-body controller of ``robot`` for ``stack``: one :meth:`solve` per control cycle.
 
-    ``solver``: ``"hqp"`` (strict, inequalities at any level), ``"projection"``
-    (analytic recursive null-space projection, q̈ only, SNS joint limits) or
-    ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
-    back-end (``"proxqp"``, ``"daqp"``, any qpsolvers name, or a
-    :class:`~wbc.solvers.backends.Backend` instance). ``weighting`` (projection only):
-    generalised-inverse weight W of the projection solver (``"identity"``, the default, or
-    ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
-    joints such as grippers are the cheapest to accelerate and saturate first).
-    ``level_weight`` (weighted only, default 1e-3): the weight ratio between consecutive folded
-    levels. An option the chosen solver does not take is a ConfigError
-    (:func:`wbc.solvers.create_solver`).
-    ``sacrifice_tol`` and ``sacrifice_rel``: a task is reported as sacrificed when its
-    residual exceeds sacrifice_tol + sacrifice_rel·‖b‖, b what its rows ask (units of its
-    rows, m/s², rad/s², N): by default 0.1 % of the request, so a task met to the QPs'
-    accuracy is not flagged. ``warm_start`` (hqp, weighted): the cascade's least-norm
-    choices start from the state's nominal point x₀ = (q̈₀, f₀) (module docstring: the
-    contacts already carry the weight there and the joints keep their acceleration
-    bounds, so level 0's point lies inside its cones and limits and needs no QP) instead
-    of 0. Either way a function of the state: no cycle
-    depends on the previous one (see :meth:`HierarchicalQP.solve_levels`).
-    ``contact_regularization``: True (default) adds a :class:`ContactRegularization` as the
-    lowest level of a stack with contacts that has none (module docstring); a
-    ContactRegularization instance is added instead (its weights); False adds nothing
-    (the internal forces are then left to the reference x₀).
-    ``faults``: the run-time fault policy (:class:`~wbc.controller.faults.FaultPolicy`: hold cycles,
-    damping, stale-state detection); ``solve_timeout`` (s): its per-cycle budget of the
-    solve's wall time, None for none (shorthand for ``FaultPolicy.solve_timeout``).
+    A task is reported as sacrificed when its residual exceeds sacrifice_tol + sacrifice_rel·‖b‖,
+    b what its rows ask (units of its rows, m/s², rad/s², N): by default 0.1 % of the request,
+    so a task met to the QPs' accuracy is not flagged. Whatever ``warm_start``, every choice of
+    the cascade is a function of the state: no cycle depends on the previous one (see
+    :meth:`HierarchicalQP.solve_levels`).
+
+    Args:
+        robot: the robot (:func:`wbc.load_robot`); every task of ``stack`` is bound to it here,
+            so a frame it does not have fails now, not mid-run.
+        stack: the task hierarchy, a :class:`~wbc.stack.Stack` or anything ``Stack(...)``
+            takes (a list of levels).
+        solver: ``"hqp"`` (strict, inequalities at any level), ``"projection"`` (analytic
+            recursive null-space projection, q̈ only, SNS joint limits) or ``"weighted"``
+            (level 0 hard, the rest one weighted QP). Another name is a SolverError.
+        backend: QP back-end: ``"daqp"`` (default), ``"proxqp"``, any qpsolvers name, or a
+            :class:`~wbc.solvers.backends.Backend` instance.
+        weighting: (projection only) generalised-inverse weight W of the projection solver:
+            ``"identity"`` (None: the default) or ``"inertia"`` for the dynamically consistent
+            inverse (with W = M light distal joints such as grippers are the cheapest to
+            accelerate and saturate first).
+        damping: singularity-robust inverse, :class:`~wbc.solvers.cascade.Damping` (threshold ε
+            and λ_max in the units of the rows); None: ``Damping()`` (ε = 1e-3, λ_max = 1e-2).
+        sacrifice_tol: absolute part of the sacrifice threshold, in the units of each task's
+            rows (m/s², rad/s², N); default 1e-6.
+        level_weight: (weighted only) weight ratio between consecutive folded levels,
+            unitless; None: the solver's default 1e-3.
+        dt: control period (s), default 1 ms: the contact ramps' durations are counted in
+            cycles of it.
+        warm_start: (hqp, weighted) True (default): the cascade's least-norm choices start
+            from the state's nominal point x₀ = (q̈₀, f₀) (module docstring: the contacts
+            already carry the weight there and the joints keep their acceleration bounds, so
+            level 0's point lies inside its cones and limits and needs no QP); False: from 0.
+        sacrifice_rel: relative part of the sacrifice threshold, a fraction of ‖b‖ (unitless);
+            default 1e-3 (0.1 %).
+        contact_regularization: True (default) adds a :class:`ContactRegularization` as the
+            lowest level of a stack with contacts that has none (module docstring); a
+            ContactRegularization instance is added instead (its weights); False adds nothing
+            (the internal forces are then left to the reference x₀). Anything else is a
+            SolverError.
+        faults: the run-time fault policy (:class:`~wbc.controller.faults.FaultPolicy`: hold
+            cycles, damping, stale-state detection); None: ``FaultPolicy()``.
+        solve_timeout: the policy's per-cycle budget of the solve's wall time (s), shorthand
+            for ``FaultPolicy.solve_timeout`` (over ``faults``'s); None: the policy's (none by
+            default).
+
+    Raises:
+        SolverError: an unknown ``solver`` or a bad ``contact_regularization``.
+        ConfigError: an option the chosen solver does not take
+            (:func:`wbc.solvers.create_solver`).
     """
 
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
@@ -156,8 +178,12 @@ class Controller:
     # ------------------------------------------------------ contact switching
     def release_contact(self, name: str, duration: float = 0.2) -> None:
         """Lift-off without a torque jump: ramp the contact's normal-force bound from the
-        force it carries now down to 0 N over ``duration`` (s, a smoothstep profile), then
-        remove the task."""
+        force it carries now down to 0 N over a smoothstep profile, then remove the task.
+
+        Args:
+            name: the Contact task's name in the stack (a KeyError if none).
+            duration: length of the ramp (s), default 0.2 s; at least one control period.
+        """
         task = self.stack[name]
         f_now = float(self._last_forces.get(name, np.zeros(3))[2])
         self._ramps[name] = ForceRamp(max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), remove=True)
@@ -165,7 +191,16 @@ class Controller:
 
     def make_contact(self, task, level: int = 0, duration: float = 0.1, fmax_end: float = np.inf) -> None:
         """Touch-down: add a Contact task (its reference is where the frame is now) with
-        its normal-force bound ramped up from 0 N over ``duration`` (s, a smoothstep profile)."""
+        its normal-force bound ramped up from 0 N over a smoothstep profile.
+
+        Args:
+            task: the :class:`~wbc.tasks.Contact` to add (bound to the robot here).
+            level: the stack level it joins (0, the default, is the highest; ``len(stack)``
+                appends a new lowest level).
+            duration: length of the ramp (s), default 0.1 s; at least one control period.
+            fmax_end: the normal-force bound after the ramp (N), default ∞. Not read today:
+                the ramp rises to the robot's weight (N), then the bound is lifted to ∞.
+        """
         task.bind(self.robot)
         task.reference = None
         task.fmax = 0.0
@@ -248,10 +283,20 @@ class Controller:
 
     def solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
         """One control cycle at state (q, v) under the fault policy (:mod:`wbc.controller.faults`); see
-        the module docstring. ``Solution.fault`` names a faulty cycle's counter.
-        ``external_torque``: a known external generalised force on the robot (nv; a measured
-        or estimated push, :mod:`wbc.interaction.external_force`), put into the dynamics every level sees
-        (``RobotModel.update``)."""
+        the module docstring.
+
+        Args:
+            q: measured configuration (nq; m and unit quaternion for a floating base, rad or m
+                per joint).
+            v: measured velocity (nv; m/s, rad/s).
+            external_torque: a known external generalised force on the robot (nv; N, N·m; a
+                measured or estimated push, :mod:`wbc.interaction.external_force`), put into the
+                dynamics every level sees (``RobotModel.update``); None: none.
+
+        Returns:
+            The cycle's :class:`~wbc.controller.solution.Solution`; ``Solution.fault`` names a
+            faulty cycle's counter ("" for an accepted one).
+        """
         solve = self._solve if external_torque is None else partial(self._solve, external_torque=external_torque)
         sol = self.faults.cycle(q, v, solve, self._hold)
         if not sol.fault:           # accepted: what a later faulty cycle holds

@@ -71,11 +71,7 @@ class LevelDiagnostics:
 class Solution:
     """Result of :meth:`wbc.Controller.solve`.
 
-    ``qdd`` (nv, m/s² rad/s²); ``tau`` (na actuated torques, N·m or N) and
-    ``tau_full`` (nv, zeros on unactuated rows); ``forces``: contact task name ->
-    force (3) or wrench (6) in the contact frame (N, N·m); ``residuals``: one
-    float per level; ``task_residuals``: per task name; ``diagnostics``: one
-    :class:`LevelDiagnostics` per level; ``status``, the first that applies of:
+    ``status`` is the first that applies of:
     ``"stopped"`` (the fault policy stopped the controller after too many faulty cycles in
     a row, :mod:`wbc.controller.faults`: the hold torque, latched),
     ``"failed"`` (no usable solution, or a faulty cycle held: the torque falls back to the
@@ -97,6 +93,27 @@ class Solution:
     ``residuals``, ``task_residuals`` and ``diagnostics`` are worked out on first
     access, from row values the controller keeps for this cycle (a cycle whose
     caller never reads them does not pay for them).
+
+    Args:
+        qdd: joint accelerations q̈ (nv; m/s², rad/s²).
+        tau: actuated joint torques (na; N·m, N), finite and within ±τ_max.
+        tau_full: the same on all velocity rows (nv; zeros on unactuated rows).
+        forces: contact task name -> force (3, N) or wrench (6, N and N·m) in the contact frame.
+        x: the solver's decision vector x = (q̈, f) (nv + total force dimension).
+        status: ``"ok"``, ``"degraded"``, ``"relaxed"``, ``"saturated"``, ``"failed"`` or
+            ``"stopped"`` (above).
+        message: the solver's or the fault policy's note in words; "" when nothing to say.
+        qp_count: QPs the solver solved this cycle (0 when every level was analytic).
+        residuals: one float per level (units of its rows), or None: from ``evaluate``.
+        task_residuals: task name -> residual, or None: from ``evaluate``.
+        diagnostics: one :class:`LevelDiagnostics` per level, or None: from ``evaluate``.
+        evaluate: ``evaluate() -> (residuals, task_residuals, diagnostics)``, called on the
+            first access of one of them; None: they are given (or absent).
+        relaxed: a level's inequalities gave way; default False.
+        saturated: τ was clipped at ±τ_max on some joint; default False.
+        tau_ratio: the worst |τ_i|/τ_max,i the solver asked for, before saturation (unitless);
+            default 0.
+        saturated_torques: velocity indices of the joints held at ±τ_max; None: none.
     """
 
     def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
@@ -118,21 +135,25 @@ class Solution:
 
     @property
     def residuals(self) -> list[float]:
+        """One residual per level, √(Σ w‖A x − b‖² + ‖violation‖²) in the units of its rows."""
         self._ensure()
         return self._residuals
 
     @property
     def task_residuals(self) -> dict[str, float]:
+        """Task name -> its residual (units of its rows: m/s², rad/s², N)."""
         self._ensure()
         return self._task_residuals
 
     @property
     def diagnostics(self) -> list[LevelDiagnostics]:
+        """One :class:`LevelDiagnostics` per level, highest first."""
         self._ensure()
         return self._diagnostics
 
     @property
     def ok(self) -> bool:
+        """Whether the cycle gave a usable solution (status neither ``failed`` nor ``stopped``)."""
         return self.status not in ("failed", "stopped")
 
     def __repr__(self) -> str:

@@ -135,9 +135,13 @@ def _parse_urdf(urdf: Path, root: str):
 def load_robot(name_or_path: str | Path) -> RobotModel:
     """Load a bundled robot (``"talos"``, ``"tiago"``) or a robot YAML file.
 
-    Raises :class:`RobotNotFound` for an unknown name and
-    :class:`RobotDefinitionError` naming the file, line and key path for a malformed YAML
-    (the schema: :mod:`wbc.robot.schema`).
+    Args:
+        name_or_path: a bundled robot's name (:func:`available_robots`) or the path of a robot
+            YAML (the schema: :mod:`wbc.robot.schema`).
+
+    Raises:
+        RobotNotFound: an unknown name.
+        RobotDefinitionError: a malformed YAML, naming the file, line and key path.
     """
     from wbc.validation.yamlio import read_document
 

@@ -89,9 +89,34 @@ def whole_body_terms(m: pin.Model, d: pin.Data, q: np.ndarray, v: np.ndarray, ze
 class RobotModel:
     """One robot: pinocchio model and data, named frames, contacts, limits, cache.
 
-    ``root`` is ``"free_flyer"`` (6 unactuated velocity coordinates), ``"planar"``
-    (3: x, y, yaw; actuated when ``actuated_root`` is true, as for a driven mobile
-    base) or ``"fixed"``.
+    Built by :func:`wbc.load_robot` from a robot YAML; the constructor runs one
+    :meth:`update` at ``q_default``, v = 0.
+
+    Args:
+        name: the robot's name (``talos``).
+        model: its pinocchio model (locked joints already removed).
+        root: ``"free_flyer"`` (6 unactuated velocity coordinates), ``"planar"`` (3: x, y,
+            yaw) or ``"fixed"``.
+        actuated_root: whether the root's coordinates are actuated (a driven mobile base);
+            False for a free flyer.
+        frames: frame alias (``right_hand``) -> URDF frame name.
+        contacts: contact name (``left_foot``) -> its :class:`ContactSurface`.
+        q_default: the default configuration (nq; m, rad, unit quaternion).
+        q_min: lower joint position limits (nq; m, rad; −inf: none).
+        q_max: upper joint position limits (nq; m, rad; +inf: none).
+        v_max: joint velocity limits (nv; m/s, rad/s).
+        tau_max: actuator limits τ_max (nv; N·m, N; the controller saturates at ±τ_max).
+        differential_drive: the planar base rolls on wheels (no sideways motion: the
+            controller adds :class:`~wbc.tasks.DifferentialDrive`); default False.
+        default_gains: task name or kind -> default kp (1/s²) of a task built without one
+            (:mod:`wbc.robot.gains`); default none.
+        urdf_path: the URDF file it was built from; None: not from a file.
+        package_dirs: folders that resolve the URDF's ``package://`` meshes; default none.
+        locked_joints: URDF joints fixed at their default position and removed from the
+            model; default none.
+        source: the robot YAML file it was loaded from; None: built in Python.
+        compensation: joint damping and friction D q̇ + F σ(q̇) added to h (robot YAML
+            ``compensate:``, :mod:`wbc.robot.joint_compensation`); None: none.
     """
 
     name: str
@@ -144,7 +169,12 @@ class RobotModel:
 
     # ------------------------------------------------------------------ frames
     def frame_id(self, name: str) -> int:
-        """Pinocchio frame index of a frame alias (``right_hand``) or URDF frame name."""
+        """Pinocchio frame index of a frame alias (``right_hand``) or URDF frame name.
+
+        Args:
+            name: a frame alias of ``frames`` or a URDF frame name; neither is a
+                FrameNotFound listing the aliases.
+        """
         fid = self._frame_ids.get(name)
         if fid is not None:
             return fid
@@ -160,7 +190,12 @@ class RobotModel:
         return fid
 
     def contact(self, name: str) -> ContactSurface:
-        """The contact surface named ``name`` (``left_foot``), or a point contact at a frame."""
+        """The contact surface named ``name`` (``left_foot``) of ``contacts``.
+
+        Args:
+            name: a contact name; one the robot does not define is a FrameNotFound (listing
+                its frames if ``name`` is no frame either, else its contacts).
+        """
         if name in self.contacts:
             return self.contacts[name]
         self.frame_id(name)  # raises FrameNotFound with the list of frames
@@ -171,9 +206,14 @@ class RobotModel:
 
     # ------------------------------------------------------------------ state
     def check_state(self, q: np.ndarray, v: np.ndarray, finite: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """(q, v) as flat float arrays of sizes (nq, nv), else TargetError; with ``finite``
-        (default) also refused if not finite (the controller passes False: its fault
-        monitor has checked that already, :mod:`wbc.controller.faults`)."""
+        """(q, v) as flat float arrays of sizes (nq, nv), else TargetError.
+
+        Args:
+            q: a configuration (nq; m, rad, unit quaternion).
+            v: a velocity (nv; m/s, rad/s).
+            finite: True (default): a NaN or inf is a TargetError too; the controller passes
+                False (its fault monitor has checked that already, :mod:`wbc.controller.faults`).
+        """
         q = np.asarray(q, dtype=float).reshape(-1)
         v = np.asarray(v, dtype=float).reshape(-1)
         if q.shape != (self.nq,) or v.shape != (self.nv,):
@@ -189,8 +229,14 @@ class RobotModel:
 
     def update(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> None:
         """Run the cycle's pinocchio algorithms once (see the module docstring).
-        ``external_torque``: a known external generalised force τ_e on the robot (nv; N·m,
-        N on linear root rows), moved into h = C q̇ + g − τ_e for this cycle."""
+
+        Args:
+            q: the configuration (nq; m, rad, unit quaternion), not copied.
+            v: the velocity (nv; m/s, rad/s), not copied.
+            external_torque: a known external generalised force τ_e on the robot (nv; N·m,
+                N on linear root rows), moved into h = C q̇ + g − τ_e for this cycle; None:
+                none. Of another size or not finite, a TargetError.
+        """
         self.q, self.v = q, v
         whole_body_terms(self.model, self.data, q, v, self._zero_v)
         if external_torque is None:
@@ -225,14 +271,17 @@ class RobotModel:
 
     @property
     def com(self) -> np.ndarray:
+        """Centre of mass in the world frame (3, m)."""
         return self.data.com[0]
 
     @property
     def com_velocity(self) -> np.ndarray:
+        """Centre-of-mass velocity in the world frame (3, m/s)."""
         return self.data.vcom[0]
 
     @property
     def com_jacobian(self) -> np.ndarray:
+        """CoM Jacobian J_com (3 × nv): ṗ_com = J_com q̇."""
         return self.data.Jcom
 
     @property
@@ -256,10 +305,21 @@ class RobotModel:
         return self.mass * self.gravity
 
     def frame_placement(self, fid: int) -> pin.SE3:
+        """The frame's world placement (SE3; m), of this cycle's :meth:`update`.
+
+        Args:
+            fid: pinocchio frame index (:meth:`frame_id`).
+        """
         return self.data.oMf[fid]
 
     def frame_jacobian(self, fid: int, ref: pin.ReferenceFrame = WORLD_ALIGNED) -> np.ndarray:
-        """6 × nv frame Jacobian (linear rows first) in ``ref``; extracted once per cycle."""
+        """6 × nv frame Jacobian (linear rows first) in ``ref``; extracted once per cycle.
+
+        Args:
+            fid: pinocchio frame index (:meth:`frame_id`).
+            ref: pinocchio reference frame; default ``LOCAL_WORLD_ALIGNED`` (at the frame's
+                origin, world axes), or ``LOCAL``, ``WORLD``.
+        """
         key = ("J", fid, ref)
         J = self._cache.get(key)
         if J is None:
@@ -268,6 +328,12 @@ class RobotModel:
         return J
 
     def frame_velocity(self, fid: int, ref: pin.ReferenceFrame = WORLD_ALIGNED) -> np.ndarray:
+        """The frame's spatial velocity (6: linear m/s first, angular rad/s) in ``ref``.
+
+        Args:
+            fid: pinocchio frame index (:meth:`frame_id`).
+            ref: pinocchio reference frame; default ``LOCAL_WORLD_ALIGNED``.
+        """
         key = ("v", fid, ref)
         vel = self._cache.get(key)
         if vel is None:
@@ -278,9 +344,12 @@ class RobotModel:
     def frame_drift(self, fid: int, ref: pin.ReferenceFrame = WORLD_ALIGNED, classical: bool = True) -> np.ndarray:
         """J̇q̇ of a frame: its acceleration at q̈ = 0 (m/s², rad/s²).
 
-        ``classical=True`` gives the time derivative of the origin's velocity
-        (what a point or pose task needs); ``False`` the spatial acceleration
-        (what a rigid 6-D contact needs).
+        Args:
+            fid: pinocchio frame index (:meth:`frame_id`).
+            ref: pinocchio reference frame; default ``LOCAL_WORLD_ALIGNED``.
+            classical: True (default): the time derivative of the origin's velocity (what a
+                point or pose task needs); False: the spatial acceleration (what a rigid 6-D
+                contact needs).
         """
         key = ("a", fid, ref, classical)
         a = self._cache.get(key)
@@ -312,14 +381,32 @@ class RobotModel:
         return got
 
     def difference(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
-        """Tangent vector (nv) that moves q_from to q_to on the configuration manifold."""
+        """Tangent vector (nv; m, rad) that moves q_from to q_to on the configuration manifold.
+
+        Args:
+            q_from: start configuration (nq).
+            q_to: end configuration (nq).
+        """
         return pin.difference(self.model, q_from, q_to)
 
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """The configuration q ⊕ dq (nq) on the configuration manifold (``pin.integrate``).
+
+        Args:
+            q: a configuration (nq).
+            dq: a tangent displacement (nv; m, rad), e.g. v·dt.
+        """
         return pin.integrate(self.model, q, dq)
 
     def random_configuration(self, rng: np.random.Generator, margin: float = 0.1) -> np.ndarray:
-        """A random configuration inside the joint limits (shrunk by ``margin`` of each range)."""
+        """A random configuration inside the joint limits; joints without finite limits (and
+        the root) keep ``q_default``.
+
+        Args:
+            rng: the random generator (``np.random.default_rng(seed)``).
+            margin: fraction of each joint's range kept clear at both ends (unitless, in
+                [0, 0.5)); default 0.1.
+        """
         lo, hi = self.q_min.copy(), self.q_max.copy()
         finite = np.isfinite(lo) & np.isfinite(hi) & (hi - lo < 1e3)
         span = hi - lo

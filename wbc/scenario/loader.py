@@ -70,6 +70,35 @@ _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack"
 
 @dataclass
 class Scenario:
+    """A validated scenario: the robot, its stack and how to run it (:func:`load_config`).
+
+    Attributes:
+        name: the scenario's name (``name:``, else the file's stem).
+        robot: the :class:`~wbc.robot.model.RobotModel`, with the scenario's own ``contacts:``.
+        stack: the task hierarchy, built and bound to ``robot``.
+        solver: the ``solver:`` section: the Controller's keyword arguments (``backend``,
+            ``weighting``, ``level_weight``) plus ``type`` (hqp, projection, weighted).
+        dt: control period (s).
+        substeps: simulator steps per control period (the simulator's step is dt/substeps).
+        duration: simulated time (s).
+        environment: the shapes of :mod:`wbc.sim.environment` (default a ground, μ = 0.8).
+        pushes: ``{frame (URDF name), force (N, world), start (s), duration (s)}`` each.
+        sensing: the simulator's measurement options (``noise_q`` (rad, m), ``noise_v``
+            (rad/s, m/s) standard deviations, ``latency_steps``); empty: exact, no delay.
+        references: task name -> (trajectory, absolute): the tasks whose target moves;
+            default none.
+        offsets: task name -> its target's offset [x, y, z] from its start value (m); default none.
+        acceptance: the ``acceptance:`` thresholds on the run's metrics; default none.
+        events: the timeline (release, touchdown, add, remove), each a dict with its time (s);
+            default none.
+        source: the scenario YAML file; None: built in Python.
+        simulator: physics back-end (:data:`wbc.sim.backends.SIMULATORS`); default ``"pinocchio"``.
+        joint_dynamics: the URDF's joint damping and friction in the simulator; default False.
+        interaction: the external-force source and glass metrics
+            (:mod:`wbc.interaction.external_force`); None: none.
+        faults: :class:`~wbc.controller.faults.FaultPolicy` keyword arguments; default none.
+    """
+
     name: str
     robot: object
     stack: Stack
@@ -95,9 +124,16 @@ def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] |
     """Read and validate a scenario YAML (see the module docstring): a path, or the name
     of a bundled scenario (``"talos_balance"``, see :mod:`wbc.scenario.examples`).
 
-    ``robot_loader`` (default :func:`wbc.robot.loader.load_robot`) turns the ``robot:`` value (a
-    bundled name, or a path resolved against the scenario's folder) into a RobotModel; a
-    caller that loads many scenarios may pass a caching one. Raises :class:`ConfigError`."""
+    Args:
+        path: a scenario YAML file, or a bundled scenario's name.
+        robot_loader: turns the ``robot:`` value (a bundled name, or a path resolved against
+            the scenario's folder) into a RobotModel; a caller that loads many scenarios may
+            pass a caching one. None: :func:`wbc.robot.loader.load_robot`.
+
+    Raises:
+        ConfigError: the file is missing or invalid, naming the file, line, key path and what
+            was expected.
+    """
     src = scenario_path(path)
     doc = read_document(src, ConfigError)
     try:

@@ -54,6 +54,10 @@ class Task(ABC):
 
     Parameters: ``name`` (unique in a stack), ``weight`` (relative weight inside
     its level, dimensionless, in (0, :data:`MAX_WEIGHT`]).
+
+    Args:
+        name: the task's name, unique in a stack (a non-empty string).
+        weight: relative weight inside its level (unitless, in (0, :data:`MAX_WEIGHT`]); default 1.
     """
 
     kind: str = "task"
@@ -133,7 +137,15 @@ class Task(ABC):
 
 
 class MotionTask(Task):
-    """A task with a PD acceleration reference (5.16); ``kp`` in 1/s², ``kd`` in 1/s."""
+    """A task with a PD acceleration reference (5.16); ``kp`` in 1/s², ``kd`` in 1/s.
+
+    Args:
+        name: the task's name, unique in a stack.
+        kp: proportional gain K_p (1/s², ≥ 0): a number, or one per axis (``dim`` of them).
+        kd: derivative gain K_d (1/s, ≥ 0), as ``kp``; None: critical damping 2√kp (5.17).
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        dim: the number of axes a vector gain must have; None: checked later (at ``bind``).
+    """
 
     def __init__(self, name: str, kp, kd=None, weight: float = 1.0, dim: int | None = None) -> None:
         super().__init__(name, weight)

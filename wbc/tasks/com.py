@@ -20,6 +20,16 @@ class CoM(MotionTask):
     ``target_velocity`` (m/s) and ``target_acceleration`` (m/s²) for tracking,
     ``axes`` a subset of ``"xyz"`` (``"xy"`` leaves the height free). ``kp`` (1/s²) and
     ``kd`` (1/s): a number, or one per controlled axis (``len(axes)`` of them).
+
+    Args:
+        kp: proportional gain K_p (1/s², ≥ 0): a number, or one per controlled axis
+            (``len(axes)``); default 100 (ω = √kp rad/s).
+        kd: derivative gain K_d (1/s, ≥ 0), as ``kp``; None (default): critical damping 2√kp (5.17).
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; default ``"com"``.
+        target: CoM position (3, m, world frame); None: the CoM at the first cycle.
+        axes: the controlled axes, a subset of ``"xyz"`` (default all; ``"xy"`` leaves the
+            height free).
     """
 
     kind = "com"

@@ -21,6 +21,11 @@ def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
     Rows: friction (4), centre of pressure inside the rectangle |τ_x| ≤ Y f_z,
     |τ_y| ≤ X f_z (4), and the yaw-torque bounds (8) of the closed-form contact
     wrench cone of a rectangular support (Caron, Pham, Nakamura, ICRA 2015).
+
+    Args:
+        mu: Coulomb friction coefficient μ (unitless, > 0).
+        X: half length of the rectangle along the frame's x (m).
+        Y: half width of the rectangle along the frame's y (m).
     """
     U = np.zeros((16, 6))
     U[0:4, 2] = -mu
@@ -42,7 +47,13 @@ def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
 def wrench_cone_generators(mu: float, X: float, Y: float) -> np.ndarray:
     """6 × 16 matrix V whose columns span the cone of :func:`wrench_cone`: the wrenches
     at the rectangle's centre of the edges (±μ, ±μ, 1) of the friction pyramid at its
-    four corners. Every w = V λ with λ ≥ 0 is a feasible contact wrench and back."""
+    four corners. Every w = V λ with λ ≥ 0 is a feasible contact wrench and back.
+
+    Args:
+        mu: Coulomb friction coefficient μ (unitless, > 0).
+        X: half length of the rectangle along the frame's x (m).
+        Y: half width of the rectangle along the frame's y (m).
+    """
     V = []
     for px in (-X, X):
         for py in (-Y, Y):
@@ -53,7 +64,11 @@ def wrench_cone_generators(mu: float, X: float, Y: float) -> np.ndarray:
 
 
 def friction_pyramid(mu: float) -> np.ndarray:
-    """5 × 3 matrix P with P f ≤ 0 ⇔ |f_x|, |f_y| ≤ μ f_z and f_z ≥ 0 (normal +z)."""
+    """5 × 3 matrix P with P f ≤ 0 ⇔ |f_x|, |f_y| ≤ μ f_z and f_z ≥ 0 (normal +z).
+
+    Args:
+        mu: Coulomb friction coefficient μ (unitless, > 0).
+    """
     return np.array([[-1, 0, -mu], [1, 0, -mu], [0, -1, -mu], [0, 1, -mu], [0, 0, -1.0]])
 
 
@@ -95,6 +110,23 @@ class Contact(MotionTask):
     point: world z; a surface: its LOCAL z and the two tilts x, y), the natural constraint
     J_φ q̇ = 0 of 5.30; the tangential motion is left to a motion task (the hybrid force/motion
     construct, :mod:`wbc.interaction.hybrid_selection`) and the force inequalities stay as they are.
+
+    Args:
+        contact: the robot's contact surface, a name under ``contacts:`` in the robot YAML
+            (``left_foot``).
+        kp: stabilisation gain K_p of the contact's motion (1/s², ≥ 0): a number, or one per
+            constrained axis (6 for a surface, 3 for a point); default 10.
+        kd: its derivative gain K_d (1/s, ≥ 0), as ``kp``; None (default): critical damping 2√kp.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; None: ``"<contact>_contact"``.
+        mu: Coulomb friction coefficient μ of the pyramid (unitless, > 0); None: the robot's
+            (the surface's ``mu``).
+        fmin: lower bound of the normal force f_z (N, ≥ 0); default 0 (unilateral).
+        bilateral: True drops the force inequalities (a gripped handle, a welded foot); default
+            False.
+        cop_margin: fraction of the sole's half sizes kept between the CoP and its edges
+            (unitless, in [0, 1)); default :data:`COP_MARGIN` (0.2). Ignored by point contacts.
+        sliding: True: the contact may slide along its surface (above); default False.
     """
 
     kind = "contact"

@@ -87,7 +87,14 @@ MIN_HALF_SIZE = 1e-3
 
 class ContactRegularization(Task):
     """Every contact's wrench towards the nominal distribution (module docstring): rows
-    W_c f_c = 0 over the force variables of each contact in the stack (N)."""
+    W_c f_c = 0 over the force variables of each contact in the stack (N).
+
+    Args:
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        normal_weight: β, the weight of the normal forces' equal share against the CoP offsets
+            (unitless, in [1e-6, 1e6]; module docstring); default 2.
+        name: the task's name, unique in a stack; default ``"contact_regularization"``.
+    """
 
     kind = "contact_regularization"
     on_forces = True

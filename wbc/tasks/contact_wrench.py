@@ -19,6 +19,14 @@ class ContactWrench(Task):
     ``target``: 6-vector (f_x, f_y, f_z, τ_x, τ_y, τ_z) in N and N·m for a surface
     contact, 3-vector (N) for a point, expressed in the contact frame as the
     force the environment applies to the robot (5.26). Default: zero.
+
+    Args:
+        contact: the name of a Contact task in the stack (``"left_foot_contact"``), not of the
+            robot's surface.
+        target: the wrench f_c,d: 6 numbers (N, N·m) for a surface contact, 3 (N) for a point,
+            in the contact frame; None: zero.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; None: ``"<contact>_wrench"``.
     """
 
     kind = "contact_wrench"

@@ -15,6 +15,9 @@ class FloatingBaseDynamics(Task):
     S_u (M q̈ + h − J_fᵀ f) = 0, i.e. the root moves only as the contact forces
     (and gravity) make it. Added at level 0 by the controller for a robot with an
     unactuated root; the actuated rows then give τ.
+
+    Args:
+        name: the task's name; default ``"dynamics"``.
     """
 
     kind = "dynamics"
@@ -39,6 +42,10 @@ class DifferentialDrive(Task):
     velocity is expressed in the base frame, so the constraint is linear in v and
     its time derivative is the row q̈_y = −v_y / τ_c (τ_c = ``time_constant``, s),
     which also removes any numerical drift of v_y.
+
+    Args:
+        time_constant: τ_c, the decay time of a lateral velocity (s, > 0); default 1 ms.
+        name: the task's name; default ``"differential_drive"``.
     """
 
     kind = "differential_drive"

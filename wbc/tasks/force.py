@@ -95,6 +95,29 @@ class Force(Task):
     from 0 after the first feed, ``source`` ``simulator`` | ``observer`` (the measurement),
     ``observer_gain`` K_O (1/s) of the momentum observer, ``tangential`` ``free`` |
     ``measured``, ``motion`` the hybrid partner (a frame task's name).
+
+    Args:
+        contact: the name of a Contact task in the stack (``"hand_pad_contact"``).
+        target: λ_D (N; N·m along a moment direction, each in [−1e5, 1e5]): a number (the same
+            on every direction) or one per direction; default 10 N.
+        directions: S_f, one direction (3 numbers for a point contact, 6 for a surface) or a
+            list of m linearly independent ones, in the contact's force axes (unitless); None:
+            the contact normal.
+        kp: K_P of the PI feedback (unitless, in [0, 1): < 1 for a rigid contact); default 0
+            (feed-forward only).
+        ki: K_I (1/s, in [0, 1e4]); default 0.
+        integral_limit: anti-windup bound on |K_I ∫e| (N, ≥ 0, may be inf); default 50 N.
+        max_force: bound on the command |λ| (N, > 0, may be inf); default 1000 N.
+        ramp: duration of the quintic rise of λ_D from 0 after the first feed (s, in [0, 3600]);
+            default 0 (no ramp).
+        source: the measurement: ``"simulator"`` (default, its contact force) or ``"observer"``
+            (the momentum observer's estimate).
+        observer_gain: K_O of the momentum observer (1/s, in (0, 1e4]); default 100.
+        tangential: the force outside S_f: ``"free"`` (default, no rows) or ``"measured"``
+            (rows S_cᵀ f = S_cᵀ f_m, module docstring).
+        motion: the name of the hybrid partner, a Frame task on the contact's frame; None: none.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; None: ``"<contact>_force"``.
     """
 
     kind = "force"

@@ -61,6 +61,19 @@ class Frame(MotionTask):
     is: the PD (5.16) acts on the world angular acceleration, ω̇ = K_p e_ω + K_d (ω_d − ω)
     with ω̇ = J_ω q̈ + J̇_ω q̇ exact; exact rows in e_ω would need Jlog₃ and its time derivative
     in the drift, for a law that is the same at zero error.
+
+    Args:
+        frame: the frame, an alias of the robot (``right_hand``) or a URDF frame name.
+        kp: proportional gain K_p (1/s², ≥ 0): a number, or 6 (linear x, y, z, angular x, y,
+            z); default 50 (ω = √kp rad/s).
+        kd: derivative gain K_d (1/s, ≥ 0), as ``kp``; None (default): critical damping 2√kp (5.17).
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; None: ``frame``.
+        target: the pose as :func:`to_se3` takes it: a position [x, y, z] (m; keeps the start
+            orientation), a 4×4 homogeneous matrix, ``{position, rotation}`` or a ``pin.SE3``
+            (world frame); None: the frame's placement at the first cycle.
+        mask: ``"pose"`` (default), ``"position"``, ``"orientation"`` or 6 flags (linear x, y,
+            z, angular x, y, z), at least one set.
     """
 
     kind = "frame"

@@ -25,6 +25,15 @@ class JointLimits(Task):
 
     Where the bounds cross (a state already outside), both collapse to their
     midpoint, the least-violating choice. Units: rad or m per joint.
+
+    Args:
+        dt: the control period the velocity bound is reached in (s, in [1e-6, 1]); default 1 ms.
+        horizon: the position bound's look-ahead T (s, in [1e-6, 100]); default 0.1 s.
+        max_acceleration: the viability bound's deceleration ā (rad/s² or m/s², in (0, 1e6]);
+            default 30.
+        margin: distance kept from each position limit (rad or m, in [0, 1]); default 0.
+        name: the task's name, unique in a stack; default ``"joint_limits"``.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
     """
 
     kind = "joint_limits"

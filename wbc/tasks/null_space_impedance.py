@@ -116,7 +116,23 @@ class NullSpaceImpedance(Task):
     """Compliant impedance on what every higher level (contacts, ``frame``, ``protect``)
     leaves free (5.43-5.44): the body yields to external torques where those tasks do not care.
 
-    See the module docstring for the rows and parameters."""
+    See the module docstring for the rows and parameters.
+
+    Args:
+        frame: the protected frame (alias or URDF name), held by a higher task; None: none.
+        k_q: joint stiffness k_q of the posture spring (N·m/rad, in [0, 1e9]): a number or one
+            per non-root joint; default 20.
+        B_nu: the null-space damping B_ν (N·m·s/rad, entries up to 1e9): a number b (B_ν = b I_r)
+            or an r × r symmetric positive definite matrix; None: 3, unless ``zeta`` is given.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; None: ``"<frame>_null_space"`` or
+            ``"null_space_impedance"``.
+        target: the posture q_d (nq; rad, m); None: the configuration at the first cycle.
+        protect: more protected frames, or ``"com"`` (a list; a frame is protected in all 6
+            axes); default none.
+        zeta: damping ratio ζ of every null-space mode, (6) (unitless, in (0, 10]), instead of
+            ``B_nu`` (giving both is a TaskDefinitionError); None: ``B_nu``.
+    """
 
     kind = "null_space_impedance"
 

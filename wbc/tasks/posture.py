@@ -19,6 +19,16 @@ class Posture(MotionTask):
     Rows: q̈_j = K_p (q_d ⊖ q)_j − K_d q̇_j  (5.3 with q̇_d = q̈_d = 0), where ⊖ is
     pinocchio's ``difference`` on the configuration manifold. ``target`` is a full
     configuration (nq,), default the robot's default posture. Gains in 1/s², 1/s.
+
+    Args:
+        kp: proportional gain K_p (1/s², ≥ 0): a number, or one per driven joint (velocity
+            coordinate); default 10 (ω = √kp rad/s).
+        kd: derivative gain K_d (1/s, ≥ 0), as ``kp``; None (default): critical damping 2√kp (5.17).
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; default ``"posture"``.
+        target: a full configuration (nq; rad, m); None: the robot's default posture.
+        joints: names of the joints it drives (a subset, each once, no root); None: every
+            non-root joint.
     """
 
     kind = "posture"

@@ -16,6 +16,11 @@ _NO_FORCES = np.zeros((0, 0))
 class TorqueLimits(Task):
     """−τ_max ≤ S_a (M q̈ + h − J_fᵀ f) ≤ τ_max (N·m or N), from the equation of motion
     (5.26) solved for the actuated torques. ``scale`` (0, 1] shrinks the URDF limits.
+
+    Args:
+        scale: fraction of the URDF limits τ_max kept (unitless, in (0, 1]); default 1.
+        name: the task's name, unique in a stack; default ``"torque_limits"``.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
     """
 
     kind = "torque_limits"
