@@ -12,7 +12,7 @@ from wbc.errors import ConfigError
 from wbc.locomotion.footsteps import Footstep, StepLimits, check_plan, from_command, relative
 from wbc.locomotion.preview import G, ZmpPreview
 from wbc.locomotion.swing import SwingTrajectory
-from wbc.locomotion.timing import Timing, schedule, zmp_reference, zmp_samples
+from wbc.locomotion.timing import Timing, ZmpTable, schedule, zmp_reference, zmp_samples
 
 START = {"left": Footstep("left", 0.0, 0.085, 0.0), "right": Footstep("right", 0.0, -0.085, 0.0)}
 LIMITS = StepLimits(max_length=0.25, min_width=0.12, max_width=0.35, max_turn=0.35)
@@ -100,7 +100,7 @@ def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0):
     timing = Timing(single=0.6, double=0.2, first=0.6, last=0.8, ramp=0.1)
     steps = from_command(START, 0.25, 0.0, 0.0, 0.8, 10, LIMITS)
     phases = schedule(START, steps, timing)
-    plan = ZmpPreview(z_c, lambda t, d, n, out: zmp_samples(phases, t, d, n, out))
+    plan = ZmpPreview(z_c, ZmpTable(phases).sample)
     c, dc = np.zeros(2), np.zeros(2)
     plan.reset(c, dc, 0.0)
     n = round(phases[-1].t1 / dt) + 500
@@ -116,6 +116,15 @@ def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0):
         out.append((t, zmp.copy(), zmp_reference(phases, t)))
         c, dc = c + dc * dt + acc * dt * dt / 2, dc + acc * dt
     return phases, steps, out, c, plan
+
+
+def test_zmp_table_samples_as_the_reference():
+    steps = from_command(START, 0.25, 0.0, 0.0, 0.8, 4, LIMITS)
+    phases = schedule(START, steps, Timing())
+    a, b = np.zeros((700, 2)), np.zeros((700, 2))
+    for t in (0.0, 0.55, 1.33, 4.0, 6.0):
+        assert np.allclose(ZmpTable(phases).sample(t, 0.01, 700, a), zmp_samples(phases, t, 0.01, 700, b), atol=1e-12)
+    assert np.allclose(b[-1], (steps[-1].xy + steps[-2].xy) / 2)
 
 
 def _inside_stance(phases, steps, out, margin=0.0):

@@ -102,17 +102,35 @@ def zmp_reference(phases: list[Phase], t: float) -> np.ndarray:
     return phases[-1].zmp1
 
 
+class ZmpTable:
+    """The phases as arrays, for sampling the ZMP reference of many instants at once (the
+    preview's horizon at every replan: one ``searchsorted`` and array arithmetic, no Python
+    loop over the samples). ``sample(t, dt, n, out)`` has the signature the preview takes."""
+
+    def __init__(self, phases: list[Phase]) -> None:
+        self.t0 = np.array([ph.t0 for ph in phases])
+        self.t1 = np.array([ph.t1 for ph in phases])
+        self.z0 = np.array([ph.zmp0 for ph in phases])
+        self.z1 = np.array([ph.zmp1 for ph in phases])
+        self._j: np.ndarray | None = None
+
+    def sample(self, t: float, dt: float, n: int, out: np.ndarray) -> np.ndarray:
+        """``out`` (n, 2) filled with the ZMP reference at t + dt, ..., t + n dt (as
+        :func:`zmp_reference`)."""
+        if self._j is None or len(self._j) != n:
+            self._j = np.arange(1, n + 1, dtype=float)
+        tj = t + self._j * dt
+        k = np.minimum(np.searchsorted(self.t1, tj, side="right"), len(self.t1) - 1)
+        s = np.clip((tj - self.t0[k]) / (self.t1[k] - self.t0[k]), 0.0, 1.0)
+        s = s * s * (3.0 - 2.0 * s)
+        np.multiply(self.z1[k] - self.z0[k], s[:, None], out=out)
+        out += self.z0[k]
+        return out
+
+
 def zmp_samples(phases: list[Phase], t: float, dt: float, n: int, out: np.ndarray) -> np.ndarray:
-    """``out`` (n, 2) filled with the ZMP reference at t + dt, t + 2 dt, ..., t + n dt."""
-    k0 = 0
+    """``out`` (n, 2) filled with the ZMP reference at t + dt, ..., t + n dt (one sample at a
+    time; :class:`ZmpTable` does the same with arrays)."""
     for j in range(n):
-        tj = t + (j + 1) * dt
-        while k0 < len(phases) - 1 and tj >= phases[k0].t1:
-            k0 += 1
-        ph = phases[k0]
-        if tj >= ph.t1 or tj <= ph.t0:
-            out[j] = ph.zmp1 if tj >= ph.t1 else ph.zmp0
-        else:
-            s = (tj - ph.t0) / (ph.t1 - ph.t0)
-            out[j] = ph.zmp0 + (ph.zmp1 - ph.zmp0) * (s * s * (3.0 - 2.0 * s))
+        out[j] = zmp_reference(phases, t + (j + 1) * dt)
     return out
