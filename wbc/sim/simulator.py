@@ -77,6 +77,14 @@ def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, n
     return pts
 
 
+#: the contact step's PGS: at most this many sweeps per step ...
+PGS_MAX_ITERATIONS = 300
+#: ... or until its feasibility and complementarity residuals are below the absolute
+#: precision (N·s) or the relative one (unitless; pinocchio's PGS criteria, wbc.sim.contact_solver)
+PGS_ABSOLUTE_PRECISION = 1e-10
+PGS_RELATIVE_PRECISION = 1e-12
+
+
 @dataclass
 class Push:
     """A constant external force (N, world frame) at a frame's origin during [start, start + duration)."""
@@ -332,8 +340,9 @@ class Simulator:
         """pinocchio's PGS for this set of contacts (one μ per point), built once."""
         got = self._pgs.get(mus)
         if got is None:
-            got = self._pgs[mus] = ContactSolver(mus, over_relax=self.over_relax, max_iterations=300,
-                                                 absolute_precision=1e-10, relative_precision=1e-12)
+            got = self._pgs[mus] = ContactSolver(mus, over_relax=self.over_relax, max_iterations=PGS_MAX_ITERATIONS,
+                                                 absolute_precision=PGS_ABSOLUTE_PRECISION,
+                                                 relative_precision=PGS_RELATIVE_PRECISION)
         return got
 
     def _lateral_projection(self, v: np.ndarray, Minv: np.ndarray) -> np.ndarray:
