@@ -33,6 +33,7 @@ ALLOWED: dict[str, set[str]] = {
     "wbc.sim": BASE | {"wbc.robot"},
     "wbc.chapter": BASE | {"wbc.validation", "wbc.robot", "wbc.null_space", "wbc.sim"},
     "wbc.trajectories": BASE | {"wbc.validation"},
+    "wbc.locomotion": BASE,
     "wbc.interaction": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks"},
     "wbc.scenario": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks", "wbc.stack", "wbc.trajectories",
                             "wbc.interaction", "wbc.sim", "wbc.solvers", "wbc.controller"},
