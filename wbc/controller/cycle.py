@@ -32,18 +32,18 @@ Three guarantees, whatever the solver and the state:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import partial
 
-import numba as nb
 import numpy as np
 import pinocchio as pin
 
 from wbc.controller.faults import FaultMonitor, FaultPolicy, hold_torque
+from wbc.controller.force_ramps import ForceRamp, advance_ramps
 from wbc.controller.solution import LevelDiagnostics, Solution
 from wbc.controller.solver_names import SOLVERS
+from wbc.controller.torques import cycle_outputs, saturate
 from wbc.errors import SolverError
-from wbc.problem.buffer import row_values, split_values
+from wbc.problem.buffer import split_values
 from wbc.problem.problem import Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
@@ -57,19 +57,6 @@ from wbc.tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
 __all__ = ["SOLVERS", "Controller"]
 
-
-
-@dataclass(slots=True)
-class ForceRamp:
-    """A contact's normal-force bound ramped from ``f_start`` to ``f_end`` (N) over ``cycles``
-    control cycles (``k`` of them done); at the end the contact task is removed (``remove``,
-    a release) or its bound lifted (a touch-down)."""
-
-    f_start: float
-    f_end: float
-    cycles: int
-    k: int = 0
-    remove: bool = False
 
 class Controller:
     """Whole-body controller of ``robot`` for ``stack``: one :meth:`solve` per control cycle.
@@ -209,24 +196,7 @@ class Controller:
         self._ramps[task.name] = ForceRamp(0.0, weight, max(1, int(round(duration / self.dt))), remove=False)
 
     def _advance_ramps(self) -> None:
-        for name in list(self._ramps):
-            ramp = self._ramps[name]
-            ramp.k += 1
-            f0, f1, n, k = ramp.f_start, ramp.f_end, ramp.cycles, ramp.k
-            task = self.stack[name]
-            if k >= n:
-                del self._ramps[name]
-                if ramp.remove:
-                    self.stack.remove(name)
-                else:
-                    task.fmax = np.inf
-                continue
-            s_ = k / n
-            # smoothstep 3s² − 2s³: the bound starts and ends with zero slope. The contact
-            # regularisation loads a contact as far as the bound lets it, so the bound's
-            # profile is the torque's: a linear ramp starts at full slope (a step in dτ/dt,
-            # 1.4 N·m per cycle at Talos's touch-down), this one from rest (1.0).
-            task.fmax = f0 + (f1 - f0) * s_ * s_ * (3.0 - 2.0 * s_)
+        advance_ramps(self._ramps, self.stack)
 
     def _internal_constraints(self, layout: Layout) -> list:
         extra = []
@@ -347,7 +317,7 @@ class Controller:
         buf = self.stack.row_buffer
         # τ (saturated in place), whether x and τ are finite, the rows' values, the worst
         # |τ_i|/τ_max,i the solver asked for and the joints clipped beyond rounding
-        tau_full, finite, values, ratio, n_sat = _cycle_outputs(
+        tau_full, finite, values, ratio, n_sat = cycle_outputs(
             robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, x, robot.unactuated_idx,
             buf.A, buf.b, buf.C, buf.lo, buf.hi, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
         relaxed = any(info.relaxed for info in res.levels)
@@ -360,7 +330,7 @@ class Controller:
             status, message = "failed", "non-finite solution"
         if status == "failed":
             tau_full = self._fallback_torque(robot.v)
-            ratio, n_sat = _saturate(tau_full, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+            ratio, n_sat = saturate(tau_full, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
             qdd = np.zeros(nv)
             forces = {name: self._last_forces.get(name, np.zeros(sl.stop - sl.start)).copy()
                       for name, sl in layout.contact_slices.items()}
@@ -400,7 +370,7 @@ class Controller:
         robot = self.robot
         v = np.asarray(v, dtype=float).reshape(-1)
         tau = self._fallback_torque(v if v.shape == (robot.nv,) else np.zeros(robot.nv))
-        ratio, n_sat = _saturate(tau, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+        ratio, n_sat = saturate(tau, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
         forces = {name: f.copy() for name, f in self._last_forces.items()}
         x = np.concatenate([np.zeros(robot.nv)] + list(forces.values()))
         return Solution(qdd=np.zeros(robot.nv), tau=tau[robot.actuated_idx], tau_full=tau, forces=forces, x=x,
@@ -414,56 +384,6 @@ _NO_BOUNDS = np.zeros(0)
 #: relative excess |τ_i| > τ_max,i (1 + tol) (+ 1e-9 N·m) counted as a saturation: below
 #: it τ is clipped silently (a QP meets its torque rows to ~1e-7, not exactly)
 SATURATION_TOL = 1e-6
-
-
-@nb.njit(cache=True)
-def _saturate(tau, actuated, tau_max, tol):
-    """Clip τ_i to [−τ_max,i, τ_max,i] in place over the actuated joints; returns (the
-    worst |τ_i|/τ_max,i before, how many joints were beyond τ_max,i (1 + tol) + 1e-9).
-    Non-finite entries are left (the caller fails the cycle)."""
-    worst = 0.0
-    n = 0
-    for i in actuated:
-        lim = tau_max[i]
-        t = tau[i]
-        a = abs(t)
-        if lim > 0.0:
-            worst = max(worst, a / lim)
-        elif a > 0.0:
-            worst = np.inf
-        if a > lim:
-            if a > lim * (1.0 + tol) + 1e-9:
-                n += 1
-            tau[i] = lim if t > 0.0 else -lim
-    return worst, n
-
-
-@nb.njit(cache=True)
-def _joint_torques(M, h, Jf, x, unactuated):
-    """(τ = M q̈ + h − J_fᵀ f with zeros on the unactuated rows (5.26), whether x and τ are
-    all finite), x = (q̈, f)."""
-    nv = M.shape[0]
-    tau = M @ x[:nv] + h
-    if Jf.shape[0]:
-        tau -= Jf.T @ x[nv:]
-    for i in unactuated:
-        tau[i] = 0.0
-    finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau))
-    return tau, finite
-
-
-@nb.njit(cache=True)
-def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi, actuated, tau_max, tol):
-    """(τ saturated by :func:`_saturate`, whether x and τ are finite, the rows' values of
-    :func:`~wbc.stack.row_values` (residuals +inf when not finite), the worst |τ_i|/τ_max,i
-    before saturation, the joints saturated)."""
-    tau, finite = _joint_torques(M, h, Jf, x, unactuated)
-    values = row_values(A, b, C, lo, hi, x)
-    if not finite:
-        values[:b.shape[0] + lo.shape[0]] = np.inf
-        return tau, finite, values, np.inf, 0
-    ratio, n = _saturate(tau, actuated, tau_max, tol)
-    return tau, finite, values, ratio, n
 
 
 def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
