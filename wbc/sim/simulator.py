@@ -140,6 +140,13 @@ class Simulator:
         self._Rj = np.zeros((len(self._joints), 3, 3))
         self._tj = np.zeros((len(self._joints), 3))
         self._P = np.zeros((len(self.points), 3))
+        npts = len(self.points)
+        self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
+        self._ids, self._shape_of = np.zeros(npts, dtype=np.int64), np.zeros(npts, dtype=np.int64)
+        self._depths, self._frames = np.zeros(npts), np.zeros((npts, 3, 3))
+        self._J = np.zeros((3 * npts, model.nv))
+        self._fused = contact_solver == "compiled"   # the contact step in one compiled call
+        self.pgs_sweeps = 0         # the last contact solve's sweeps (compiled PGS)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
         self._warm = np.zeros((len(self.points), 3))          # last step's impulses, N·s, contact frames
@@ -244,6 +251,12 @@ class Simulator:
 
         if jd is not None and jd.friction_idx.size:
             v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
+        elif rows and not nh and self._fused:
+            o = self.over_relax
+            v, self.pgs_sweeps, _, finite = cr.contact_step(J, Minv, v_free, depths, self.baumgarte, h, mus, o, 300,
+                                                            1e-10, 1e-12, frames, ids, self._warm, self.point_forces)
+            if not finite:
+                self.solver_failures += 1
         elif rows or nh:
             v_new = v_free
             if rows:
@@ -281,10 +294,11 @@ class Simulator:
             # M⁻¹ is needed for the contact impulses anyway: then the free acceleration is
             # M⁻¹(τ − h) (one matrix-vector product) rather than a second pass of ABA
             Minv = pin.computeMinverse(m, d, q)
+        if Minv is not None and fext:
             cr.symmetrise_upper(Minv)                    # computeMinverse fills the upper triangle
         if Minv is None or fext:
             return Minv, pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
-        return Minv, Minv @ (tau - pin.nonLinearEffects(m, d, q, v))
+        return Minv, cr.free_acceleration(Minv, tau, pin.nonLinearEffects(m, d, q, v))
 
     def _keep_impulses(self, lam, frames, ids) -> None:
         """The step's impulses ``lam`` (3k, N·s, contact frames; None: no contact) kept as the next
@@ -331,7 +345,21 @@ class Simulator:
         """Points in (or within ``margin`` of) contact, each with the surface it touches
         (the deepest; the first listed of equally deep ones): the rows of their velocity
         Jacobians in the contact frames (t1, t2, n) (3k × nv), the frames (k × 3 × 3), the
-        depths (k, m), μ (a tuple) and the points' indices (k)."""
+        depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills."""
+        Jw = self.data.J
+        if Jw.ndim == 1:            # eigenpy hands a 6 × 1 matrix (nv = 1) over as a vector
+            Jw = Jw.reshape(6, 1)
+        if self._shapes is not None:
+            d = self.data
+            for s, jid in enumerate(self._joints):
+                oMi = d.oMi[jid]
+                self._Rj[s] = oMi.rotation
+                self._tj[s] = oMi.translation
+            kind, point, normal, size, shape_frames, shape_mu = self._shapes
+            k = cr.find_contacts(self._Rj, self._tj, self._slot, self._offsets, kind, point, normal, size, shape_frames,
+                                 self.margin, Jw, self._support, self._P, self._ids, self._shape_of, self._depths,
+                                 self._frames, self._J)
+            return self._J[:3 * k], self._frames[:k], self._depths[:k], shape_mu[self._shape_of[:k]], self._ids[:k]
         P = self._point_positions()
         best = np.full(P.shape[0], -1)
         dep = np.full(P.shape[0], -self.margin)
@@ -341,16 +369,14 @@ class Simulator:
             best[deeper], dep[deeper] = k, ds[deeper]
         ids = np.flatnonzero(best >= 0)
         frames = np.array([self.env[best[i]].R for i in ids]).reshape(-1, 3, 3)
-        mus = tuple(self.env[best[i]].mu for i in ids)
+        mus = np.array([self.env[best[i]].mu for i in ids])
         J = np.empty((3 * ids.size, self.model.nv))
-        Jw = self.data.J
-        if Jw.ndim == 1:            # eigenpy hands a 6 × 1 matrix (nv = 1) over as a vector
-            Jw = Jw.reshape(6, 1)
         cr.contact_jacobian(Jw, P, ids, self._slot, self._support, frames, J)
         return J, frames, dep[ids], mus, ids
 
-    def _pgs_for(self, mus: tuple) -> ContactSolver:
-        """pinocchio's PGS for this set of contacts (one μ per point), built once."""
+    def _pgs_for(self, mus) -> ContactSolver:
+        """The PGS for this set of contacts (one μ per point), built once per tuple of μ."""
+        mus = tuple(float(mu) for mu in mus)
         got = self._pgs.get(mus)
         if got is None:
             got = self._pgs[mus] = self._solver_class(mus, over_relax=self.over_relax, max_iterations=300,
