@@ -16,12 +16,18 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
+#: how the summary shows a task error of each unit: (factor, shown unit)
+SHOWN_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad"), "N": (1.0, "N"), "N·m": (1.0, "N·m")}
+
+
 def _summary(m: dict) -> None:
     print(f"  fell: {m['fell']}   solver failures: {m['solver_failures']}   "
           f"real-time factor: {m['real_time_factor']:.2f}")
     for name, s in m["tasks"].items():
-        print(f"  {name:14s} error  rms {s['rms'] * 1e3:9.3f}  max {s['max'] * 1e3:9.3f}  "
-              f"final {s['final'] * 1e3:9.3f}  (mm, mrad or mN)")
+        for label, part in (s.get("parts") or {s.get("unit", ""): s}).items():
+            scale, unit = SHOWN_UNITS.get(label, (1.0, label))
+            print(f"  {name:14s} error  rms {part['rms'] * scale:9.3f}  max {part['max'] * scale:9.3f}  "
+                  f"final {part['final'] * scale:9.3f}  ({unit})")
     for name, c in m["contacts"].items():
         print(f"  {name:14s} slip {c['slip'] * 1e3:.3f} mm   lifted: {c['lifted']}")
     if "support_margin_min" in m:

@@ -13,19 +13,13 @@ import numpy as np
 
 from wbc.problem.result import LevelInfo, SolveResult
 from wbc.solvers.cascade import Cascade
-from wbc.solvers.hqp import HierarchicalQP, scaled_level
+from wbc.solvers.hqp import HierarchicalQP
 from wbc.solvers.kernels.qp_rows import max_violation
 
 
-def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "", scale=None, x_ref=None,
+def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "", x_ref=None,
                            dampings: dict | None = None) -> SolveResult:
     """What ``solver.solve_levels`` returns, by the Python loop (same arguments)."""
-    if scale is not None:
-        levels = [scaled_level(lvl, scale) for lvl in levels]
-        res = reference_solve_levels(solver, levels, nx, key, x_ref=None if x_ref is None else x_ref / scale,
-                                     dampings=dampings)
-        res.x = scale * res.x
-        return res
     cas = Cascade(nx, solver._hints)
     if x_ref is not None:
         cas.x = np.array(x_ref, dtype=float)

@@ -48,7 +48,7 @@ SYNTHETIC = {
 name: all_keys
 description: every task type and parameter, every section
 robot: talos
-solver: {type: hqp, backend: daqp, weighting: identity, level_weight: 0.001}
+solver: {type: weighted, backend: daqp, level_weight: 0.001}
 control: {dt: 0.001, substeps: 1}
 duration: 2.0
 simulator: pinocchio
@@ -87,6 +87,7 @@ events:
     "panda_arm": """
 name: panda_arm
 robot: panda
+solver: {type: projection, weighting: identity}
 environment: []
 duration: 1.0
 stack:

@@ -37,14 +37,13 @@ class _Reference:
         HierarchicalQP.solve_levels = self.real
 
 
-@pytest.mark.parametrize("solver, force_scale", [("weighted", 1.0), ("hqp", 100.0), ("weighted", 100.0)])
-def test_compiled_run_equals_the_reference_loop(solver, force_scale):
+@pytest.mark.parametrize("solver", ["weighted", "hqp"])
+def test_compiled_run_equals_the_reference_loop(solver):
     rng = np.random.default_rng(5)
     robot_a, robot_b = wbc.load_robot("talos"), wbc.load_robot("talos")
     stack_a, stack_b = talos_stack(), talos_stack()
     fast = wbc.Controller(robot_a, stack_a, solver=solver)
     plain = wbc.Controller(robot_b, stack_b, solver=solver)
-    fast.force_scale = plain.force_scale = force_scale
     qps = relaxed = 0
     for _ in range(60):
         q, v = same_random_case(rng, (robot_a, stack_a), (robot_b, stack_b))
@@ -57,7 +56,7 @@ def test_compiled_run_equals_the_reference_loop(solver, force_scale):
             assert (da.rank, da.dof_before, da.used_qp, da.relaxed) == (db.rank, db.dof_before, db.used_qp, db.relaxed)
         qps += a.qp_count
         relaxed += a.status == "relaxed"
-    print(f"\n{solver} (force scale {force_scale}): {qps} QPs, {relaxed} cycles with a relaxed level")
+    print(f"\n{solver}: {qps} QPs, {relaxed} cycles with a relaxed level")
     assert qps > 0
 
 

@@ -32,6 +32,7 @@ Three guarantees, whatever the solver and the state:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import partial
 
 import numba as nb
@@ -47,7 +48,7 @@ from wbc.problem.problem import Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
-from wbc.solvers import SOLVER_CLASSES
+from wbc.solvers import create_solver
 from wbc.solvers.backends import Backend
 from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
@@ -57,6 +58,19 @@ from wbc.tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 __all__ = ["SOLVERS", "Controller"]
 
 
+
+@dataclass(slots=True)
+class ForceRamp:
+    """A contact's normal-force bound ramped from ``f_start`` to ``f_end`` (N) over ``cycles``
+    control cycles (``k`` of them done); at the end the contact task is removed (``remove``,
+    a release) or its bound lifted (a touch-down)."""
+
+    f_start: float
+    f_end: float
+    cycles: int
+    k: int = 0
+    remove: bool = False
+
 class Controller:
     """Whole-body controller of ``robot`` for ``stack``.
 
@@ -64,10 +78,13 @@ class Controller:
     (analytic recursive null-space projection, q̈ only, SNS joint limits) or
     ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
     back-end (``"proxqp"``, ``"daqp"``, any qpsolvers name, or a
-    :class:`~wbc.solvers.backends.Backend` instance). ``weighting``:
-    generalised-inverse weight W of the projection solver (``"identity"``, or
+    :class:`~wbc.solvers.backends.Backend` instance). ``weighting`` (projection only):
+    generalised-inverse weight W of the projection solver (``"identity"``, the default, or
     ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
     joints such as grippers are the cheapest to accelerate and saturate first).
+    ``level_weight`` (weighted only, default 1e-3): the weight ratio between consecutive folded
+    levels. An option the chosen solver does not take is a ConfigError
+    (:func:`wbc.solvers.create_solver`).
     ``sacrifice_tol`` and ``sacrifice_rel``: a task is reported as sacrificed when its
     residual exceeds sacrifice_tol + sacrifice_rel·‖b‖, b what its rows ask (units of its
     rows, m/s², rad/s², N): by default 0.1 % of the request, so a task met to the QPs'
@@ -87,8 +104,8 @@ class Controller:
     """
 
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
-                 weighting: str = "identity", damping: Damping | None = None,
-                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
+                 weighting: str | None = None, damping: Damping | None = None,
+                 sacrifice_tol: float = 1e-6, level_weight: float | None = None, dt: float = 1e-3,
                  warm_start: bool = True, sacrifice_rel: float = 1e-3,
                  contact_regularization: bool | ContactRegularization = True,
                  faults: FaultPolicy | None = None, solve_timeout: float | None = None) -> None:
@@ -99,8 +116,8 @@ class Controller:
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol = sacrifice_tol
         self.sacrifice_rel = sacrifice_rel
-        self.solver = SOLVER_CLASSES[solver].create(backend=backend, damping=damping, weighting=weighting,
-                                                    level_weight=level_weight)
+        options = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
@@ -125,12 +142,7 @@ class Controller:
         self._x_ref: np.ndarray | None = None
         self._last_forces: dict[str, np.ndarray] = {}
         self.dt = float(dt)
-        # The cascade can make its least-norm choices in x̃ = (q̈, f / force_scale).
-        # Measured: 100 makes level 0 pick interior forces (no QP there) but worsens
-        # the conditioning of the lower levels' QPs (9/40 random states degraded vs 0),
-        # with no net gain in cycle time; kept at 1 until the QPs are rescaled.
-        self.force_scale = 1.0
-        self._ramps: dict[str, tuple] = {}   # contact task name -> (f_start, f_end, cycles, k, remove)
+        self._ramps: dict[str, ForceRamp] = {}   # contact task name -> its normal-force bound's ramp
         self.layout: Layout | None = None
         self.levels: list[Level] = []
         #: an object with ``lap(phase, t0) -> t`` (the bench's phase timer) told the time of each
@@ -148,7 +160,7 @@ class Controller:
         remove the task."""
         task = self.stack[name]
         f_now = float(self._last_forces.get(name, np.zeros(3))[2])
-        self._ramps[name] = (max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), 0, True)
+        self._ramps[name] = ForceRamp(max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), remove=True)
         task.fmax = max(f_now, 0.0)
 
     def make_contact(self, task, level: int = 0, duration: float = 0.1, fmax_end: float = np.inf) -> None:
@@ -158,17 +170,18 @@ class Controller:
         task.reference = None
         task.fmax = 0.0
         self.stack.add(task, level)
-        weight = self.robot.mass * 9.81
-        self._ramps[task.name] = (0.0, weight, max(1, int(round(duration / self.dt))), 0, False)
+        weight = self.robot.weight
+        self._ramps[task.name] = ForceRamp(0.0, weight, max(1, int(round(duration / self.dt))), remove=False)
 
     def _advance_ramps(self) -> None:
         for name in list(self._ramps):
-            f0, f1, n, k, remove = self._ramps[name]
-            k += 1
+            ramp = self._ramps[name]
+            ramp.k += 1
+            f0, f1, n, k = ramp.f_start, ramp.f_end, ramp.cycles, ramp.k
             task = self.stack[name]
             if k >= n:
                 del self._ramps[name]
-                if remove:
+                if ramp.remove:
                     self.stack.remove(name)
                 else:
                     task.fmax = np.inf
@@ -179,7 +192,6 @@ class Controller:
             # profile is the torque's: a linear ramp starts at full slope (a step in dτ/dt,
             # 1.4 N·m per cycle at Talos's touch-down), this one from rest (1.0).
             task.fmax = f0 + (f1 - f0) * s_ * s_ * (3.0 - 2.0 * s_)
-            self._ramps[name] = (f0, f1, n, k, remove)
 
     def _internal_constraints(self, layout: Layout) -> list:
         extra = []
@@ -266,17 +278,13 @@ class Controller:
                                      lowest if layout.nf else ())
         t = clock and clock.lap("rows", t)
         self.layout, self.levels = layout, levels
-        scale = None
-        if layout.nf and self.force_scale != 1.0:
-            scale = np.ones(layout.nx)
-            scale[layout.nv:] = self.force_scale
         x_ref = None
         if self.warm_start and self.solver.uses_reference:
             x_ref = self._reference(layout, weights_of, levels)
         contacts = []
         if self.solver.distributes_forces and layout.nf:
             contacts = [t.contact_data() for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale, contacts)
+        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, contacts)
         t = clock and clock.lap(None, t)
         res = self.solver.solve(problem)
         t = clock and clock.lap("solve", t)

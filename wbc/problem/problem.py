@@ -17,7 +17,7 @@ class Problem:
     h(q, q̇) = C q̇ + g (N·m) with the unactuated (root) coordinates, for the solvers that
     need the equation of motion (5.26) outside their rows (the projection's force
     distribution), ``x_ref`` the state's nominal point the least-norm choices start from
-    (None: 0), ``scale`` a per-variable scale D, x = D x̃ (None: 1), and ``contacts``, each
+    (None: 0), and ``contacts``, each
     contact's :class:`ContactData` in level order (filled for the solvers that
     ``distributes_forces``)."""
 
@@ -27,5 +27,4 @@ class Problem:
     h: np.ndarray
     unactuated_idx: np.ndarray
     x_ref: np.ndarray | None = None
-    scale: np.ndarray | None = None
     contacts: list[ContactData] = field(default_factory=list)

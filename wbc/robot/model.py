@@ -130,6 +130,7 @@ class RobotModel:
         self.joint_idx = np.arange(self.n_root, self.nv)
         self._frame_ids: dict[str, int] = {}
         self._cache: dict[tuple, np.ndarray] = {}
+        self._velocity_units: tuple[str, ...] | None = None
         self.q = self.q_default.copy()
         self.v = np.zeros(self.nv)
         self._zero_v = np.zeros(self.nv)
@@ -241,7 +242,18 @@ class RobotModel:
 
     @property
     def mass(self) -> float:
+        """Total mass (kg)."""
         return float(self.data.mass[0])
+
+    @property
+    def gravity(self) -> float:
+        """|g| (m/s²), the model's gravity (``model.gravity``), not an assumed 9.81."""
+        return float(np.linalg.norm(self.model.gravity.linear))
+
+    @property
+    def weight(self) -> float:
+        """m |g| (N): what the contacts carry at rest."""
+        return self.mass * self.gravity
 
     def frame_placement(self, fid: int) -> pin.SE3:
         return self.data.oMf[fid]
@@ -279,6 +291,26 @@ class RobotModel:
         return a
 
     # ---------------------------------------------------------- conveniences
+    def velocity_units(self) -> tuple[str, ...]:
+        """The unit of each velocity coordinate's displacement: ``"m"`` for the root's translation
+        and prismatic joints, ``"rad"`` for rotations (revolute, continuous, spherical, the root's
+        rotation); length nv."""
+        got = self._velocity_units
+        if got is None:
+            units: list[str] = []
+            for j in self.model.joints[1:]:
+                kind = j.shortname()
+                if kind == "JointModelFreeFlyer":
+                    units += ["m"] * 3 + ["rad"] * 3
+                elif kind == "JointModelPlanar":
+                    units += ["m", "m", "rad"]
+                elif "Prismatic" in kind or kind.startswith("JointModelP"):
+                    units += ["m"] * j.nv
+                else:
+                    units += ["rad"] * j.nv
+            got = self._velocity_units = tuple(units)
+        return got
+
     def difference(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
         """Tangent vector (nv) that moves q_from to q_to on the configuration manifold."""
         return pin.difference(self.model, q_from, q_to)

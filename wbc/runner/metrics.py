@@ -21,6 +21,12 @@ from wbc.runner.stats import Running
 #: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
 BOOLEAN_METRICS = ("fell", "contacts.*.lifted")
 
+#: a floating-base robot has fallen when its base is below this fraction of its starting
+#: height (unitless) ...
+FALL_HEIGHT_FRACTION = 0.6
+#: ... or tilted beyond this angle from the vertical (rad, 60°), or its state is not finite
+FALL_TILT = math.pi / 3
+
 
 def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (m) of p to the boundary of the convex hull of points (> 0 inside)."""
@@ -155,6 +161,12 @@ class ContactMetrics:
         return {"mean": self.internal.mean, "max_abs": self.internal.max_abs}
 
 
+def fallen(q: np.ndarray, base_z0: float) -> bool:
+    """Whether a free-flyer base that started at height ``base_z0`` (m) has fallen: below
+    :data:`FALL_HEIGHT_FRACTION` of it, tilted beyond :data:`FALL_TILT`, or not finite."""
+    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT or not np.all(np.isfinite(q)))
+
+
 def tilt(q: np.ndarray) -> float:
     """Angle (rad) between a free-flyer base's z axis and the vertical (R_zz = 1 − 2(x² + y²))."""
     x, y = float(q[3]), float(q[4])
@@ -205,6 +217,7 @@ class Series:
         self.torque_ratio = np.zeros((n, len(a)), dtype=np.float32)
         self.support_margin = np.full(n, np.nan)
         self.mass = float(robot.mass)
+        self.gravity = robot.gravity
 
     def record(self, t: float, errors: list[float], sol, contact_forces, margin: float) -> None:
         k = self.k
@@ -244,7 +257,7 @@ class Series:
         nl = max(len(self.levels), int(np.max(np.nonzero(np.isfinite(self.level_residual[:nd]).any(axis=0))[0],
                                                 initial=-1)) + 1)
         return {
-            "dt": self.dt, "mass": self.mass, "g": 9.81, "mu": self.mu,
+            "dt": self.dt, "mass": self.mass, "g": self.gravity, "mu": self.mu,
             "t": lst(self.t),
             "levels": self.levels,
             "task_level": {name: self.level_of.get(name) for name in self.error_names},
@@ -285,6 +298,18 @@ class RunMetrics:
         self.errs: dict[str, Running] = {t.name: Running() for t in stack if t.error(robot) is not None
                                          and t.kind not in ("contact",)}
         self.err_tasks = [(name, stack[name]) for name in self.errs]
+        #: per task its error's unit ("m", "rad", "N", ...; "m+rad" for a pose) and, when it mixes
+        #: units, the components of each (their norms are recorded apart, in ``err_parts``)
+        self.err_units: dict[str, str] = {}
+        self.err_split: dict[str, list[tuple[str, np.ndarray]]] = {}
+        self.err_parts: dict[str, dict[str, Running]] = {}
+        for name, task in self.err_tasks:
+            units = task.error_units(robot)
+            kinds = list(dict.fromkeys(units))
+            self.err_units[name] = "+".join(kinds) if kinds else "unitless"
+            if len(kinds) > 1:
+                self.err_split[name] = [(u, np.flatnonzero([x == u for x in units])) for u in kinds]
+                self.err_parts[name] = {u: Running() for u in kinds}
         self.viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
         self.slip = {c.name: 0.0 for c in contacts}
         self.lifted = {c.name: False for c in contacts}
@@ -297,7 +322,7 @@ class RunMetrics:
         self.tau_hi = robot.tau_max[robot.actuated_idx] * (1 + 1e-6) + 1e-9
         self.inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
         self.hull = SupportPolygon()
-        self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.mass * 9.81)
+        self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
         self.relaxed_cycles = self.saturated_cycles = 0
         self.tau_ratio_max = self.tau_ratio_asked = 0.0
         self.rec = Series(n, dt, robot, stack, [c.name for c in contacts], mu_max, lowest=lowest) if series else None
@@ -322,12 +347,19 @@ class RunMetrics:
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
         self.tau_ratio_max = max(self.tau_ratio_max, float(np.max(np.abs(sol.tau) * self.inv_tau_max, initial=0.0)))
         errs, robot = self.errs, self.robot
+        split, parts = self.err_split, self.err_parts
         for name, task, live in self.err_live:
             if live:
                 e = task.error(robot)
                 errs[name].add(math.sqrt(float(e @ e)))
+                if name in split:
+                    for unit, idx in split[name]:
+                        ei = e[idx]
+                        parts[name][unit].add(math.sqrt(float(ei @ ei)))
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].add(errs[name].last)
+                for r in parts.get(name, {}).values():
+                    r.add(r.last)
 
     def record_state(self, t: float, sim, sol, stack) -> None:
         """The true (simulated) state after the step."""
@@ -371,10 +403,18 @@ class RunMetrics:
         if self.robot.differential_drive:
             self.lateral = max(self.lateral, abs(vs[1]))
 
+    def _task_summary(self, name: str, err: Running) -> dict:
+        out = {**err.stats(), "unit": self.err_units[name]}
+        if name in self.err_parts:
+            out["parts"] = {u: {**r.stats(), "unit": u} for u, r in self.err_parts[name].items()}
+        return out
+
     def summary(self, switched: set) -> dict:
         """The run's metrics on tasks, limits and contacts (the runner adds the rest)."""
         out = {
-            "tasks": {k: v.stats() for k, v in self.errs.items() if v},
+            # per task the norm of its error (rms, max, final over the cycles) in "unit"; a
+            # task that mixes units (a pose: m and rad) also has each unit's part apart
+            "tasks": {k: self._task_summary(k, v) for k, v in self.errs.items() if v},
             "violations": self.viol,
             "contacts": {c.contact: {"slip": math.sqrt(self.slip[c.name]), "lifted": self.lifted[c.name],
                                      **self.contact_metrics.summary(c.name)}

@@ -102,8 +102,9 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
         ax_m.plot(t, _arr(d["friction_margin"]), color=cmap(j), lw=1.2, label=c)
     if contacts:
         ax_f.plot(t, total, color="k", lw=0.8, ls=":", label="sum")
-        mg = series.get("mass", 0.0) * series.get("g", 9.81)
-        ax_f.axhline(mg, color="0.5", lw=0.8, ls="--", label=f"m g = {mg:.0f} N")
+        if "mass" in series and "g" in series:       # the robot's weight, with the model's gravity
+            mg = series["mass"] * series["g"]
+            ax_f.axhline(mg, color="0.5", lw=0.8, ls="--", label=f"m g = {mg:.0f} N")
     ax_f.set_title("contact normal forces F_n", fontsize=9, loc="left")
     ax_f.set_ylabel("N")
     ax_m.axhline(0.0, color="r", lw=0.8)

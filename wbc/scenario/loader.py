@@ -171,7 +171,7 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
             for key in ("offset",):         # trajectories: build_task_trajectory checks the axes
                 if key not in spec:
                     continue
-                if task.kind not in ("com", "frame") or (task.kind == "frame" and min(task._sel) > 2):
+                if not task.moves_position:
                     raise ConfigError(f"{key} moves the position of a com or frame task, not of a {task.kind} task"
                                       f"{' without position axes (mask)' if task.kind == 'frame' else ''}",
                                       key=f"{where}.{key}")

@@ -32,6 +32,8 @@ import numpy as np
 from wbc.controller.solver_names import SOLVERS
 from wbc.errors import ConfigError, SolverError, WbcError, placed
 from wbc.sim.environment import Box, ground, incline
+from wbc.solvers import SOLVER_OPTIONS
+from wbc.solvers.options import check_options
 from wbc.validation.schema import integer, mapping, number, sequence, text, vector
 
 WEIGHTINGS = ("identity", "inertia")
@@ -63,6 +65,8 @@ def solver_section(spec: Any) -> dict:
         out["weighting"] = text(spec["weighting"], "solver.weighting", choices=WEIGHTINGS)
     if "level_weight" in spec:
         out["level_weight"] = number(spec["level_weight"], "solver.level_weight", gt=0, le=1, unit="unitless")
+    check_options(out["type"], SOLVER_OPTIONS[out["type"]], {k: v for k, v in out.items() if k != "type"},
+                  SOLVER_OPTIONS)
     return out
 
 

@@ -80,6 +80,14 @@ def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, n
     return pts
 
 
+#: the contact step's PGS: at most this many sweeps per step ...
+PGS_MAX_ITERATIONS = 300
+#: ... or until its feasibility and complementarity residuals are below the absolute
+#: precision (N·s) or the relative one (unitless; pinocchio's PGS criteria, wbc.sim.contact_solver)
+PGS_ABSOLUTE_PRECISION = 1e-10
+PGS_RELATIVE_PRECISION = 1e-12
+
+
 @dataclass
 class Push:
     """A constant external force (N, world frame) at a frame's origin during [start, start + duration)."""
@@ -253,8 +261,10 @@ class Simulator:
             v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
         elif rows and not nh and self._fused:
             o = self.over_relax
-            v, self.pgs_sweeps, _, finite = cr.contact_step(J, Minv, v_free, depths, self.baumgarte, h, mus, o, 300,
-                                                            1e-10, 1e-12, frames, ids, self._warm, self.point_forces)
+            v, self.pgs_sweeps, _, finite = cr.contact_step(J, Minv, v_free, depths, self.baumgarte, h, mus, o,
+                                                            PGS_MAX_ITERATIONS, PGS_ABSOLUTE_PRECISION,
+                                                            PGS_RELATIVE_PRECISION, frames, ids, self._warm,
+                                                            self.point_forces)
             if not finite:
                 self.solver_failures += 1
         elif rows or nh:
@@ -379,8 +389,10 @@ class Simulator:
         mus = tuple(float(mu) for mu in mus)
         got = self._pgs.get(mus)
         if got is None:
-            got = self._pgs[mus] = self._solver_class(mus, over_relax=self.over_relax, max_iterations=300,
-                                                      absolute_precision=1e-10, relative_precision=1e-12)
+            got = self._pgs[mus] = self._solver_class(mus, over_relax=self.over_relax,
+                                                      max_iterations=PGS_MAX_ITERATIONS,
+                                                      absolute_precision=PGS_ABSOLUTE_PRECISION,
+                                                      relative_precision=PGS_RELATIVE_PRECISION)
         return got
 
     def _lateral_projection(self, v: np.ndarray, Minv: np.ndarray) -> np.ndarray:

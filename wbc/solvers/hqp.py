@@ -58,6 +58,10 @@ from .kernels.qp_rows import (
 )
 from .kernels.records import hint_table
 
+#: the last fallback of a level's QP that both back-ends failed: its Hessian's diagonal raised by
+#: this fraction of its mean diagonal (at least 1; unitless), trading the level's optimum
+#: for a well-conditioned QP; the result is reported degraded
+LAST_RESORT_REGULARIZATION = 1e-3
 
 class HierarchicalQP:
     """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names;
@@ -77,9 +81,12 @@ class HierarchicalQP:
     #: meets inequality rows at every level (else they are reported as not enforced)
     enforces_inequality_rows = True
 
+    #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
+    options: tuple[str, ...] = ()
+
     @classmethod
-    def create(cls, backend: str = "daqp", damping: Damping | None = None, **_options) -> HierarchicalQP:
-        """The solver from the controller's options (those it has no use for ignored)."""
+    def create(cls, backend: str = "daqp", damping: Damping | None = None) -> HierarchicalQP:
+        """The solver from the controller's options (:func:`wbc.solvers.create_solver` checks them)."""
         return cls(backend=backend, damping=damping)
 
     def __init__(self, backend: str | Backend = "daqp", damping: Damping | None = None,
@@ -109,14 +116,12 @@ class HierarchicalQP:
 
     def solve(self, problem: Problem) -> SolveResult:
         """The problem's levels by the strict cascade (:meth:`solve_levels`)."""
-        return self.solve_levels(problem.levels, problem.layout.nx, scale=problem.scale, x_ref=problem.x_ref)
+        return self.solve_levels(problem.levels, problem.layout.nx, x_ref=problem.x_ref)
 
-    def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None,
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
                      dampings: dict | None = None) -> SolveResult:
         """Solve the cascade. ``dampings``: level index -> :class:`Damping` for the levels
-        that do not use the solver's own (the weighted QP's folded level). ``scale``: per-variable scale D, x = D x̃; the cascade's
-        least-norm choices are then made in x̃ (see :class:`~wbc.controller.cycle.Controller`).
+        that do not use the solver's own (the weighted QP's folded level).
 
         ``x_ref``: the reference of the least-norm choices (default 0). Every level's
         step is the smallest change that solves it, starting from x_ref instead of the
@@ -129,11 +134,6 @@ class HierarchicalQP:
         of the lower levels' QPs (:func:`~wbc.solvers.kernels.qp_rows.higher_rows`), depend
         on it; a previous solution as x_ref let the directions no task decides (the
         internal contact forces) drift from cycle to cycle."""
-        if scale is not None:
-            levels = [scaled_level(lvl, scale) for lvl in levels]
-            res = self.solve_levels(levels, nx, key, x_ref=None if x_ref is None else x_ref / scale, dampings=dampings)
-            res.x = scale * res.x
-            return res
         cas = Cascade(nx, self._hints)
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
@@ -169,7 +169,7 @@ class HierarchicalQP:
     def _rows(self, levels: list[Level], nx: int, dampings: dict) -> _LevelRows:
         """Every level's rows as the compiled run reads them: the row buffer's arrays when
         the levels are the buffer's own, else the levels' rows stacked afresh (the weighted
-        QP's folded level, :func:`scaled_level`'s copies)."""
+        QP's folded level, levels built outside a stack)."""
         n = len(levels)
         damp = [dampings.get(lvl.index, self.damping) for lvl in levels] if dampings else [self.damping] * n
         d0 = self.damping
@@ -414,7 +414,7 @@ class HierarchicalQP:
                 H[np.arange(r), np.arange(r)] += self.slack_regularization
             res2 = self._attempt(fb, H, g, Cq, lq, hq, key)
             if not res2.ok:
-                H[np.arange(r), np.arange(r)] += 1e-3 * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
+                H[np.arange(r), np.arange(r)] += LAST_RESORT_REGULARIZATION * max(1.0, float(np.trace(H[:r, :r])) / max(r, 1))
                 res3 = self._attempt(self.backend, H, g, Cq, lq, hq, key)
                 if not res3.ok:
                     return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}; regularised: {res3.status}"
@@ -445,9 +445,3 @@ class _LevelRows:
         self.lo[i0:i1] = self.lo[i0:i1] - w
         self.hi[i0:i1] = self.hi[i0:i1] - w
 
-
-def scaled_level(lvl: Level, d: np.ndarray) -> Level:
-    """The level's rows in the variable x̃ with x = diag(d) x̃ (box bounds become rows)."""
-    C, lo, hi = lvl.inequalities(len(d))
-    return Level(lvl.index, lvl.tasks, lvl.A * d, lvl.b, C * d, lo, hi, None, lvl.eq_slices, lvl.in_slices, lvl.blocks,
-                 lvl.regularizers_only)

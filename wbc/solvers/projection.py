@@ -78,10 +78,13 @@ class RecursiveProjection:
     #: QP answers rejected or failed (it solves no QP: always 0)
     backend_failures = 0
 
+    #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
+    options: tuple[str, ...] = ("weighting",)
+
     @classmethod
-    def create(cls, backend: str = "daqp", damping: Damping | None = None, weighting: str = "identity",
-               **_options) -> RecursiveProjection:
-        """The solver from the controller's options (those it has no use for ignored)."""
+    def create(cls, backend: str = "daqp", damping: Damping | None = None,
+               weighting: str = "identity") -> RecursiveProjection:
+        """The solver from the controller's options (:func:`wbc.solvers.create_solver` checks them)."""
         return cls(weighting=weighting, damping=damping, backend=backend)
 
     def solve(self, problem: Problem) -> SolveResult:

@@ -9,7 +9,7 @@ import numpy as np
 from ..problem.result import SolveResult
 from ..problem.rows import Level
 from .cascade import Damping
-from .hqp import HierarchicalQP, scaled_level
+from .hqp import HierarchicalQP
 
 
 class WeightedQP(HierarchicalQP):
@@ -24,10 +24,13 @@ class WeightedQP(HierarchicalQP):
 
     name = "weighted"
 
+    #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
+    options: tuple[str, ...] = ("level_weight",)
+
     @classmethod
-    def create(cls, backend: str = "daqp", damping: Damping | None = None, level_weight: float = 1e-3,
-               **_options) -> WeightedQP:
-        """The solver from the controller's options (those it has no use for ignored)."""
+    def create(cls, backend: str = "daqp", damping: Damping | None = None,   # type: ignore[override]
+               level_weight: float = 1e-3) -> WeightedQP:
+        """The solver from the controller's options (:func:`wbc.solvers.create_solver` checks them)."""
         return cls(backend=backend, damping=damping, level_weight=level_weight)
 
     def __init__(self, *args, level_weight: float = 1e-3, **kwargs) -> None:
@@ -37,17 +40,11 @@ class WeightedQP(HierarchicalQP):
         #: while the stack hands over the same levels (:meth:`_merge`)
         self._merge_plan: tuple | None = None
 
-    def solve_levels(self, levels: list[Level], nx: int, key: str = "",
-                     scale: np.ndarray | None = None, x_ref: np.ndarray | None = None,
+    def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
                      dampings: dict | None = None) -> SolveResult:
         """The soft hierarchy's two strict levels (level 0, the folded rest) and the
         regularisation tail, by the strict cascade (``dampings`` as there: unused here,
         the folded level gets its own)."""
-        if scale is not None:
-            res = self.solve_levels([scaled_level(lvl, scale) for lvl in levels], nx, key,
-                                    x_ref=None if x_ref is None else x_ref / scale)
-            res.x = scale * res.x
-            return res
         tail = []
         if len(levels) > 2 and levels[-1].regularizers_only:
             levels, tail = levels[:-1], levels[-1:]

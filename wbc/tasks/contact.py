@@ -176,6 +176,11 @@ class Contact(MotionTask):
         e = self._errors(robot)[0]
         return e[self._zero_axes(len(e))[1]]
 
+    def error_units(self, robot) -> tuple[str, ...]:
+        s = self._surface if self._surface is not None else self.surface(robot)
+        axes = self._zero_axes(s.force_dim)[1]
+        return tuple("m" if s.force_dim == 3 or i < 3 else "rad" for i in axes)
+
     def rows(self, robot, layout: Layout) -> Rows:
         s = self._surface if self._surface is not None else self.surface(robot)
         m = s.force_dim

@@ -189,6 +189,17 @@ class Force(Task):
                              f"contact task '{self.contact}' has {dim} force components (3: a point, 6: a surface)")
         return got
 
+    def error_units(self, robot) -> tuple[str, ...]:
+        """N per force direction, N·m per moment direction (a surface contact's components 3-5),
+        ``"N|N·m"`` for a direction that mixes both."""
+        if self._directions is None:
+            return ("N",)
+        D = self._directions
+        if D.shape[0] == 3:
+            return ("N",) * D.shape[1]
+        force, moment = np.abs(D[:3]).max(axis=0) > 0, np.abs(D[3:]).max(axis=0) > 0
+        return tuple("N|N·m" if f and m else ("N" if f else "N·m") for f, m in zip(force, moment))
+
     def reference(self) -> np.ndarray:
         """λ_D at the task's clock: the target, raised from 0 by a quintic over ``ramp`` s."""
         if self.ramp <= 0.0 or self.time >= self.ramp:

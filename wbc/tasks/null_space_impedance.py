@@ -281,6 +281,13 @@ class NullSpaceImpedance(Task):
             return None
         return self.last.Zsharp @ robot.difference(robot.q, self.target)
 
+    def error_units(self, robot) -> tuple[str, ...]:
+        """The null-space coordinates ν = Z# (q_d ⊖ q): combinations of joint coordinates,
+        rad on a robot with revolute joints only (m and rad mixed otherwise: ``"rad|m"``)."""
+        units = set(robot.velocity_units())
+        unit = "rad" if units == {"rad"} else "rad|m"
+        return (unit,) * (0 if self.last is None else self.last.Zsharp.shape[0])
+
     def params(self) -> dict:
         p = {"k_q": self.k_q if np.ndim(self.k_q) == 0 else list(self.k_q)}
         if self.frame is not None:

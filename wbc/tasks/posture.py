@@ -88,6 +88,11 @@ class Posture(MotionTask):
     def error(self, robot) -> np.ndarray:
         return robot.difference(robot.q, self._q_ref(robot))[self._indices(robot)]
 
+    def error_units(self, robot) -> tuple[str, ...]:
+        """rad per revolute coordinate, m per prismatic one."""
+        units = robot.velocity_units()
+        return tuple(units[i] for i in self._indices(robot))
+
     def rows(self, robot, layout: Layout) -> Rows:
         idx = self._idx if self._idx is not None else self._indices(robot)
         A, b = eq_buffer(self, len(idx), layout.nx)
