@@ -204,8 +204,8 @@ def test_simulator_contact_jacobians_equal_frame_jacobians():
         rows, frames, depths, mus, ids = sim._contact_rows()
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        assert ids, "no point in contact"
-        for row, R, dep, i in zip(rows, frames, depths, ids):
+        assert ids.size, "no point in contact"
+        for row, R, dep, i in zip(rows.reshape(-1, 3, model.nv), frames, depths, ids):
             J = pin.getFrameJacobian(model, data, fids[i], pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
             np.testing.assert_allclose(row, R.T @ J, atol=1e-12)
             assert dep == pytest.approx(-data.oMf[fids[i]].translation[2], abs=1e-12)

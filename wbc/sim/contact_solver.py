@@ -1,4 +1,4 @@
-"""Pinocchio's projected Gauss-Seidel for frictional contacts, behind one interface.
+"""The own simulator's contact solvers: the compiled PGS (default) or pinocchio's binding.
 
 Problem (per simulator step, n contact points, impulses in N·s): given the
 Delassus matrix G = J M⁻¹ Jᵀ (3n × 3n, 1/kg: velocity per impulse) and the
@@ -25,6 +25,8 @@ whichever binding this pinocchio has, chosen once by feature detection:
 
 Both run the same sweep: per contact, the normal impulse then the tangential
 one, each scaled by ``over_relax`` / (diagonal of G), projected on the cone.
+:class:`wbc.sim.pgs.CompiledPGS` runs pinocchio 4's (same interface, one compiled
+call, on either pinocchio); :data:`SOLVERS` names the choices of ``Simulator(contact_solver=...)``.
 """
 
 from __future__ import annotations
@@ -34,7 +36,10 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["ContactSolver", "BACKEND"]
+from ..errors import WbcError
+from .pgs import CompiledPGS
+
+__all__ = ["ContactSolver", "BACKEND", "SOLVERS", "solver_class"]
 
 
 class _PGS3:
@@ -118,9 +123,21 @@ def _pick():
                       "PGSConstraintSolver with PointContactConstraintModel (4.x) is available")
 
 
-#: The binding in use: ``ContactSolver(mus, over_relax=0.6, max_iterations=300,
+#: pinocchio's binding: ``ContactSolver(mus, over_relax=0.6, max_iterations=300,
 #: absolute_precision=1e-10, relative_precision=1e-12)``, built once per tuple of
 #: friction coefficients μ_i (one per contact point); ``solve(G, g, lam_warm) -> lam``;
 #: ``converged`` tells whether the last solve met a precision before the iteration cap.
 ContactSolver = _pick()
 BACKEND: str = ContactSolver.backend
+
+#: ``Simulator(contact_solver=...)``: "compiled" (:class:`~wbc.sim.pgs.CompiledPGS`, pinocchio 4's
+#: PGS rule in one numba call, on any pinocchio) or "pinocchio" (this pinocchio's own binding)
+SOLVERS = {"compiled": CompiledPGS, "pinocchio": ContactSolver}
+
+
+def solver_class(name: str):
+    """The contact solver class called ``name`` in :data:`SOLVERS`; WbcError otherwise."""
+    try:
+        return SOLVERS[name]
+    except KeyError:
+        raise WbcError(f"simulator: contact_solver must be one of {sorted(SOLVERS)}, got {name!r}") from None

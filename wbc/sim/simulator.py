@@ -9,9 +9,11 @@ simulators. Each step of length h:
    Delassus matrix G = J M⁻¹ Jᵀ (``computeMinverse``) and g = J v_free, find the
    impulses λ_i in the Coulomb cones ‖λ_t‖ ≤ μ λ_n such that the contact
    velocities σ = G λ + g are complementary to them (no pulling, no
-   penetration, sliding opposes the impulse): pinocchio's projected Gauss-Seidel
-   (``PGSContactSolver`` on pinocchio 3, ``PGSConstraintSolver`` on pinocchio 4;
-   :mod:`wbc.sim.contact_solver`).
+   penetration, sliding opposes the impulse): projected Gauss-Seidel, by default
+   pinocchio 4's rule compiled (:mod:`wbc.sim.pgs`), or pinocchio's own binding
+   (``contact_solver="pinocchio"``: ``PGSContactSolver`` on pinocchio 3,
+   ``PGSConstraintSolver`` on pinocchio 4; :mod:`wbc.sim.contact_solver`). The rows,
+   G and g are compiled too (:mod:`wbc.sim.contact_rows`).
    The normal rows carry a Baumgarte term (−β·depth/h for a penetrating point,
    +gap/h for one about to touch) that removes penetration without bouncing.
 3. v⁺ = v_free + M⁻¹ Jᵀ λ,  q⁺ = q ⊕ h v⁺ (``integrate`` on the manifold).
@@ -46,7 +48,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import WbcError
-from .contact_solver import ContactSolver
+from . import contact_rows as cr
+from .contact_solver import ContactSolver, solver_class
 from .joint_dynamics import JointDynamics, eliminate_lateral
 
 
@@ -107,14 +110,16 @@ class Simulator:
     driver's torque limits (N·m, ≥ 0, ``inf`` = none), per actuated joint (na) or
     per dof (nv, unactuated entries ignored), ``None`` for no saturation;
     ``joint_dynamics``: the model's URDF damping and friction act on the joints
-    (:mod:`wbc.sim.joint_dynamics`; ``self.joint_dynamics`` None when off or all zero).
+    (:mod:`wbc.sim.joint_dynamics`; ``self.joint_dynamics`` None when off or all zero);
+    ``contact_solver``: "compiled" (pinocchio 4's PGS in numba, the default) or "pinocchio"
+    (this pinocchio's binding), :data:`wbc.sim.contact_solver.SOLVERS`.
     """
 
     def __init__(self, model: pin.Model, points, environment, q0, v0=None, dt: float = 1e-3,
                  substeps: int = 1, actuated: np.ndarray | None = None, differential_drive: bool = False,
                  baumgarte: float = 0.2, margin: float = 2e-3, noise_q: float = 0.0, noise_v: float = 0.0,
                  latency_steps: int = 0, seed: int = 0, tau_limits: np.ndarray | None = None,
-                 joint_dynamics: bool = False) -> None:
+                 joint_dynamics: bool = False, contact_solver: str = "compiled") -> None:
         self.model = model
         self.data = model.createData()
         self.env = list(environment)
@@ -132,11 +137,27 @@ class Simulator:
         # the resting body rattles; 0.6 converges on every case tested
         self.over_relax = 0.6
         self.points = [(model.getJointId(j), np.asarray(r, float)) for j, r in points]
+        self._solver_class = solver_class(contact_solver)
         self._pgs: dict[tuple, ContactSolver] = {}   # one solver per tuple of friction coefficients
-        self._tril = np.tril_indices(model.nv, -1)
+        # the points as arrays for the compiled rows: each point's joint slot and offset, the
+        # joints' placements (refilled each step) and supporting dofs
+        self._joints = sorted({j for j, _ in self.points})
+        self._slot = np.array([self._joints.index(j) for j, _ in self.points], dtype=np.int64)
+        self._offsets = np.array([r for _, r in self.points], dtype=float).reshape(-1, 3)
+        self._support = cr.supports(model, self._joints)
+        self._Rj = np.zeros((len(self._joints), 3, 3))
+        self._tj = np.zeros((len(self._joints), 3))
+        self._P = np.zeros((len(self.points), 3))
+        npts = len(self.points)
+        self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
+        self._ids, self._shape_of = np.zeros(npts, dtype=np.int64), np.zeros(npts, dtype=np.int64)
+        self._depths, self._frames = np.zeros(npts), np.zeros((npts, 3, 3))
+        self._J = np.zeros((3 * npts, model.nv))
+        self._fused = contact_solver == "compiled"   # the contact step in one compiled call
+        self.pgs_sweeps = 0         # the last contact solve's sweeps (compiled PGS)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
-        self._warm: dict[int, np.ndarray] = {}
+        self._warm = np.zeros((len(self.points), 3))          # last step's impulses, N·s, contact frames
         self._rng = np.random.default_rng(seed)
         self.noise_q, self.noise_v = noise_q, noise_v
         self._delay: deque = deque(maxlen=latency_steps + 1)
@@ -220,7 +241,8 @@ class Simulator:
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
         fext = self._external_forces()
-        rows, frames, depths, mus, ids = self._contact_rows()
+        J, frames, depths, mus, ids = self._contact_rows()
+        rows = ids.size > 0
         nh = self.differential_drive
         jd = self.joint_dynamics
         if jd is not None:          # damped: M̃⁻¹ = (M + hD)⁻¹ in the free motion and every impulse
@@ -235,19 +257,23 @@ class Simulator:
             w = v[3:6]
             v_free[:3] = pin.exp3(-w * h) @ (v[:3] + h * (a_free[:3] + _cross(w, v[:3])))
 
-        self.point_forces[:] = 0.0
         if jd is not None and jd.friction_idx.size:
-            v = self._with_joint_friction(v_free, Minv, rows, frames, depths, mus, ids)
+            v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
+        elif rows and not nh and self._fused:
+            o = self.over_relax
+            v, self.pgs_sweeps, _, finite = cr.contact_step(J, Minv, v_free, depths, self.baumgarte, h, mus, o,
+                                                            PGS_MAX_ITERATIONS, PGS_ABSOLUTE_PRECISION,
+                                                            PGS_RELATIVE_PRECISION, frames, ids, self._warm,
+                                                            self.point_forces)
+            if not finite:
+                self.solver_failures += 1
         elif rows or nh:
             v_new = v_free
             if rows:
-                J = np.vstack(rows)
-                G = J @ Minv @ J.T
-                g = J @ v_free
-                for k, dep in enumerate(depths):
-                    g[3 * k + 2] -= (self.baumgarte * dep if dep > 0 else dep) / h
-                lam = np.concatenate([self._warm.get(i, np.zeros(3)) for i in ids])
-                solver = self._pgs_for(tuple(mus))
+                G = cr.delassus(J, Minv)
+                g = cr.contact_velocity(J, v_free, depths, self.baumgarte, h)
+                lam = self._warm[ids].reshape(-1)
+                solver = self._pgs_for(mus)
                 if nh:
                     lam = self._solve_with_nonholonomic(G, g, J, Minv, v_free, lam, solver)
                 else:
@@ -258,15 +284,14 @@ class Simulator:
                 v_new = v_free + Minv @ (J.T @ lam)
                 if nh:
                     v_new = self._lateral_projection(v_new, Minv)
-                self._warm = {i: lam[3 * k: 3 * k + 3].copy() for k, i in enumerate(ids)}
-                for k, i in enumerate(ids):
-                    self.point_forces[i] = frames[k] @ lam[3 * k: 3 * k + 3] / h
+                self._keep_impulses(lam, frames, ids)
             else:
                 v_new = self._lateral_projection(v_free, Minv)
+                self._keep_impulses(None, frames, ids)
             v = v_new
         else:
             v = v_free
-            self._warm = {}
+            self._keep_impulses(None, frames, ids)
         self.v = v
         self.q = pin.integrate(m, q, v * h)
         self.t += h
@@ -279,70 +304,95 @@ class Simulator:
             # M⁻¹ is needed for the contact impulses anyway: then the free acceleration is
             # M⁻¹(τ − h) (one matrix-vector product) rather than a second pass of ABA
             Minv = pin.computeMinverse(m, d, q)
-            Minv[self._tril] = Minv.T[self._tril]        # computeMinverse fills the upper triangle
+        if Minv is not None and fext:
+            cr.symmetrise_upper(Minv)                    # computeMinverse fills the upper triangle
         if Minv is None or fext:
             return Minv, pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
-        return Minv, Minv @ (tau - pin.nonLinearEffects(m, d, q, v))
+        return Minv, cr.free_acceleration(Minv, tau, pin.nonLinearEffects(m, d, q, v))
 
-    def _with_joint_friction(self, v_free, Minv, rows, frames, depths, mus, ids) -> np.ndarray:
+    def _keep_impulses(self, lam, frames, ids) -> None:
+        """The step's impulses ``lam`` (3k, N·s, contact frames; None: no contact) kept as the next
+        step's warm start, per point, and as each point's force (N, world)."""
+        self._warm[:] = 0.0
+        if lam is None:
+            self.point_forces[:] = 0.0
+            return
+        self._warm[ids] = lam.reshape(-1, 3)
+        cr.point_forces(frames, lam, ids, self.h, self.point_forces)
+
+    def _with_joint_friction(self, v_free, Minv, J, frames, depths, mus, ids) -> np.ndarray:
         """The velocity after the joint friction impulses, the contact impulses and the
         differential drive's lateral constraint (eliminated first), as
         :meth:`JointDynamics.friction_impulses` solves them; sets the contacts' forces."""
         if self.differential_drive:
             Minv, v_free = eliminate_lateral(Minv, v_free, 1)
-        if not rows:
-            self._warm = {}
+        if not ids.size:
+            self._keep_impulses(None, frames, ids)
             return self.joint_dynamics.friction_impulses(Minv, v_free, self.h)[0]
-        J = np.vstack(rows)
-        g = J @ v_free
-        for k, dep in enumerate(depths):
-            g[3 * k + 2] -= (self.baumgarte * dep if dep > 0 else dep) / self.h
-        lam = np.concatenate([self._warm.get(i, np.zeros(3)) for i in ids])
+        g = cr.contact_velocity(J, v_free, depths, self.baumgarte, self.h)
+        lam = self._warm[ids].reshape(-1)
         v_new, lam = self.joint_dynamics.friction_impulses(Minv, v_free, self.h,
-                                                           (J, g, self._pgs_for(tuple(mus)).solve, lam))
+                                                           (J, g, self._pgs_for(mus).solve, lam))
         if not np.all(np.isfinite(lam)):
             self.solver_failures += 1
+            self.point_forces[:] = 0.0          # (the warm start stays the last good step's)
             return self.joint_dynamics.friction_impulses(Minv, v_free, self.h)[0]
-        self._warm = {i: lam[3 * k: 3 * k + 3].copy() for k, i in enumerate(ids)}
-        for k, i in enumerate(ids):
-            self.point_forces[i] = frames[k] @ lam[3 * k: 3 * k + 3] / self.h
+        self._keep_impulses(lam, frames, ids)
         return v_new
 
-    def _contact_rows(self):
-        """Points in (or within ``margin`` of) contact, each with the surface it touches:
-        the rows of its velocity Jacobian in the contact frame (t1, t2, n), its depth,
-        μ, the frame and the point's index. One joint Jacobian per joint."""
-        m, d = self.model, self.data
-        rows, frames, depths, mus, ids = [], [], [], [], []
-        jac: dict[int, np.ndarray] = {}
-        for i, (jid, r) in enumerate(self.points):
+    def _point_positions(self) -> np.ndarray:
+        """World positions (m) of the contact points from the joints' placements in ``data``
+        (kept in a buffer: copy it to keep it)."""
+        d = self.data
+        for s, jid in enumerate(self._joints):
             oMi = d.oMi[jid]
-            p = oMi.act(r)
-            best, dep = None, -self.margin
-            for s in self.env:
-                ds = s.depth(p)
-                if ds > dep:
-                    best, dep = s, ds
-            if best is None:
-                continue
-            Jj = jac.get(jid)
-            if Jj is None:
-                Jj = jac[jid] = pin.getJointJacobian(m, d, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-            Jp = Jj[:3] - pin.skew(p - oMi.translation) @ Jj[3:]   # point velocity Jacobian (world)
-            rows.append(best.R.T @ Jp)                              # contact frame (t1, t2, n)
-            depths.append(dep)
-            mus.append(best.mu)
-            frames.append(best.R)
-            ids.append(i)
-        return rows, frames, depths, mus, ids
+            self._Rj[s] = oMi.rotation
+            self._tj[s] = oMi.translation
+        cr.point_positions(self._Rj, self._tj, self._slot, self._offsets, self._P)
+        return self._P
 
-    def _pgs_for(self, mus: tuple) -> ContactSolver:
-        """pinocchio's PGS for this set of contacts (one μ per point), built once."""
+    def _contact_rows(self):
+        """Points in (or within ``margin`` of) contact, each with the surface it touches
+        (the deepest; the first listed of equally deep ones): the rows of their velocity
+        Jacobians in the contact frames (t1, t2, n) (3k × nv), the frames (k × 3 × 3), the
+        depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills."""
+        Jw = self.data.J
+        if Jw.ndim == 1:            # eigenpy hands a 6 × 1 matrix (nv = 1) over as a vector
+            Jw = Jw.reshape(6, 1)
+        if self._shapes is not None:
+            d = self.data
+            for s, jid in enumerate(self._joints):
+                oMi = d.oMi[jid]
+                self._Rj[s] = oMi.rotation
+                self._tj[s] = oMi.translation
+            kind, point, normal, size, shape_frames, shape_mu = self._shapes
+            k = cr.find_contacts(self._Rj, self._tj, self._slot, self._offsets, kind, point, normal, size, shape_frames,
+                                 self.margin, Jw, self._support, self._P, self._ids, self._shape_of, self._depths,
+                                 self._frames, self._J)
+            return self._J[:3 * k], self._frames[:k], self._depths[:k], shape_mu[self._shape_of[:k]], self._ids[:k]
+        P = self._point_positions()
+        best = np.full(P.shape[0], -1)
+        dep = np.full(P.shape[0], -self.margin)
+        for k, s in enumerate(self.env):
+            ds = s.depths(P)
+            deeper = ds > dep
+            best[deeper], dep[deeper] = k, ds[deeper]
+        ids = np.flatnonzero(best >= 0)
+        frames = np.array([self.env[best[i]].R for i in ids]).reshape(-1, 3, 3)
+        mus = np.array([self.env[best[i]].mu for i in ids])
+        J = np.empty((3 * ids.size, self.model.nv))
+        cr.contact_jacobian(Jw, P, ids, self._slot, self._support, frames, J)
+        return J, frames, dep[ids], mus, ids
+
+    def _pgs_for(self, mus) -> ContactSolver:
+        """The PGS for this set of contacts (one μ per point), built once per tuple of μ."""
+        mus = tuple(float(mu) for mu in mus)
         got = self._pgs.get(mus)
         if got is None:
-            got = self._pgs[mus] = ContactSolver(mus, over_relax=self.over_relax, max_iterations=PGS_MAX_ITERATIONS,
-                                                 absolute_precision=PGS_ABSOLUTE_PRECISION,
-                                                 relative_precision=PGS_RELATIVE_PRECISION)
+            got = self._pgs[mus] = self._solver_class(mus, over_relax=self.over_relax,
+                                                      max_iterations=PGS_MAX_ITERATIONS,
+                                                      absolute_precision=PGS_ABSOLUTE_PRECISION,
+                                                      relative_precision=PGS_RELATIVE_PRECISION)
         return got
 
     def _lateral_projection(self, v: np.ndarray, Minv: np.ndarray) -> np.ndarray:
@@ -393,7 +443,7 @@ class Simulator:
     def point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points at the current state."""
         pin.forwardKinematics(self.model, self.data, self.q)
-        return np.array([self.data.oMi[j].act(r) for j, r in self.points]).reshape(-1, 3)
+        return self._point_positions().copy()
 
     def energy(self) -> float:
         """Kinetic + gravitational potential energy (J)."""
