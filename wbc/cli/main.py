@@ -29,6 +29,7 @@ what was expected), 3 an internal error (a bug: wbc --debug COMMAND ... prints i
 
 def _cmd_run(args) -> int:
     from wbc.runner.loop import run
+    from wbc.runner.options import RunOptions
     from wbc.scenario.loader import load_config
 
     sc = load_config(args.file)
@@ -52,9 +53,10 @@ def _cmd_run(args) -> int:
                                    fps=args.fps, diagnostics_hz=args.diagnostics_rate, frames=shown_frames(sc))
     want_series = bool(args.plot or args.series)
     try:
-        metrics = run(sc, solver=args.solver, backend=args.backend, duration=args.duration,
-                      progress=True, callback=callback, series=want_series, simulator=args.sim,
-                      joint_dynamics=True if args.joint_dynamics else None)
+        options = RunOptions(solver=args.solver, backend=args.backend, duration=args.duration,
+                             simulator=args.sim, joint_dynamics=True if args.joint_dynamics else None,
+                             series=want_series, progress=True, callback=callback)
+        metrics = run(sc, options)
         if not args.headless and sys.stdin.isatty():
             try:
                 input("wbc: run finished; press Enter to close the browser view ")

@@ -32,6 +32,7 @@ Three guarantees, whatever the solver and the state:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import partial
 
 import numba as nb
@@ -56,6 +57,19 @@ from wbc.tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
 __all__ = ["SOLVERS", "Controller"]
 
+
+
+@dataclass(slots=True)
+class ForceRamp:
+    """A contact's normal-force bound ramped from ``f_start`` to ``f_end`` (N) over ``cycles``
+    control cycles (``k`` of them done); at the end the contact task is removed (``remove``,
+    a release) or its bound lifted (a touch-down)."""
+
+    f_start: float
+    f_end: float
+    cycles: int
+    k: int = 0
+    remove: bool = False
 
 class Controller:
     """Whole-body controller of ``robot`` for ``stack``.
@@ -128,7 +142,7 @@ class Controller:
         self._x_ref: np.ndarray | None = None
         self._last_forces: dict[str, np.ndarray] = {}
         self.dt = float(dt)
-        self._ramps: dict[str, tuple] = {}   # contact task name -> (f_start, f_end, cycles, k, remove)
+        self._ramps: dict[str, ForceRamp] = {}   # contact task name -> its normal-force bound's ramp
         self.layout: Layout | None = None
         self.levels: list[Level] = []
         #: an object with ``lap(phase, t0) -> t`` (the bench's phase timer) told the time of each
@@ -146,7 +160,7 @@ class Controller:
         remove the task."""
         task = self.stack[name]
         f_now = float(self._last_forces.get(name, np.zeros(3))[2])
-        self._ramps[name] = (max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), 0, True)
+        self._ramps[name] = ForceRamp(max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), remove=True)
         task.fmax = max(f_now, 0.0)
 
     def make_contact(self, task, level: int = 0, duration: float = 0.1, fmax_end: float = np.inf) -> None:
@@ -157,16 +171,17 @@ class Controller:
         task.fmax = 0.0
         self.stack.add(task, level)
         weight = self.robot.weight
-        self._ramps[task.name] = (0.0, weight, max(1, int(round(duration / self.dt))), 0, False)
+        self._ramps[task.name] = ForceRamp(0.0, weight, max(1, int(round(duration / self.dt))), remove=False)
 
     def _advance_ramps(self) -> None:
         for name in list(self._ramps):
-            f0, f1, n, k, remove = self._ramps[name]
-            k += 1
+            ramp = self._ramps[name]
+            ramp.k += 1
+            f0, f1, n, k = ramp.f_start, ramp.f_end, ramp.cycles, ramp.k
             task = self.stack[name]
             if k >= n:
                 del self._ramps[name]
-                if remove:
+                if ramp.remove:
                     self.stack.remove(name)
                 else:
                     task.fmax = np.inf
@@ -177,7 +192,6 @@ class Controller:
             # profile is the torque's: a linear ramp starts at full slope (a step in dτ/dt,
             # 1.4 N·m per cycle at Talos's touch-down), this one from rest (1.0).
             task.fmax = f0 + (f1 - f0) * s_ * s_ * (3.0 - 2.0 * s_)
-            self._ramps[name] = (f0, f1, n, k, remove)
 
     def _internal_constraints(self, layout: Layout) -> list:
         extra = []

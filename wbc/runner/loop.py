@@ -47,6 +47,15 @@ from wbc.interaction.external_force import ExternalForceRun
 from wbc.interaction.measurement import InteractionRun
 from wbc.runner.compile_notice import CompileNotice
 from wbc.runner.metrics import RunMetrics, fallen
+from wbc.runner.observers import (
+    CallbackObserver,
+    Cycle,
+    ExternalForceObserver,
+    InteractionObserver,
+    MetricsObserver,
+    RunObserver,
+)
+from wbc.runner.options import RunOptions
 from wbc.scenario.loader import Scenario
 from wbc.scenario.sections import duration_value
 from wbc.sim.backends import make_simulator
@@ -103,46 +112,41 @@ def _simulated_robot(robot, model_perturbation):
 
 class ScenarioRun:
     """One closed-loop run of a scenario: set up by the constructor (controller, simulator,
-    pushes, the referenced tasks' start values, the metrics), advanced by :meth:`cycle`,
-    reported by :meth:`metrics`. Arguments as :func:`run`."""
+    pushes, the referenced tasks' start values, the observers), advanced by :meth:`cycle`,
+    reported by :meth:`metrics`. ``options``: a :class:`~wbc.runner.options.RunOptions`, or
+    its fields as keywords (as :func:`run`)."""
 
-    def __init__(self, sc: Scenario, solver: str | None = None, backend: str | None = None,
-                 duration: float | None = None, progress: bool = False, callback=None, series: bool = False,
-                 simulator: str | None = None, model_perturbation=None, faults: FaultPolicy | None = None,
-                 wrap_simulator=None, joint_dynamics: bool | None = None) -> None:
+    def __init__(self, sc: Scenario, options: RunOptions | None = None, /, **settings) -> None:
+        self.options = o = RunOptions.of(options, settings)
         robot, stack = sc.robot, sc.stack
-        self.sc, self.robot, self.stack, self.progress, self.callback = sc, robot, stack, progress, callback
-        self.tty = progress and sys.stderr.isatty()      # how the progress line is written (cycle)
+        self.sc, self.robot, self.stack, self.progress = sc, robot, stack, o.progress
+        self.tty = o.progress and sys.stderr.isatty()      # how the progress line is written (cycle)
         opts = dict(sc.solver)
-        self.solver_name = solver or opts.pop("type", "hqp")
         given = opts.pop("type", "hqp")
-        if backend:
-            opts["backend"] = backend
+        self.solver_name = o.solver or given
+        if o.backend:
+            opts["backend"] = o.backend
         self.backend = opts.get("backend", "daqp")        # a name, or a Backend instance
-        self.simulator = simulator or sc.simulator
-        self.joint_dynamics = sc.joint_dynamics if joint_dynamics is None else bool(joint_dynamics)
-        self.notice = CompileNotice(enabled=progress)    # a first run compiles the kernels: say so
+        self.simulator = o.simulator or sc.simulator
+        self.joint_dynamics = sc.joint_dynamics if o.joint_dynamics is None else bool(o.joint_dynamics)
+        self.notice = CompileNotice(enabled=o.progress)    # a first run compiles the kernels: say so
         self.notice.start()
         try:
             self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
-                                   faults=faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
+                                   faults=o.faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
         except ConfigError as exc:    # a solver chosen over the scenario's, given the scenario's options
             raise ConfigError(f"{exc.message} (the scenario's solver is '{given}'; this run's is "
                               f"'{self.solver_name}')", key=exc.key, file=sc.source) from None
-        sim = make_simulator(self.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
+        sim = make_simulator(self.simulator, _simulated_robot(robot, o.model_perturbation), sc.environment,
                              joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
                              tau_limits=robot.tau_max, **sc.sensing)
-        if wrap_simulator is not None:
-            sim = wrap_simulator(sim)
+        if o.wrap_simulator is not None:
+            sim = o.wrap_simulator(sim)
         self.sim = sim
         for p in sc.pushes:
             sim.push(p["frame"], p["force"], p["start"], p["duration"])
-        self.interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)  # force tasks: measurement, figures
-        # external-force source and glass figures of an interaction scenario (wbc.interaction.external_force)
-        self.external = (ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)
-                         if sc.interaction is not None else None)
         self.last_sol = None
-        self.duration = sc.duration if duration is None else duration_value(duration, sc.dt)
+        self.duration = sc.duration if o.duration is None else duration_value(o.duration, sc.dt)
         self.n = round(self.duration / sc.dt)
         self.start = self._start_values()
         # a sliding hand is no support
@@ -154,8 +158,9 @@ class ScenarioRun:
             pts_of[c.name] = [i for i, (j, _) in enumerate(sim.points) if j == jid]
         self.base_z0 = sim.q[2] if robot.root == "free_flyer" else None
         mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
-        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, series,
+        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, o.series,
                                    self.ctrl.lowest_tasks())
+        self.observers = self._observers(o)
         self.cycle_times = np.full(self.n, np.nan)     # touched now: no growth mid-run
         self.failures, self.fell, self.stopped = 0, False, None
         self.sim_failures = getattr(sim, "solver_failures", 0)
@@ -163,6 +168,23 @@ class ScenarioRun:
         self.refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
         self.pending = list(sc.events)
         self.switched: set[str] = set()
+
+    def _observers(self, o: RunOptions) -> list[RunObserver]:
+        """The run's observers, in calling order (:mod:`wbc.runner.observers`): the force tasks'
+        measurement, the external-force source, the user's (``callback``, then ``observers``),
+        the metrics last (they record the state the others have seen)."""
+        sc, robot, stack, sim = self.sc, self.robot, self.stack, self.sim
+        out: list[RunObserver] = []
+        interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)     # force tasks: measurement, figures
+        if interaction is not None:
+            out.append(InteractionObserver(interaction))
+        if sc.interaction is not None:      # external-force source and glass figures of an interaction scenario
+            out.append(ExternalForceObserver(ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)))
+        if o.callback is not None:
+            out.append(CallbackObserver(o.callback))
+        out.extend(o.observers)
+        out.append(MetricsObserver(self.measured))
+        return out
 
     def _start_values(self) -> dict:
         """Start values of the referenced tasks (the controller's model at the initial
@@ -191,10 +213,13 @@ class ScenarioRun:
         t = k * sc.dt
         pending = self.pending
         q, v = sim.measure()                # once per cycle: events and the solve see the same sample
+        c = Cycle(k, t, q, v, sim, stack, self.last_sol, None, None, self.switched)
+        observers = self.observers
         if k == 0 or (pending and pending[0]["time"] <= t + 1e-9):
             while pending and pending[0]["time"] <= t + 1e-9:
                 _apply_event(pending.pop(0), ctrl, self.robot, (q, v), self.refs, self.start, t, self.switched)
-            self.measured.watch(stack, self.switched)     # what the metrics watch changes only at events
+            for o in observers:             # what the metrics watch changes only at events
+                o.after_events(c)
         for tname, (traj, absolute, t0) in self.refs.items():
             x, dx, ddx = traj.sample(t - t0)
             task = stack[tname]
@@ -202,11 +227,10 @@ class ScenarioRun:
                 task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, self.start[tname], t - t0))
-        if self.interaction is not None:
-            self.interaction.before_solve(q, v, self.last_sol)
-        tau_e = self.external.before_solve(t, q, v, sim) if self.external is not None else None
+        for o in observers:
+            o.before_solve(c)
         t0 = time.perf_counter()
-        sol = self.last_sol = ctrl.solve(q, v, tau_e)
+        sol = self.last_sol = c.sol = ctrl.solve(q, v, c.tau_e)
         self.cycle_times[k] = time.perf_counter() - t0
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
@@ -217,19 +241,15 @@ class ScenarioRun:
         if sol.status == "stopped":
             self.stopped = {"time": t, "by": "controller", "reason": sol.message}
             return False
-        self.measured.record_command(sol)
+        for o in observers:
+            o.after_solve(c)
         sim.step(sol.tau_full)
         why = simulation_diverged(sim, self.sim_failures)
         if why:
             self.stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}
             return False
-        if self.interaction is not None:
-            self.interaction.after_step()
-        if self.external is not None:
-            self.external.after_step(sim, sol)
-        if self.callback is not None:
-            self.callback(t, sim, sol)
-        self.measured.record_state(t, sim, sol, stack)
+        for o in observers:
+            o.after_step(c)
         qs = sim.q
         if self.base_z0 is not None and fallen(qs, self.base_z0):
             self.fell = True
@@ -273,35 +293,25 @@ class ScenarioRun:
         if self.contacts and not diverged(sim.q, sim.v):
             robot.update(sim.q, sim.v)
             out["com_final"] = robot.com.tolist()
-        if self.interaction is not None:
-            out.update(self.interaction.metrics())
-        if self.external is not None:
-            out.update(self.external.summary())
+        for o in self.observers:
+            out.update(o.summary())
         if self.measured.rec is not None:
             out["series"] = self.measured.rec.to_dict()
         return out
 
 
-def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
-        progress: bool = False, callback=None, series: bool = False, simulator: str | None = None,
-        model_perturbation=None, faults: FaultPolicy | None = None, wrap_simulator=None,
-        joint_dynamics: bool | None = None) -> dict:
-    """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
-    (after the simulator's step). ``series``: also return the run's time series under
-    ``"series"`` (:class:`~wbc.runner.metrics.Series`, JSON-ready). ``simulator``: the physics
-    back-end (:data:`wbc.sim.backends.SIMULATORS`; default the scenario's ``simulator``).
-    ``model_perturbation(model)``: changes (in place) a copy of the robot's pinocchio model
-    that the simulator then simulates, the controller keeping the nominal one (model
-    error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`).
-    ``duration`` (s): at least one control period (a :class:`~wbc.errors.ConfigError`
-    otherwise). ``faults``: the controller's fault policy (default: the scenario's ``faults:``
-    section with stale-state detection on, the simulator's state always moving).
-    ``wrap_simulator(sim)``: the object the loop drives in place of the simulator, one with
-    the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer).
-    ``joint_dynamics``: the URDF's joint damping and friction in the simulator (default the
-    scenario's ``joint_dynamics``)."""
-    r = ScenarioRun(sc, solver, backend, duration, progress, callback, series, simulator, model_perturbation,
-                    faults, wrap_simulator, joint_dynamics)
+def run(sc: Scenario, options: RunOptions | None = None, /, **settings) -> dict:
+    """Simulate ``sc``; returns the metrics dict (the module docstring lists them).
+
+    Args:
+        sc: the scenario (:func:`wbc.scenario.loader.load_config`).
+        options: how to run it (:class:`~wbc.runner.options.RunOptions`: solver, back-end,
+            duration in s, simulator, joint dynamics, fault policy, series, progress, observers,
+            callback, model perturbation, simulator wrapper); None: the scenario's settings.
+        **settings: :class:`RunOptions` fields given one by one (``run(sc, duration=1.0,
+            series=True)``), over ``options``; an unknown name is a TypeError.
+    """
+    r = ScenarioRun(sc, options, **settings)
     for k in range(r.n):
         if not r.cycle(k):
             break

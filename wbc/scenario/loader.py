@@ -60,7 +60,6 @@ from wbc.sim.backends import SIMULATORS
 from wbc.stack import Stack
 from wbc.tasks.contact import Contact
 from wbc.tasks.contact_wrench import ContactWrench
-from wbc.tasks.frame import Frame
 from wbc.tasks.null_space_impedance import check_in_stack
 from wbc.trajectories.position import build_task_trajectory
 from wbc.validation.schema import boolean, mapping, sequence, text
@@ -175,7 +174,7 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
             for key in ("offset",):         # trajectories: build_task_trajectory checks the axes
                 if key not in spec:
                     continue
-                if task.kind not in ("com", "frame") or (task.kind == "frame" and min(cast(Frame, task).axes) > 2):
+                if not task.moves_position:
                     raise ConfigError(f"{key} moves the position of a com or frame task, not of a {task.kind} task"
                                       f"{' without position axes (mask)' if task.kind == 'frame' else ''}",
                                       key=f"{where}.{key}")

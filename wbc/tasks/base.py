@@ -91,6 +91,17 @@ class Task(ABC):
         """Task-space error x_d − x (m, rad or N) for metrics; None for constraints."""
         return None
 
+    @property
+    def moves_position(self) -> bool:
+        """Whether the task has a position target (m) a trajectory or an offset can move (a CoM,
+        a frame task whose mask has linear axes)."""
+        return False
+
+    @property
+    def moves_orientation(self) -> bool:
+        """Whether the task has an orientation target (a frame task whose mask has angular axes)."""
+        return False
+
     def error_units(self, robot: RobotModel) -> tuple[str, ...]:
         """The unit of each component of :meth:`error` (``"m"``, ``"rad"``, ``"N"``, ``"N·m"``),
         in its order; ``()`` for a task without an error. The run's metrics group an error's

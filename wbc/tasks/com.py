@@ -57,6 +57,10 @@ class CoM(MotionTask):
             self._target = robot.com.copy()
         return (self._target - robot.com)[self._sel]
 
+    @property
+    def moves_position(self) -> bool:
+        return True
+
     def error_units(self, robot) -> tuple[str, ...]:
         return ("m",) * len(self._sel)
 

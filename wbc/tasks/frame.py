@@ -150,6 +150,14 @@ class Frame(MotionTask):
     def error(self, robot) -> np.ndarray:
         return self.full_error(robot)[self._sel]
 
+    @property
+    def moves_position(self) -> bool:
+        return bool(min(self._sel) <= 2)
+
+    @property
+    def moves_orientation(self) -> bool:
+        return bool(max(self._sel) > 2)
+
     def error_units(self, robot) -> tuple[str, ...]:
         """m for the linear axes of ``mask``, rad for the angular ones."""
         return tuple("m" if i < 3 else "rad" for i in self._sel)

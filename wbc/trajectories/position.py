@@ -140,8 +140,7 @@ def build_task_trajectory(task, spec, where: str, dt: float | None) -> tuple[obj
     """The (trajectory, absolute) of a com or frame task's ``trajectory:`` (key path ``where``):
     a position trajectory needs position axes (com, or a frame task whose mask has some),
     ``rotation:`` orientation axes (a frame task)."""
-    has_pos = task.kind == "com" or (task.kind == "frame" and min(task._sel) <= 2)
-    has_rot = task.kind == "frame" and max(task._sel) > 2
+    has_pos, has_rot = task.moves_position, task.moves_orientation
     moves_pos = not (isinstance(spec, dict) and "type" not in spec and "rotation" in spec)
     if task.kind not in ("com", "frame") or (moves_pos and not has_pos):
         raise ConfigError(f"a trajectory moves the position of a com or frame task, not of a {task.kind} task"

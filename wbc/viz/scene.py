@@ -212,7 +212,7 @@ class Scene:
                 node = self.vis[f"targets/{t.name}"]
                 node.set_object(mg.Sphere(0.015 if t.kind == "frame" else 0.025),
                                 mg.MeshLambertMaterial(color=COLORS["target"], opacity=0.7))
-                if t.kind == "frame" and max(t._sel) > 2:
+                if t.moves_orientation:
                     node["axes"].set_object(mg.triad(0.08))
 
     def _node(self, path: str):
