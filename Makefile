@@ -1,7 +1,7 @@
 # Two entry points: `make demo` and `make test`. Both create $(VENV) when missing.
 #
 #   make demo                      the runtime only (no test tools, no peers), then the demo
-#   make test                      adds the test extras (pytest, hypothesis, ruff), lints, tests
+#   make test                      adds the test extras (pytest, hypothesis, ruff, mypy), lints, type-checks, tests
 #   make test PYTHON=python3.13 VENV=.venv-313 CONSTRAINTS=constraints/py313-pin41.txt
 #                                  another environment, pinned exactly as CI pins it
 #   make test EXTRAS=test,peers    also PlaCo (needs pinocchio 3.8: Python 3.11 here)
@@ -42,6 +42,7 @@ lint: $(TESTING)
 
 test: $(TESTING)
 	$(VENV)/bin/ruff check .
+	$(PY) -m mypy wbc
 	$(PY) -m pytest -q $(PYTEST_ARGS)
 
 test-slow: $(TESTING)

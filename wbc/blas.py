@@ -28,7 +28,7 @@ _SYMBOLS = (("scipy_openblas_", "64_"), ("scipy_openblas_", ""), ("openblas_", "
 def openblas_libs() -> list[tuple[str, Callable[[], int], Callable[[int], None]]]:
     """(path, get_num_threads, set_num_threads) of every OpenBLAS this process has loaded
     (none where ``/proc/self/maps`` does not exist)."""
-    libs = []
+    libs: list[tuple[str, Callable[[], int], Callable[[int], None]]] = []
     try:
         with open("/proc/self/maps") as fh:
             paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ln.split()[-1].startswith("/")})

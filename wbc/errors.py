@@ -15,6 +15,7 @@ placed it), ``owner`` (``"task 'com'"``, for errors raised outside any file), ``
 from __future__ import annotations
 
 from pathlib import Path
+from typing import overload
 
 
 class WbcError(Exception):
@@ -105,6 +106,10 @@ class RobotWarning(UserWarning):
     the ground); issued by :func:`wbc.robot.extras.check_robot` at load time."""
 
 
+@overload
+def join_key(prefix: str | None, key: str) -> str: ...
+@overload
+def join_key(prefix: str | None, key: str | None) -> str | None: ...
 def join_key(prefix: str | None, key: str | None) -> str | None:
     """The key path ``key`` below ``prefix``: ``join_key("stack[1][0]", "kp")`` is
     ``"stack[1][0].kp"``, ``join_key("stack", "[1]")`` is ``"stack[1]"``."""

@@ -92,7 +92,7 @@ class PoseReference:
             self._fn, self._pending = value, None
 
     def set(self, value) -> None:
-        self.__init__(self.owner, value)
+        self.__init__(self.owner, value)  # type: ignore[misc]  # re-initialised in place: the state of a fresh one
 
     def __call__(self, t: float, current: pin.SE3) -> PoseSample:
         if self._fn is not None:

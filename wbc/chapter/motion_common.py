@@ -47,7 +47,7 @@ def gain_matrix(owner: str, key: str, value, n: int, definite: bool = True) -> M
     except (TypeError, ValueError) as exc:
         raise ControllerDefinitionError(f"{owner}: {key} must be numeric, got {value!r}") from exc
     if arr.ndim == 0:
-        mat = float(arr) * np.eye(n)
+        mat: np.ndarray = float(arr) * np.eye(n)
     elif arr.shape == (n,):
         mat = np.diag(arr)
     elif arr.shape == (n, n):
@@ -94,11 +94,13 @@ class Reference:
     def __call__(self, t: float) -> Sample:
         if self._const is not None:
             return self._const
+        assert self._fn is not None, "a target without a constant has a function"
         out = self._fn(t)
         if not (isinstance(out, tuple) and len(out) == 3):
             raise TargetError(f"{self.owner}: {self.key}(t) must return (x, xdot, xddot), got {out!r}")
-        return tuple(vector(self.owner, f"{self.key}{s}", o, self.n)
-                     for s, o in zip(("", " velocity", " acceleration"), out))
+        x, dx, ddx = (vector(self.owner, f"{self.key}{s}", o, self.n)
+                      for s, o in zip(("", " velocity", " acceleration"), out))
+        return x, dx, ddx
 
 
 def check_state(owner: str, robot, q, v) -> tuple[Vector, Vector]:

@@ -120,9 +120,17 @@ def _group_states(srdf: Path) -> list[tuple[str, dict[str, float]]]:
         for j in gs.findall("joint"):
             v = j.get("value", "").split()
             if len(v) == 1:
-                vals[j.get("name")] = float(v[0])
-        out.append((gs.get("name"), vals))
+                vals[j.attrib["name"]] = float(v[0])
+        out.append((gs.attrib["name"], vals))
     return out
+
+
+def _end(joint: ET.Element, tag: str) -> str:
+    """The link named by ``joint``'s ``<parent>`` or ``<child>`` (``tag``), which URDF requires."""
+    el = joint.find(tag)
+    if el is None:
+        raise AttributeError(f"URDF joint '{joint.get('name')}' has no <{tag}>")
+    return el.attrib["link"]
 
 
 def _package_root(urdf: Path) -> Path | None:
@@ -138,19 +146,19 @@ def guess_robot(urdf: Path, srdf: Path | None = None) -> tuple[dict, list[str]]:
     """(the robot YAML's data, notes on what could not be decided) for ``urdf``."""
     notes: list[str] = []
     tree = ET.parse(urdf).getroot()
-    links = {lk.get("name"): lk for lk in tree.findall("link")}
+    links = {lk.attrib["name"]: lk for lk in tree.findall("link")}
     joints = tree.findall("joint")
-    children = {j.find("child").get("link") for j in joints}
-    parent_of = {j.find("child").get("link"): j for j in joints}
+    children = {_end(j, "child") for j in joints}
+    parent_of = {_end(j, "child"): j for j in joints}
     kids: dict[str, list[ET.Element]] = {}
     for j in joints:
-        kids.setdefault(j.find("parent").get("link"), []).append(j)
+        kids.setdefault(_end(j, "parent"), []).append(j)
     roots = [n for n in links if n not in children]
     root_link = roots[0]
     if len(roots) > 1:
         notes.append(f"several root links {roots}; took '{root_link}'")
     moving = [j for j in joints if j.get("type") != "fixed"]
-    wheels = [j.get("name") for j in moving if any(w in j.get("name").lower() for w in WHEEL_WORDS)]
+    wheels = [j.attrib["name"] for j in moving if any(w in j.attrib["name"].lower() for w in WHEEL_WORDS)]
     wheel_links = [n for n in links if any(w in n.lower() for w in WHEEL_WORDS)]
     names_lower = " ".join(links).lower().replace("footprint", "")
     legged = any(w in names_lower for w in ("foot", "ankle", "knee", "calf", "shin"))
@@ -180,7 +188,7 @@ def guess_robot(urdf: Path, srdf: Path | None = None) -> tuple[dict, list[str]]:
             alias = alias if "foot" in alias else alias + "_foot"
             cols = _collisions(links[n])
             if not cols and parent_of[n].get("type") == "fixed":
-                parent = parent_of[n].find("parent").get("link")
+                parent = _end(parent_of[n], "parent")
                 if _collisions(links[parent]):
                     notes.append(f"contact '{alias}': '{n}' has no collision; the collision of its parent "
                                  f"'{parent}' was not used (its placement differs): size the sole by hand")

@@ -152,6 +152,7 @@ class ExternalForceRun:
         """Keep the torque just sent and what the contact sensors read over that step."""
         self._tau = sol.tau_full.copy()
         if self.sensors:
+            assert self._q is not None, "before_step has run this cycle"
             self._jacobians(self._q)
             known = np.zeros(self.robot.nv)
             for fid in self.sensors:

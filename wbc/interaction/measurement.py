@@ -62,7 +62,7 @@ class InteractionRun:
         self.robot, self.stack, self.sim, self.dt, self.settle = robot, stack, sim, float(dt), float(settle)
         self.sensing = ForceSensing(robot, stack, sim, dt)
         contacts = {t.name: t for t in stack if isinstance(t, Contact)}
-        frames = {t.name: t for t in stack if isinstance(t, Frame)}
+        frames: dict[str | None, Frame] = {t.name: t for t in stack if isinstance(t, Frame)}
         self.watch = [_Watch(t, contacts[t.contact], frames.get(t.motion), contact_points_of(robot, sim, contacts[t.contact]))
                       for t in stack if isinstance(t, Force)]
         for w in self.watch:
@@ -123,7 +123,7 @@ class InteractionRun:
             d: dict = {}
             if w.n:
                 rms = math.sqrt(w.err2 / w.n)
-                lam = w.lam / w.n
+                lam = np.asarray(w.lam) / w.n          # an array once a sample is in
                 d.update(normal_force_rms_error=rms,
                          normal_force_rms_error_relative=rms / target if target > 0 else math.nan,
                          normal_force_mean=float(lam[0]) if len(lam) == 1 else lam.tolist(),

@@ -92,8 +92,9 @@ class MomentumObserver:
         self.actuated = np.asarray(getattr(robot, "actuated_mask", np.ones(self.nv, bool)), bool)
         self.r = np.zeros(self.nv)
         self.t: float | None = None
-        self._p = self._beta = None
-        self.q = None
+        self._p: np.ndarray | None = None
+        self._beta: np.ndarray | None = None
+        self.q: np.ndarray | None = None
 
     # ------------------------------------------------------------ dynamics terms
     def momentum_terms(self, q, v) -> tuple[np.ndarray, np.ndarray]:
@@ -135,6 +136,7 @@ class MomentumObserver:
         optional known external generalised force over it. Returns r (N·m; N on linear root rows)."""
         if self.t is None:
             raise ObserverError("MomentumObserver: call reset(q, v, t) with the first sample before update")
+        assert self._p is not None and self._beta is not None, "reset has run (t is set)"
         h = float(t) - self.t
         if not h > 0:
             raise ObserverError(f"MomentumObserver: time must increase (t = {t} after {self.t})")
@@ -166,6 +168,6 @@ class MomentumObserver:
         A = J @ J.T + damping ** 2 * np.eye(6)
         return np.linalg.solve(A, J @ r)
 
-    def frame_jacobian(self, q, fid: int) -> np.ndarray:
+    def frame_jacobian(self, q, fid: int | np.integer) -> np.ndarray:
         """J_f(q), 6 × nv, LOCAL_WORLD_ALIGNED (linear rows first), pinocchio ``computeFrameJacobian``."""
         return pin.computeFrameJacobian(self.model, self.data, q, fid, LWA).copy()

@@ -7,7 +7,7 @@ reads the leading levels straight from the arrays (:func:`buffered_prefix`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numba as nb
 import numpy as np
@@ -142,7 +142,7 @@ class RowBuffer:
 def buffered_prefix(levels: list[Level]) -> tuple[RowBuffer | None, int]:
     """(the row buffer behind ``levels``, how many leading levels are its own levels in
     order): what a compiled solver run may read straight from the buffer's arrays."""
-    buf = levels[0].buffer if levels else None
+    buf = cast("RowBuffer | None", levels[0].buffer) if levels else None   # Level.buffer is a RowBuffer
     n = 0
     if buf is not None:
         for lvl, own in zip(levels, buf.levels):

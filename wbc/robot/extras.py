@@ -153,17 +153,17 @@ def level_on_contacts(model: pin.Model, q: np.ndarray, contacts: dict) -> np.nda
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         z_mean = np.mean([data.oMf[f].translation[2] for f, _ in fids])
-        err, rows = [], []
+        errs, rows = [], []
         for f, surface in fids:
             M = data.oMf[f]
             J = pin.getFrameJacobian(model, data, f, pin.LOCAL_WORLD_ALIGNED)
-            err.append(M.translation[2] - z_mean)
+            errs.append(M.translation[2] - z_mean)
             rows.append(J[2])
             if surface:
                 rpy = pin.rpy.matrixToRpy(M.rotation)
-                err += [rpy[0], rpy[1]]
+                errs += [rpy[0], rpy[1]]
                 rows += [J[3], J[4]]
-        err = np.array(err)
+        err = np.array(errs)
         if np.abs(err).max() < 1e-10:
             break
         A = np.array(rows)[:, 6:]
@@ -202,11 +202,11 @@ def static_torques(robot) -> np.ndarray:
         return np.zeros(robot.nv)
     pin.computeJointJacobians(m, d, q0)
     pin.updateFramePlacements(m, d)
-    J = []
+    blocks = []
     for c in robot.contacts.values():
         Jc = pin.getFrameJacobian(m, d, m.getFrameId(c.frame), pin.LOCAL_WORLD_ALIGNED)
-        J.append(Jc if c.kind == "surface" else Jc[:3])
-    J = np.vstack(J)                   # nf × nv
+        blocks.append(Jc if c.kind == "surface" else Jc[:3])
+    J = np.vstack(blocks)              # nf × nv
     Jb, Jj = J[:, :6], J[:, 6:]
     gb, gj = g[:6], g[6:]
     nf = J.shape[0]

@@ -51,7 +51,7 @@ def package_share_dir(package: str) -> Path:
     for f in dist.files or ():
         parts = Path(str(f)).parts
         if len(parts) >= 3 and parts[0] == "cmeel.prefix" and parts[1] == "share" and parts[2] == package:
-            return Path(dist.locate_file("cmeel.prefix/share")).resolve()
+            return Path(str(dist.locate_file("cmeel.prefix/share"))).resolve()
     raise RobotDefinitionError(f"package '{package}' has no cmeel.prefix/share/{package} data directory")
 
 
@@ -93,7 +93,7 @@ def _resolve_file(src: Path, key: str, spec) -> Path:
     return path.resolve()
 
 
-def _joint(model, name: str, key: str, *, locked: list[str] = (), one_coordinate: bool = False) -> int:
+def _joint(model, name: str, key: str, *, locked: tuple[str, ...] | list[str] = (), one_coordinate: bool = False) -> int:
     """The id of joint ``name`` of ``model``: a joint other than the universe and the root
     (``model`` built with a root joint has it at id 1), with one coordinate if asked."""
     names = [n for jid, n in enumerate(model.names) if jid > 0 and not (jid == 1 and n == "root_joint")]

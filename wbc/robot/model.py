@@ -267,7 +267,7 @@ class RobotModel:
         """Nonlinear effects h = C(q, q̇)q̇ + g(q) − τ_e (τ_e the known external generalised
         force given to :meth:`update`, else 0), plus D q̇ + F σ(q̇) with a ``compensation``
         (:mod:`wbc.robot.joint_compensation`); nv, N·m."""
-        return self.data.nle if self.compensation is None else self._h_eff
+        return self.data.nle if self.compensation is None else self._h_eff  # type: ignore[return-value]  # update() sets it
 
     @property
     def com(self) -> np.ndarray:

@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import math
 import sys
-from typing import Any
+from typing import Any, cast
 
 from wbc.errors import ConfigError, WbcError, placed
 from wbc.robot.gains import apply_robot_gains
 from wbc.scenario.build_tasks import build_task
 from wbc.scenario.sections import MAX_DURATION
+from wbc.tasks.com import CoM
 from wbc.tasks.contact import Contact
 from wbc.trajectories.position import build_task_trajectory
 from wbc.validation.schema import integer, mapping, number, sequence, show, suggest, text
@@ -75,7 +76,7 @@ def build_events(spec: Any, robot, stack, dt: float, duration: float) -> list[di
                 raise placed(exc, f"{where}.{kind}", cls=ConfigError) from exc
             if kind == "add" and task.kind in ("com", "frame") and isinstance(body, dict) and "target" in body:
                 # the runner starts the task (and a relative trajectory) there, not where the robot is
-                e["target"] = task.target.copy() if task.kind == "com" else body["target"]   # a frame's: as given
+                e["target"] = cast(CoM, task).target.copy() if task.kind == "com" else body["target"]  # type: ignore[union-attr]  # a com built from a body with a target has one; a frame's: as given
             e["task"] = task
             e["level"] = integer(ev.get("level", 0), f"{where}.level", ge=0, le=MAX_LEVEL)
             if "trajectory" in ev:

@@ -41,7 +41,7 @@ import importlib.util
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -50,6 +50,7 @@ from wbc.interaction.external_force import InteractionSpec, interaction_section
 from wbc.interaction.hybrid_selection import check_force_tasks
 from wbc.robot.gains import apply_robot_gains
 from wbc.robot.loader import load_robot
+from wbc.robot.model import RobotModel
 from wbc.scenario import sections as sections
 from wbc.scenario.build_tasks import build_task
 from wbc.scenario.contacts import with_contacts
@@ -58,6 +59,7 @@ from wbc.scenario.examples import scenario_path
 from wbc.sim.backends import SIMULATORS
 from wbc.stack import Stack
 from wbc.tasks.contact import Contact
+from wbc.tasks.contact_wrench import ContactWrench
 from wbc.tasks.null_space_impedance import check_in_stack
 from wbc.trajectories.position import build_task_trajectory
 from wbc.validation.schema import boolean, mapping, sequence, text
@@ -100,7 +102,7 @@ class Scenario:
     """
 
     name: str
-    robot: object
+    robot: RobotModel
     stack: Stack
     solver: dict
     dt: float
@@ -186,7 +188,8 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
     """The stack's tasks, built, bound to ``robot`` and cross-checked; their trajectories
     (name -> (trajectory, absolute)) and offsets (name -> [x, y, z], m)."""
     levels = sequence(levels, "stack", min_len=1, what="a non-empty list of levels (each a list of tasks)")
-    built, refs, offsets, where_of = [], {}, {}, {}
+    built, refs, offsets = [], {}, {}
+    where_of: dict[str, str] = {}
     for k, level in enumerate(levels):
         level = sequence(level, f"stack[{k}]", min_len=1, what="a non-empty list of tasks")
         tasks = []
@@ -240,9 +243,10 @@ def _check_references(stack: Stack, where_of: dict[str, str], robot) -> None:
         raise ConfigError(message, key=f"{where_of[name]}.{key}")
     contacts = {t.name: t for t in stack if isinstance(t, Contact)}
     check_force_tasks(stack, contacts, where_of, robot)
-    for t in stack:
-        if t.kind != "contact_wrench":
+    for task in stack:
+        if task.kind != "contact_wrench":
             continue
+        t = cast(ContactWrench, task)        # the kind names the class
         c = contacts.get(t.contact)
         if c is None:
             raise ConfigError(f"must name a contact task of the stack, got '{t.contact}'; contact tasks: "

@@ -31,7 +31,7 @@ import numpy as np
 
 from wbc.controller.solver_names import SOLVERS
 from wbc.errors import ConfigError, SolverError, WbcError, placed
-from wbc.sim.environment import Box, ground, incline
+from wbc.sim.environment import Box, HalfSpace, ground, incline
 from wbc.solvers import SOLVER_OPTIONS
 from wbc.solvers.options import check_options
 from wbc.validation.schema import integer, mapping, number, sequence, text, vector
@@ -94,13 +94,15 @@ def environment_section(spec: Any) -> list:
     """``environment:`` -> shapes of :mod:`wbc.sim.environment` (default: a ground, mu 0.8)."""
     if spec is None:
         return [ground()]
-    shapes, names = [], {}
+    shapes: list[HalfSpace | Box] = []
+    names: dict[str, str] = {}
     for i, s in enumerate(sequence(spec, "environment", what="a list of shapes (ground, incline, box)")):
         where = f"environment[{i}]"
         s = mapping(s, where, required=("type",), what="a shape mapping with a 'type' key")
         kind = text(s["type"], f"{where}.type", choices=sorted(_SHAPE_KEYS))
         mapping(s, where, allowed=_SHAPE_KEYS[kind])
         mu = number(s.get("mu", 0.8), f"{where}.mu", gt=0, le=MAX_MU, unit="unitless")
+        shape: HalfSpace | Box
         if kind == "ground":
             shape = ground(number(s.get("height", 0.0), f"{where}.height", ge=-1, le=1, unit="m"), mu)
         elif kind == "incline":

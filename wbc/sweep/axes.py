@@ -135,4 +135,5 @@ def grid_size(axes: list[Axis]) -> int:
 
 def max_probes(a: Axis) -> int:
     """Most cases one bisection takes: hi, lo, then halvings until the bracket is <= tol."""
+    assert a.lo is not None and a.hi is not None and a.tol is not None, "a bisect axis has lo, hi and tol"
     return 2 + max(0, math.ceil(math.log2((a.hi - a.lo) / a.tol)))

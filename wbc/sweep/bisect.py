@@ -31,6 +31,7 @@ class Bisection:
     outcome: str = ""                                   # bracketed | at_least_hi | below_lo
 
     def __post_init__(self) -> None:
+        assert self.axis.lo is not None and self.axis.hi is not None, "a bisect axis has lo and hi"
         self.lo, self.hi = self._num(self.axis.lo), self._num(self.axis.hi)
 
     def _num(self, x: float) -> float | int:
@@ -68,6 +69,7 @@ class Bisection:
             self.phase, self.outcome = "done", "bracketed"
 
     def _open(self) -> bool:
+        assert self.axis.tol is not None, "a bisect axis has tol"
         if self.axis.integer:
             return self.hi - self.lo > max(1, self.axis.tol) and (self.lo + self.hi) // 2 not in (self.lo, self.hi)
         return self.hi - self.lo > self.axis.tol

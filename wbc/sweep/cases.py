@@ -117,6 +117,7 @@ def draw(axes: list[Axis], seed: int, i: int) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for a in axes:
         if a.kind == "range":
+            assert a.lo is not None and a.hi is not None, "a range axis has lo and hi"
             out[a.key] = int(rng.integers(int(a.lo), int(a.hi) + 1)) if a.integer else \
                 float(a.lo + (a.hi - a.lo) * rng.random())
         elif a.kind == "choices":

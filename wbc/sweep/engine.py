@@ -134,8 +134,10 @@ def run_sweep(spec: SweepSpec, *, executor: str | Executor | None = None, worker
     def advance(gi: int) -> None:
         """Replay group ``gi`` from the store until it needs a case that is not there."""
         g, b = res.groups[gi]
+        assert axis is not None, "bisection groups exist only for a bisect axis"
         while not b.done:
             v = b.next_value()
+            assert v is not None, "a search not done has a next value"
             case = make_case(spec, {**g, axis.key: v}, spec.seed, f"g{gi}.{len(b.probes)}", group=gi)
             row = stored(case)
             if row is None:
@@ -180,7 +182,9 @@ def run_sweep(spec: SweepSpec, *, executor: str | Executor | None = None, worker
                     res.ran += 1
                     for gi in waiting.pop(case.hash, []):
                         b = res.groups[gi][1]
-                        b.record(b.next_value(), row["survived"])
+                        v = b.next_value()
+                        assert v is not None, "a search waiting for a case is not done"
+                        b.record(v, row["survived"])
                         advance(gi)
                     for h, c in todo.items():
                         if h not in submitted:
@@ -206,6 +210,7 @@ def _records(spec: SweepSpec, store: ResultStore, cases: list[Case], groups) -> 
     (a row shared by cases of equal hash carries the first one's), ``survived`` re-judged."""
     if groups:
         axis = spec.bisect_axis
+        assert axis is not None, "bisection groups exist only for a bisect axis"
         cases = [make_case(spec, {**g, axis.key: v}, spec.seed, f"g{gi}.{k}", group=gi)
                  for gi, (g, b) in enumerate(groups) for k, (v, _) in enumerate(b.probes)]
     out = []

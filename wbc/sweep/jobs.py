@@ -29,7 +29,8 @@ class Outcome:
 
 
 class Executor(Protocol):
-    capacity: int
+    @property
+    def capacity(self) -> int: ...
 
     def submit(self, job: Job) -> None: ...
     def wait(self, timeout: float) -> list[Outcome]: ...

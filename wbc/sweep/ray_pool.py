@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from typing import Any
 
 from ..errors import ConfigError
 from .jobs import Job, Outcome
@@ -49,7 +50,7 @@ class RayPool:
         self._owned = False
         if not ray.is_initialized():
             # Ray lowers its workers' priority (nice 15) by default; a sweep's workers are the work
-            kw = dict(include_dashboard=False, log_to_driver=False, runtime_env=runtime_env)
+            kw: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, runtime_env=runtime_env)
             if address is None:
                 kw["_system_config"] = {"worker_niceness": 0}
             if address is None and workers:

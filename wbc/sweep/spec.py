@@ -91,7 +91,7 @@ class SweepSpec:
     inject: dict = field(default_factory=dict)
     doc: Document | None = None
 
-    def line(self, key: str) -> int | None:
+    def line(self, key: str | None) -> int | None:
         return self.doc.line(key) if self.doc is not None else None
 
     def error(self, message: str, key: str | None) -> ConfigError:
@@ -270,5 +270,7 @@ def count_cases(spec: SweepSpec) -> int:
     if spec.mode == "random":
         return spec.samples * grid
     if spec.mode == "bisect":
-        return grid * max_probes(spec.bisect_axis)
+        axis = spec.bisect_axis
+        assert axis is not None, "mode bisect has a bisect axis (checked at load)"
+        return grid * max_probes(axis)
     return grid

@@ -71,6 +71,7 @@ def markdown(res: SweepResult, command: str | None = None) -> str:
     lines.append("")
     if res.groups:
         axis = spec.bisect_axis
+        assert axis is not None, "bisection groups exist only for a bisect axis"
         keys = [a.key for a in spec.grid_axes]
         lines += ["| " + " | ".join([*keys, f"largest survived {axis.key}", "first failed", "probes"]) + " |",
                   "|" + " --- |" * (len(keys) + 3)]

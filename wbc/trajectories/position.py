@@ -30,6 +30,7 @@ from wbc.trajectories.profiles import (
     Constant,
     Sinusoid,
     Spline,
+    Trajectory,
     Waypoints,
     frequency_of,
     ramp_of,
@@ -45,8 +46,8 @@ class PoseTrajectory:
     trajectory ``rotation`` (:mod:`wbc.trajectories.rotation`: ``sample(t)`` -> R, ω, ω̇ in the
     world frame), applied as R_d = R(t) R₀ (start orientation R₀) unless ``rotation_absolute``."""
 
-    position: object
-    rotation: object
+    position: Trajectory
+    rotation: Trajectory
     rotation_absolute: bool = False
 
     def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -104,6 +105,7 @@ def build_trajectory(spec, dim: int, where: str | None = None, dt: float | None 
     def position(k: str, value) -> np.ndarray:
         return vector(value, k, dim, ge=-MAX_POSITION, le=MAX_POSITION, unit="m")
 
+    traj: Trajectory
     if "type" not in spec:
         traj = Constant(np.zeros(dim))
     elif kind == "constant":
@@ -124,9 +126,9 @@ def build_trajectory(spec, dim: int, where: str | None = None, dt: float | None 
         amp[[u, v]], phase[[u, v]] = r, (phi0 + np.pi / 2, phi0)      # r cos(wt + φ₀) = r sin(wt + φ₀ + π/2)
         traj = Sinusoid(amp, frequency_of(spec, key, dt), phase, ramp_of(spec, key, dt))
     else:
-        times, pts = times_points(spec, key, dim, dt)
+        times, given = times_points(spec, key, dim, dt)
         base = key("waypoints") if "waypoints" in spec else key("points")
-        pts = np.array([position(f"{base}[{i}]", p) for i, p in enumerate(pts)])
+        pts = np.array([position(f"{base}[{i}]", p) for i, p in enumerate(given)])
         traj = Waypoints(times, pts) if kind == "waypoints" else Spline(times, pts)
     if "rotation" not in spec:
         return traj

@@ -5,6 +5,7 @@ checks of their YAML keys (times in s, frequencies in Hz)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -15,6 +16,13 @@ from wbc.validation.schema import number, sequence, show, vector
 MAX_POSITION = 1e3
 #: latest waypoint time (s): a run lasts at most an hour; beyond 10⁶ s the segment lengths' squares overflow
 MAX_TIME = 1e6
+
+
+class Trajectory(Protocol):
+    """What a trajectory is to its user: ``sample(t)`` -> (value, first, second derivative)
+    at time ``t`` (s); positions (m, m/s, m/s²) or rotations (R, ω, ω̇ in rad/s, rad/s²)."""
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 
 def smoothstep(s: float) -> tuple[float, float, float]:

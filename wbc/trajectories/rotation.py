@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.errors import ConfigError
-from wbc.trajectories.profiles import MAX_TIME, Sinusoid, Spline, frequency_of, ramp_of, smoothstep, times_points
+from wbc.trajectories.profiles import MAX_TIME, Sinusoid, Spline, Trajectory, frequency_of, ramp_of, smoothstep, times_points
 from wbc.validation.schema import boolean, mapping, number, show, text, vector
 
 KEYS: dict[str, dict[str, str]] = {
@@ -100,7 +100,7 @@ def _rotation(value, where: str) -> np.ndarray:
     return pin.exp3(vector(value, where, 3, ge=-1e3, le=1e3, unit="rad, axis·angle; or a 3x3 rotation matrix"))
 
 
-def build_rotation(spec, where: str, dt: float | None) -> tuple[object, bool]:
+def build_rotation(spec, where: str, dt: float | None) -> tuple[Trajectory, bool]:
     """(trajectory, absolute) from a ``rotation:`` mapping (see the module docstring),
     checked as :func:`wbc.trajectories.position.build_trajectory` checks positions."""
     def key(k: str) -> str:

@@ -28,7 +28,7 @@ MAX_BYTES = 1 << 20
 
 #: libyaml's parser when PyYAML was built with it (10x faster), else PyYAML's own; both
 #: with PyYAML's SafeConstructor: the semantics of ``yaml.safe_load``
-_SafeBase = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_SafeBase: Any = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 class _Loader(_SafeBase):
