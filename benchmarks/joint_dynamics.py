@@ -27,8 +27,8 @@ HERE = Path(__file__).resolve().parent
 def variant(tmp: Path, scenario: str, joint_dynamics: bool, compensate: str = "") -> Path:
     """The bundled ``scenario`` with ``joint_dynamics`` and its robot's ``compensate:`` set
     (``compensate``: "" none, "D" damping, "DF" damping and friction)."""
-    from wbc.examples import scenario_path
-    from wbc.robots import robot_yaml_path
+    from wbc.robot.loader import robot_yaml_path
+    from wbc.scenario.examples import scenario_path
 
     sc = yaml.safe_load(scenario_path(scenario).read_text())
     robot = yaml.safe_load(robot_yaml_path(sc["robot"]).read_text())
@@ -50,8 +50,8 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=None, help="s (default: the scenario's)")
     ap.add_argument("--output", default=str(HERE / "joint_dynamics.md"))
     args = ap.parse_args(argv)
-    from wbc.runner import run
-    from wbc.scenario import load_config
+    from wbc.runner.loop import run
+    from wbc.scenario.loader import load_config
 
     rows = ["| scenario | simulator | joint dynamics | task error RMS | max slip (mm) | saturated | fell |",
             "| --- | --- | --- | --- | --- | --- | --- |"]

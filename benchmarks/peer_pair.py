@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 
 from benchmarks.harness import peers, stacks, timing
-from wbc.robots import load_robot
+from wbc.robot.loader import load_robot
 
 WARMUP = 200
 HANDS = ("right_hand", "left_hand")

@@ -22,10 +22,10 @@ def record(path: str, simulators: list[str]) -> None:
     import pinocchio as pin
 
     from benchmarks.harness import stacks, trajectory
-    from wbc.controller import Controller
-    from wbc.robots import load_robot
-    from wbc.runner import run
-    from wbc.scenario import load_config
+    from wbc.controller.cycle import Controller
+    from wbc.robot.loader import load_robot
+    from wbc.runner.loop import run
+    from wbc.scenario.loader import load_config
 
     warnings.simplefilter("ignore")
     out = {}

@@ -1,4 +1,4 @@
-"""Shared body of the scenario demos: run one ``tasks/*.yaml`` in the browser view.
+"""Shared body of the scenario demos: run one ``wbc/data/scenarios/*.yaml`` in the browser view.
 
 Live (Meshcat on 127.0.0.1, URL printed, real time, priority diagnostics top left)
 with ``--viz`` or when a display is available; otherwise headless, writing a
@@ -41,7 +41,7 @@ def _summary(m: dict) -> None:
 
 def main(scenario: str, doc: str, name: str | None = None, duration: float | None = None,
          argv: list[str] | None = None) -> int:
-    """Run ``tasks/<scenario>.yaml`` (see the module docstring); ``name``: the
+    """Run ``wbc/data/scenarios/<scenario>.yaml`` (see the module docstring); ``name``: the
     recording's file name (default the scenario's); ``duration``: default run length (s)."""
     name = name or scenario
     parser = argparse.ArgumentParser(description=doc.strip().split("\n")[0],
@@ -59,12 +59,12 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     parser.add_argument("--plot", metavar="FILE.png", help="also plot the run (task errors, contact forces, torques)")
     args = parser.parse_args(argv)
 
-    from wbc.runner import run
-    from wbc.scenario import load_config
+    from wbc.runner.loop import run
+    from wbc.scenario.loader import load_config
     from wbc.viz import Scene, shown_frames, viewer_callback
 
     live = args.viz or bool(os.environ.get("DISPLAY"))
-    sc = load_config(ROOT / "tasks" / f"{scenario}.yaml")
+    sc = load_config(ROOT / "wbc" / "data" / "scenarios" / f"{scenario}.yaml")
     dur = args.duration or sc.duration
     solver = args.solver or sc.solver.get('type', 'hqp')
     print(f"{doc.strip().split(chr(10))[0]}\n  scenario {scenario} (bundled), solver {solver}, "
@@ -84,7 +84,7 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     finally:
         scene.close()
     if args.plot:
-        from wbc.plot import plot_metrics
+        from wbc.runner.plot import plot_metrics
 
         print(f"plot written to {plot_metrics(m, args.plot)}")
     _summary(m)

@@ -28,7 +28,7 @@ def main() -> int:
     args, live = demo_args(__doc__, "chapter_elastic_joints")
 
     import wbc
-    from wbc.control import MotorPD, PDGravity, TorqueFeedback
+    from wbc.chapter import MotorPD, PDGravity, TorqueFeedback
     from wbc.sim import Simulator
     from wbc.sim.elastic import ElasticJointSimulator
 

@@ -39,7 +39,7 @@ def main() -> int:
 
 
     import wbc
-    from wbc.control import HybridForceMotion
+    from wbc.chapter import HybridForceMotion
     from wbc.sim.compliant import CompliantPlane, InteractionSim
 
     robot = wbc.load_robot("panda")

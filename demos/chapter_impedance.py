@@ -45,7 +45,7 @@ def main() -> int:
     from scipy.linalg import expm
 
     import wbc
-    from wbc.control import AdmittanceControl, ImpedanceControl, StiffnessControl
+    from wbc.chapter import AdmittanceControl, ImpedanceControl, StiffnessControl
     from wbc.sim.compliant import ExternalWrench, InteractionSim
 
     robot = wbc.load_robot("panda")

@@ -36,7 +36,7 @@ def main() -> int:
     import pinocchio as pin
 
     import wbc
-    from wbc.control import (
+    from wbc.chapter import (
         IndependentJointPID,
         InverseDynamics,
         PassivityBased,
@@ -48,7 +48,7 @@ def main() -> int:
         with_payload,
     )
     from wbc.sim import Simulator
-    from wbc.trajectories import Sinusoid
+    from wbc.trajectories.position import Sinusoid
 
     robot = wbc.load_robot("panda")
     view = ArmView(robot, live)

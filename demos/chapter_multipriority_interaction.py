@@ -37,7 +37,7 @@ def main() -> int:
     import pinocchio as pin
 
     import wbc
-    from wbc.control import NullSpaceImpedanceController, PDGravity
+    from wbc.chapter import NullSpaceImpedanceController, PDGravity
     from wbc.sim.compliant import ExternalWrench, InteractionSim
 
     robot = wbc.load_robot("panda")

@@ -31,7 +31,7 @@ def main() -> int:
 
 
     import wbc
-    from wbc.control import JacobianTransposePD, TaskSpaceInverseDynamics
+    from wbc.chapter import JacobianTransposePD, TaskSpaceInverseDynamics
     from wbc.sim import Simulator
 
     robot = wbc.load_robot("panda")

@@ -76,12 +76,12 @@ class SolverError(WbcError):
 
 
 class ControllerDefinitionError(WbcError):
-    """A controller of :mod:`wbc.control` built with wrong parameters: a gain that is not
+    """A controller of :mod:`wbc.chapter` built with wrong parameters: a gain that is not
     positive (semi)definite, of the wrong size, or not finite; an unknown option."""
 
 
 class ObserverError(WbcError):
-    """A momentum observer (:mod:`wbc.estimation`) used wrongly: a bad gain, an update
+    """A momentum observer (:mod:`wbc.interaction.momentum_observer`) used wrongly: a bad gain, an update
     before reset, time not increasing."""
 
 
@@ -102,7 +102,7 @@ class HarnessNotFound(WbcError):
 class RobotWarning(UserWarning):
     """A robot YAML that loads but describes a robot that will struggle (a joint whose
     static torque exceeds its limit, a posture outside the limits, a contact not facing
-    the ground); issued by :func:`wbc.robot_extras.check_robot` at load time."""
+    the ground); issued by :func:`wbc.robot.extras.check_robot` at load time."""
 
 
 def join_key(prefix: str | None, key: str | None) -> str | None:

@@ -1,7 +1,7 @@
 """Null spaces of stacked Jacobians and the extended-task-space terms (5.21-5.24, 5.39-5.45).
 
 The math the stack task :mod:`wbc.tasks.null_space_impedance` and the standalone
-controller :mod:`wbc.control.null_space_impedance` share (neither imports the other).
+controller :mod:`wbc.chapter.null_space_impedance` share (neither imports the other).
 
 Row space and its rate. For a Jacobian J (m × n, any rank ρ, rows in any order or basis)
 with J⁺ its Moore-Penrose inverse (SVD, singular values ≤ ``tol``·σ_max dropped), the

@@ -132,7 +132,7 @@ class Stack:
         return [[{"type": t.kind, **t.params()} for t in lvl] for lvl in self.levels]
 
     def to_yaml(self) -> str:
-        """YAML of :meth:`to_list`; ``wbc.config.build_stack(yaml.safe_load(text))`` rebuilds
+        """YAML of :meth:`to_list`; ``wbc.scenario.build_tasks.build_stack(yaml.safe_load(text))`` rebuilds
         the same stack (same tasks, gains, weights and targets)."""
         import yaml
 

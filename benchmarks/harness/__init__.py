@@ -2,7 +2,7 @@
 and what it could be. It measures only; nothing here changes how the controller solves.
 
 It lives beside the package, not in it (a wheel does not ship it): ``wbc bench`` (the
-thin entry point :mod:`wbc.bench`) finds it in the source tree and calls
+thin entry point :mod:`wbc.cli.bench`) finds it in the source tree and calls
 :func:`.cli.bench`.
 
 - **Cases** (:mod:`.timing`): Talos, full stack (5 levels: limits + two foot contacts /

@@ -1,6 +1,6 @@
 """One whole bench (:func:`run`) and the ``wbc bench`` command's body (:func:`bench`).
 
-The command's options are parsed by the package (:func:`wbc.bench.add_parser`, so that
+The command's options are parsed by the package (:func:`wbc.cli.bench.add_parser`, so that
 ``wbc bench --help`` works without this harness), which then calls :func:`bench`.
 """
 
@@ -13,14 +13,14 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from wbc.bench import BACKENDS, DEFAULT_CYCLES, FULL_BUDGET, QUICK_BUDGET
 from wbc.blas import set_blas_threads
 from wbc.jsonable import plain
-from wbc.robots import load_robot
+from wbc.robot.loader import load_robot
 
 from .closed_loop import sim_loop
 from .floor import floor_talos
 from .machine import machine_info, svd_probe
+from .options import BACKENDS, DEFAULT_CYCLES, FULL_BUDGET, QUICK_BUDGET
 from .peers import placo_dynamics, placo_kinematics
 from .report import HEADER, case_line, fmt_floor, fmt_placo, fmt_scaling, fmt_sim_loop, results_markdown
 from .scaling import plot_scaling, scaling
@@ -89,7 +89,9 @@ def run(cycles: int = DEFAULT_CYCLES, warmup: int = WARMUP, backends=BACKENDS, r
 
 
 def backends_of(values) -> list[str]:
-    """``--backends`` values (comma or space separated) as a list of names."""
+    """``--backends`` values (comma or space separated) as a list of names; None: :data:`BACKENDS`."""
+    if values is None:
+        return list(BACKENDS)
     out = []
     for v in values:
         out += [b for b in v.replace(",", " ").split() if b]
@@ -101,7 +103,7 @@ def command(args) -> str:
     parts = ["wbc", "bench"]
     if args.quick:
         parts.append("--quick")
-    if args.cycles != DEFAULT_CYCLES:
+    if args.cycles not in (None, DEFAULT_CYCLES):
         parts += ["--cycles", str(args.cycles)]
     if backends_of(args.backends) != list(BACKENDS):
         parts += ["--backends", ",".join(backends_of(args.backends))]
@@ -117,10 +119,12 @@ def command(args) -> str:
 
 
 def bench(args) -> int:
-    """``wbc bench`` with the parsed ``args`` (:func:`wbc.bench.add_parser`): runs
+    """``wbc bench`` with the parsed ``args`` (:func:`wbc.cli.bench.add_parser`): runs
     :func:`run`, prints progress, writes ``results.md``, ``scaling.png`` and ``--json``;
     returns 1 if a case failed, else 0."""
     t0 = time.perf_counter()
+    if args.cycles is None:
+        args.cycles = DEFAULT_CYCLES
     if args.blas_threads is not None:
         set_blas_threads(args.blas_threads)
     backends = backends_of(args.backends)

@@ -1,7 +1,7 @@
 """The whole closed loop: controller and physics at 1 kHz, metrics collected, no viewer.
 
 :func:`sim_loop` runs a bundled scenario as ``wbc run <scenario> --headless`` does
-(:func:`wbc.runner.run`) and reports, per solver, the real-time factor (simulated time /
+(:func:`wbc.runner.loop.run`) and reports, per solver, the real-time factor (simulated time /
 wall time, > 1 is faster than real time) and the median per cycle of the controller
 (the runner's own ``cycle_time``) and of the simulator step. The step is timed by
 :class:`TimedSimulator`, which the runner drives in place of the simulator
@@ -14,9 +14,9 @@ import time
 
 import numpy as np
 
-from wbc.examples import SCENARIOS_DIR
-from wbc.runner import run as run_scenario
-from wbc.scenario import load_config
+from wbc.runner.loop import run as run_scenario
+from wbc.scenario.examples import SCENARIOS_DIR
+from wbc.scenario.loader import load_config
 from wbc.sim.backends import PhysicsSimulator
 
 

@@ -2,7 +2,7 @@
 
 Along the bench trajectory (the states and rows from the projection controller, which
 needs no QP back-end): the pinocchio calls :meth:`RobotModel.update
-<wbc.model.RobotModel.update>` makes plus the frame Jacobians, velocities and drifts the
+<wbc.robot.model.RobotModel.update>` makes plus the frame Jacobians, velocities and drifts the
 full stack's tasks extract (on a separate Data), and one daqp solve of a same-size QP, the
 whole stack as a single weighted QP with level 0 as constraints (x = (q̈, f): 50
 variables, 18 equality and 100 inequality rows). Times are medians in ms.
@@ -16,8 +16,8 @@ from collections import Counter
 import numpy as np
 import pinocchio as pin
 
-from wbc.controller import Controller
-from wbc.model import LOCAL, WORLD_ALIGNED, RobotModel, whole_body_terms
+from wbc.controller.cycle import Controller
+from wbc.robot.model import LOCAL, WORLD_ALIGNED, RobotModel, whole_body_terms
 from wbc.tasks.dynamics import FloatingBaseDynamics
 
 from .stacks import talos_stack

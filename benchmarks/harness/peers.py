@@ -3,7 +3,7 @@
 - :func:`placo_dynamics`: PlaCo's ``DynamicsSolver`` with tasks comparable with the full
   Talos stack (:func:`.stacks.talos_stack`), along the bench trajectory.
 - :func:`placo_kinematics`: PlaCo's ``KinematicsSolver`` on the IK problem of
-  :mod:`.placo_peer` (which ``tests/test_peer_placo.py`` checks against wbc's answer).
+  :mod:`.placo_peer` (which ``tests/bench/test_peer_placo.py`` checks against wbc's answer).
 
 PlaCo is optional (``pip install 'wbc[peers]'``, pinocchio 3.8 only): without it each
 returns ``{"missing": reason}``.
@@ -16,8 +16,8 @@ import time
 
 import numpy as np
 
-from wbc.model import RobotModel
-from wbc.robots import package_share_dir
+from wbc.robot.loader import package_share_dir
+from wbc.robot.model import RobotModel
 
 from .timing import stats
 from .trajectory import DT, HAND_FREQUENCY, HAND_RADIUS, circle, sway

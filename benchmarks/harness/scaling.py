@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wbc.model import RobotModel
+from wbc.robot.model import RobotModel
 
 from .report import num
 from .stacks import chain_robot, chain_stack, talos_levels_stack

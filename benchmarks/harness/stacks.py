@@ -3,7 +3,7 @@
 - :func:`talos_stack`: Talos, hard constraints (joint and torque limits, two foot
   contacts) / CoM / both hands / posture, and by default a fifth level regularising the
   contact forces: the full stack of the bench (5 levels: 50 variables x = (q̈, f), nv 38
-  + 2 × 6 wrench components). The property tests (``tests/stacks.py``) take the same
+  + 2 × 6 wrench components). The property tests (``tests/helpers/stacks.py``) take the same
   stack without the fifth level, with the left hand at weight 0.5 inside its level.
 - :func:`tiago_stack`: TIAGo, limits / hand position / posture (the bench) or with a torso
   orientation level between hand and posture (the tests).
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbc.model import RobotModel
+from wbc.robot.model import RobotModel
 from wbc.stack import Stack
 from wbc.tasks import CoM, Contact, ContactWrench, Frame, JointLimits, Posture, TorqueLimits
 

@@ -19,9 +19,9 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from wbc.controller import Controller
-from wbc.model import RobotModel
-from wbc.solver_names import SOLVERS as ALL_SOLVERS
+from wbc.controller.cycle import Controller
+from wbc.controller.solver_names import SOLVERS as ALL_SOLVERS
+from wbc.robot.model import RobotModel
 from wbc.stack import Stack
 
 from .stacks import talos_stack, tiago_stack

@@ -5,8 +5,8 @@ circles (3 cm radius at 1 Hz, the two hands half a turn apart), with consistent 
 velocity and acceleration references; the phase's angular speed ramps up smoothly over
 :data:`ONSET` so the motion starts at rest. The state is integrated from the controller's
 q̈ as a double integrator at :data:`DT`. The bench's cases, its floor and the PlaCo peer
-follow it, and so do the tests that check the solvers along it (``tests/test_bench.py``,
-``tests/test_hot_path.py``, ``tests/test_dynamics.py``).
+follow it, and so do the tests that check the solvers along it (``tests/bench/test_bench.py``,
+``tests/controller/test_hot_path.py``, ``tests/solvers/test_dynamics.py``).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from wbc.model import RobotModel
+from wbc.robot.model import RobotModel
 from wbc.stack import Stack
 from wbc.tasks import CoM
 

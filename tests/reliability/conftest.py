@@ -11,8 +11,8 @@ import yaml
 from hypothesis import HealthCheck, settings
 
 import wbc
-from wbc.examples import SCENARIOS_DIR
-from wbc.robots import ROBOTS_DIR
+from wbc.robot.loader import ROBOTS_DIR
+from wbc.scenario.examples import SCENARIOS_DIR
 
 # The default suite is deterministic (same cases every run, nothing written to disk, no time
 # limits); `-m slow` runs ten times as many, with fresh random cases.

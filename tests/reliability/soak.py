@@ -28,8 +28,8 @@ import numpy as np
 import yaml
 
 import wbc
-from wbc.examples import SCENARIOS_DIR
-from wbc.runner import run
+from wbc.runner.loop import run
+from wbc.scenario.examples import SCENARIOS_DIR
 
 _PAGE = os.sysconf("SC_PAGE_SIZE")
 

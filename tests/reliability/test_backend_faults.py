@@ -1,5 +1,5 @@
 """A QP back-end that raises, answers garbage (NaN, or finite and far off its rows) or
-overruns the cycle's time budget (wbc.faults, docs/faults.md): every cycle's torque is
+overruns the cycle's time budget (wbc.controller.faults, docs/faults.md): every cycle's torque is
 finite and inside ±τ_max, each fault is counted, a faulty cycle holds the last accepted
 torque with joint damping, and too many in a row stop the controller.
 
@@ -14,7 +14,7 @@ import pinocchio as pin
 import pytest
 
 import wbc
-from wbc.faults import FaultPolicy
+from wbc.controller.faults import FaultPolicy
 from wbc.tasks import Frame, JointLimits, Posture, TorqueLimits
 
 from .faulty import FaultyBackend
@@ -36,7 +36,7 @@ def _states(robot, n: int, seed: int = 0):
 
 
 def _hold(robot, good: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The hold torque of wbc.faults, computed here: clip(τ_good − k_d diag(M(q)) v, ±τ_max)."""
+    """The hold torque of wbc.controller.faults, computed here: clip(τ_good − k_d diag(M(q)) v, ±τ_max)."""
     M = pin.crba(robot.model, robot.model.createData(), q)
     a = robot.actuated_idx
     return np.clip(good[a] - DAMPING * np.diag(M)[a] * v[a], -robot.tau_max[a], robot.tau_max[a])

@@ -1,4 +1,4 @@
-"""Run-time faults in a closed-loop run (wbc.runner, the scenario's ``faults:`` section), not
+"""Run-time faults in a closed-loop run (wbc.runner.loop, the scenario's ``faults:`` section), not
 only on a bare controller: a QP back-end that raises in the middle of a simulated run, and a
 solve time budget no solve can meet, set from the YAML and run through `wbc run`."""
 
@@ -9,8 +9,8 @@ import json
 import numpy as np
 
 import wbc
-from wbc.cli import main
-from wbc.runner import run
+from wbc.cli.main import main
+from wbc.runner.loop import run
 
 from .faulty import FaultyBackend
 

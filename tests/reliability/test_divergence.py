@@ -9,9 +9,9 @@ import json
 import numpy as np
 import pytest
 
-from wbc.cli import main
-from wbc.faults import DIVERGED_SPEED, diverged
-from wbc.runner import run
+from wbc.cli.main import main
+from wbc.controller.faults import DIVERGED_SPEED, diverged
+from wbc.runner.loop import run
 
 from .conftest import panda_scenario
 

@@ -10,13 +10,13 @@ from pathlib import Path
 import pytest
 
 import wbc
-import wbc.runner
-import wbc.scenario
-from wbc.cli import main
-from wbc.yamlio import read_document
+import wbc.runner.loop
+import wbc.scenario.loader
+from wbc.cli.main import main
+from wbc.validation.yamlio import read_document
 
 ROOT = Path(__file__).resolve().parents[2]
-BALANCE = ROOT / "tasks" / "talos_balance.yaml"
+BALANCE = ROOT / "wbc" / "data" / "scenarios" / "talos_balance.yaml"
 
 
 def _boom(*args, **kwargs):
@@ -24,9 +24,9 @@ def _boom(*args, **kwargs):
 
 
 @pytest.mark.parametrize("where,argv", [
-    ("wbc.scenario.load_config", ["validate", str(BALANCE)]),
-    ("wbc.scenario.load_config", ["run", str(BALANCE), "--headless", "--duration", "0.002"]),
-    ("wbc.runner.run", ["run", str(BALANCE), "--headless", "--duration", "0.002"]),
+    ("wbc.scenario.loader.load_config", ["validate", str(BALANCE)]),
+    ("wbc.scenario.loader.load_config", ["run", str(BALANCE), "--headless", "--duration", "0.002"]),
+    ("wbc.runner.loop.run", ["run", str(BALANCE), "--headless", "--duration", "0.002"]),
 ])
 def test_an_internal_error_exits_3_with_a_short_message_and_no_traceback(monkeypatch, capsys, where, argv):
     module, name = where.rsplit(".", 1)
@@ -39,7 +39,7 @@ def test_an_internal_error_exits_3_with_a_short_message_and_no_traceback(monkeyp
 
 
 def test_debug_prints_the_traceback_of_an_internal_error(monkeypatch, capsys):
-    monkeypatch.setattr("wbc.scenario.load_config", _boom)
+    monkeypatch.setattr("wbc.scenario.loader.load_config", _boom)
     assert main(["--debug", "validate", str(BALANCE)]) == 3
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err and "in _boom" in err
@@ -71,14 +71,14 @@ def test_a_robot_that_falls_exits_1(tmp_path, capsys):
 
 
 def test_solver_failures_exit_1(monkeypatch, capsys):
-    real = wbc.runner.run
+    real = wbc.runner.loop.run
 
     def failing(*args, **kwargs):
         metrics = real(*args, **kwargs)
         metrics["solver_failures"] = 3
         return metrics
 
-    monkeypatch.setattr("wbc.runner.run", failing)
+    monkeypatch.setattr("wbc.runner.loop.run", failing)
     assert main(["run", str(BALANCE), "--headless", "--duration", "0.003"]) == 1
 
 
@@ -106,7 +106,7 @@ def test_python_tags_are_refused_and_never_constructed(tmp_path, capsys, tag):
 
 def test_a_python_tag_in_a_robot_yaml_is_refused(tmp_path):
     robot = tmp_path / "talos.yaml"
-    text = (ROOT / "robots" / "talos.yaml").read_text()
+    text = (ROOT / "wbc" / "data" / "robots" / "talos.yaml").read_text()
     robot.write_text(text.replace("name: talos", "name: !!python/name:os.getcwd"))
     with pytest.raises(wbc.RobotDefinitionError, match=r"talos.yaml:2: the YAML tag .*python/name:os.getcwd.* not "
                                                       r"allowed"):

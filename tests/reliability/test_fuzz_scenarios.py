@@ -21,8 +21,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wbc.errors import ConfigError, WbcError
-from wbc.runner import run
-from wbc.scenario import load_config
+from wbc.runner.loop import run
+from wbc.scenario.loader import load_config
 
 from .conftest import SLOW_FACTOR, SYNTHETIC, write_yaml
 from .mutations import mutated

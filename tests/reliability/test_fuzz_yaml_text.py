@@ -17,9 +17,9 @@ from hypothesis import strategies as st
 
 import wbc
 from wbc.errors import WbcError
-from wbc.examples import SCENARIOS_DIR
-from wbc.robots import ROBOTS_DIR
-from wbc.scenario import load_config
+from wbc.robot.loader import ROBOTS_DIR
+from wbc.scenario.examples import SCENARIOS_DIR
+from wbc.scenario.loader import load_config
 
 from .conftest import SLOW_FACTOR
 

@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 
 import wbc
-from wbc.cli import main
+from wbc.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
-BALANCE = (ROOT / "tasks" / "talos_balance.yaml").read_text()
-TALOS = (ROOT / "robots" / "talos.yaml").read_text()
+BALANCE = (ROOT / "wbc" / "data" / "scenarios" / "talos_balance.yaml").read_text()
+TALOS = (ROOT / "wbc" / "data" / "robots" / "talos.yaml").read_text()
 
 # line 15 of talos_balance.yaml is "      kp: 100.0" of the com task, line 16 its trajectory
 TRAJ = "trajectory: {type: sinusoid, amplitude: [0.0, 0.05, 0.0], frequency: 0.5, ramp: 1.0}"
@@ -113,7 +113,7 @@ def test_scenario_regression_is_refused_precisely_by_validate_and_run(tmp_path, 
 
 def test_a_phase_per_axis_validates_and_runs(tmp_path, capsys):
     """`phase: [0, 0, 1.5708]` crashed `wbc run` (float() of a list); a phase per axis is now
-    a documented form (wbc.trajectories.KEYS): it validates, and the run uses it."""
+    a documented form (wbc.trajectories.position.KEYS): it validates, and the run uses it."""
     path = tmp_path / "talos_balance.yaml"
     path.write_text(_edit(BALANCE, "ramp: 1.0}", "ramp: 1.0, phase: [0, 0, 1.5708]}"))
     assert main(["validate", str(path)]) == 0

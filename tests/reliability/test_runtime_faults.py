@@ -1,4 +1,4 @@
-"""Run-time faults of the measured state (wbc.faults, docs/faults.md): a NaN or inf in q or
+"""Run-time faults of the measured state (wbc.controller.faults, docs/faults.md): a NaN or inf in q or
 v, and a sensor dropout (the same (q, v) repeated while the robot moves). Each is detected
 in the cycle it arrives, held (the last accepted torque with joint damping, inside ±τ_max),
 counted; a dropout longer than ``max_hold_cycles`` stops the controller, and a closed-loop
@@ -13,9 +13,9 @@ import pinocchio as pin
 import pytest
 
 import wbc
-from wbc.cli import main
-from wbc.faults import FaultPolicy
-from wbc.runner import run
+from wbc.cli.main import main
+from wbc.controller.faults import FaultPolicy
+from wbc.runner.loop import run
 from wbc.tasks import Frame, JointLimits, Posture, TorqueLimits
 
 from .conftest import panda_scenario
@@ -131,7 +131,7 @@ def test_a_dropout_longer_than_the_hold_stops_the_run(tmp_path, panda, capsys, m
 
 
 def test_duration_zero_is_bad_input_not_an_internal_error(capsys):
-    balance = ROOT / "tasks" / "talos_balance.yaml"
+    balance = ROOT / "wbc" / "data" / "scenarios" / "talos_balance.yaml"
     for value in ("0", "-1", "0.0001"):
         assert main(["run", str(balance), "--headless", "--duration", value]) == 2
         err = capsys.readouterr().err

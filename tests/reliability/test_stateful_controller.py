@@ -1,4 +1,4 @@
-"""Random edit sequences on a running controller: Talos standing (tests.stacks.talos_stack: limits,
+"""Random edit sequences on a running controller: Talos standing (tests.helpers.stacks.talos_stack: limits,
 torque limits, two sole contacts / CoM / both hands / posture), then add, remove, move and retarget
 frame, CoM and posture tasks, release and make contacts (force ramps of 2-10 cycles),
 push the robot and switch solver (hqp, projection, weighted: a new Controller on the same
@@ -11,7 +11,7 @@ cycles after each edit with the state integrated from the controller's own q̈. 
 - a released contact leaves the stack when its ramp ends; a touched-down one ends at fmax = ∞.
 
 After every edit, strict priority: each level's residual ‖A x − b‖ equals the one of the
-stack cut below it (the prefix solved alone: :mod:`tests.test_priority`'s comparison, same
+stack cut below it (the prefix solved alone: :mod:`tests.solvers.test_priority`'s comparison, same
 tolerance); for the weighted solver, only level 0 is strict.
 """
 
@@ -27,10 +27,9 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule, run_state_machine_as_test
 
 import wbc
-from wbc.controller import SOLVERS
+from tests.helpers.stacks import randomise_targets, talos_stack
+from wbc.controller.cycle import SOLVERS
 from wbc.tasks import CoM, Contact, Frame, Posture
-
-from ..stacks import randomise_targets, talos_stack
 
 DT, CYCLES, FEET = 1e-3, 2, ("left_foot", "right_foot")
 FRAMES = ("left_hand", "right_hand", "torso", "head", "left_foot", "right_foot")
@@ -45,7 +44,7 @@ def talos() -> wbc.RobotModel:
 
 
 def _retarget(task, robot, seed) -> None:
-    """A target near the task's current value (tests.stacks.randomise_targets; robot.update done)."""
+    """A target near the task's current value (tests.helpers.stacks.randomise_targets; robot.update done)."""
     randomise_targets(wbc.Stack([[task]]), robot, np.random.default_rng(seed))
 
 

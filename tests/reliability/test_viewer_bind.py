@@ -14,7 +14,7 @@ from urllib.parse import urlsplit
 import pytest
 
 import wbc
-from wbc.cli import build_parser, main
+from wbc.cli.main import build_parser, main
 from wbc.viz import Scene
 
 pytestmark = pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's /proc/net/tcp")

@@ -1,7 +1,7 @@
 """What a solver hands back: x = (q̈, f) and a record per level (boundary type).
 
 Every solver returns a :class:`SolveResult` from ``solve(problem)``; the controller turns
-it into torques and a :class:`~wbc.solution.Solution` without knowing which solver ran.
+it into torques and a :class:`~wbc.controller.solution.Solution` without knowing which solver ran.
 """
 
 from __future__ import annotations

@@ -50,7 +50,7 @@ class Layout:
     contact_slices: dict[str, slice] = field(default_factory=dict)
     #: refilled in place every cycle, never replaced (``nf`` and ``nx`` are set from it once)
     force_jacobian: np.ndarray | None = None
-    #: contact task name -> its :class:`~wbc.model.ContactSurface` (kind and sole half sizes),
+    #: contact task name -> its :class:`~wbc.robot.model.ContactSurface` (kind and sole half sizes),
     #: for the tasks whose rows depend on the contact geometry (contact regularisation)
     surfaces: dict = field(default_factory=dict)
 

@@ -1,4 +1,7 @@
-"""Forward-dynamics simulation: rigid unilateral Coulomb contacts, pushes, sensing."""
+"""Forward-dynamics simulation: rigid unilateral Coulomb contacts, pushes, sensing.
+
+May import: :mod:`wbc.errors`, :mod:`wbc.robot` (types). Not the controller or the scenario.
+"""
 
 from .bodies import box_model
 from .environment import Box, HalfSpace, ground, incline

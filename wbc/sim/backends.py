@@ -1,6 +1,6 @@
 """The simulator protocol the runner drives, and the physics back-ends that implement it.
 
-A closed-loop run (``wbc.runner``) talks to its simulator only through
+A closed-loop run (``wbc.runner.loop``) talks to its simulator only through
 :class:`PhysicsSimulator`: ``measure()`` gives the sensed (q, v) in pinocchio's
 coordinates, ``step(tau)`` advances one control period under the commanded torques (the
 simulated driver saturates them at the robot's limits and counts ``saturated_steps``),
@@ -29,7 +29,7 @@ from ..errors import ConfigError
 if TYPE_CHECKING:
     import pinocchio as pin
 
-    from ..model import RobotModel
+    from wbc.robot.model import RobotModel
 
 #: simulator names a scenario or the command line may give
 SIMULATORS = ("pinocchio", "mujoco")

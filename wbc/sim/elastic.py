@@ -78,7 +78,7 @@ def highest_frequency(M: np.ndarray, stiffness: np.ndarray, motor_inertia: np.nd
 class ElasticJointSimulator:
     """See the module docstring. Units: s, rad, N·m, kg·m².
 
-    ``robot``: a fixed-base :class:`~wbc.model.RobotModel` (or a pinocchio model with
+    ``robot``: a fixed-base :class:`~wbc.robot.model.RobotModel` (or a pinocchio model with
     nq = nv); ``stiffness`` K and ``motor_inertia`` B_m: numbers or one per joint (> 0);
     ``motor_damping`` D_m (N·m·s/rad, >= 0, default 0); ``q0`` the link start (default
     the robot's default posture), at rest; ``theta0`` the motor start, default the static

@@ -20,7 +20,7 @@ from ..errors import WbcError
 from .environment import Box, HalfSpace
 
 if TYPE_CHECKING:
-    from ..model import RobotModel
+    from wbc.robot.model import RobotModel
 
 SOLE_THICKNESS = 0.01   # m, the sole boxes' height
 POINT_RADIUS = 0.005    # m, the point contacts' spheres
@@ -71,7 +71,7 @@ def _pair_params(params: dict) -> dict:
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
                 joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
                 joint_dynamics: bool = False) -> mujoco.MjModel:
-    """The MuJoCo model of ``robot`` (a :class:`~wbc.model.RobotModel`) in ``environment``
+    """The MuJoCo model of ``robot`` (a :class:`~wbc.robot.model.RobotModel`) in ``environment``
     (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`contact_points`. See the
     module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
     motors' limits, the robot's by default."""

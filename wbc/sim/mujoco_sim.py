@@ -20,14 +20,14 @@ Model (:func:`wbc.sim.mujoco_model.build_model`; SI units: m, kg, s, rad, N, N·
   the sole plane; a sphere (r 5 mm) touching each point contact; sites at Simulator.for_robot's
   points. Robot geoms touch the environment only: HalfSpace -> plane, Box -> box (all its faces; in
   wbc.sim its top only), with its μ (geom priority), condim 3, elliptic cones. A point contact
-  with ``mujoco:`` parameters (a scenario's ``contacts:``, :mod:`wbc.scenario_contacts`) touches
+  with ``mujoco:`` parameters (a scenario's ``contacts:``, :mod:`wbc.scenario.contacts`) touches
   them through explicit pairs instead: the same μ and condim, its solref / solimp /
   solreffriction (MuJoCo's defaults for those not given; with none given a pair is bit-identical
   to the priority rule's contact).
 - Options: timestep dt / substeps, MuJoCo's defaults otherwise (Euler, Newton, solref, solimp; no
   impratio or noslip tuning); pinocchio's gravity.
 
-Conventions (each checked numerically in tests/test_mujoco_model.py)
+Conventions (each checked numerically in tests/sim/test_mujoco_model.py)
 - q = [p, quaternion x y z w, joints in pinocchio's order] <-> qpos = [p, quaternion w x y z, joints
   in MuJoCo's order], mapped by name; planar [x, y, cos θ, sin θ] <-> [x, y, θ]; continuous (cos, sin) <-> angle.
 - Free flyer v = [Rᵀ ṗ, ω_b] (base frame), qvel = [ṗ (world), ω_b]; planar v = [R(θ)ᵀ(ẋ, ẏ), θ̇],
@@ -82,7 +82,7 @@ from .mujoco_model import build_model
 from .simulator import Push, contact_points
 
 if TYPE_CHECKING:
-    from ..model import RobotModel
+    from wbc.robot.model import RobotModel
 
 class MujocoSimulator:
     """:class:`wbc.sim.Simulator`'s interface on MuJoCo (module docstring). Units: s, m, rad, N, N·m.

@@ -58,7 +58,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:
-    """The points where ``robot`` (a :class:`~wbc.model.RobotModel`) touches the environment,
+    """The points where ``robot`` (a :class:`~wbc.robot.model.RobotModel`) touches the environment,
     for every simulator: the four corners of each contact surface (± half_length, ± half_width
     in the sole frame, m), the origin of each point contact, and ``extra_points`` (frame name,
     offset in the frame, m). Each as (joint name, offset in the joint frame (m), kind
@@ -159,7 +159,7 @@ class Simulator:
     # ----------------------------------------------------------- construction
     @classmethod
     def for_robot(cls, robot, environment, q0=None, extra_points=(), **kwargs) -> Simulator:
-        """A simulator of ``robot`` (a :class:`~wbc.model.RobotModel`): sole corners of its
+        """A simulator of ``robot`` (a :class:`~wbc.robot.model.RobotModel`): sole corners of its
         contact surfaces and the origins of its point contacts touch the environment;
         ``extra_points``: more ``(frame name, offset in the frame)``."""
         pts = [(joint, offset) for joint, offset, *_ in contact_points(robot, extra_points)]

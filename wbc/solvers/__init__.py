@@ -1,6 +1,9 @@
 """The solvers, by name. Each takes a :class:`~wbc.problem.Problem` and returns a
 :class:`~wbc.problem.SolveResult` (``solve``); ``create`` builds one from the controller's
-options. Adding a solver is one class here (see ``docs/architecture.md``)."""
+options. Adding a solver is one class here (see ``docs/architecture.md``).
+
+May import: :mod:`wbc.problem`, their kernels and :mod:`wbc.errors`, nothing else of wbc.
+"""
 
 from .hqp import HierarchicalQP
 from .projection import RecursiveProjection

@@ -27,7 +27,7 @@ The cascade is one compiled run over every level's rows
 (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`): it stops only at a level whose
 QP needs the back-end, which :meth:`HierarchicalQP.solve_levels` solves before resuming it
 (with that level's bounds relaxed by its slack, if it needed one). The same cascade level
-by level in Python is the tests' reference (``tests/reference_hqp.py``).
+by level in Python is the tests' reference (``tests/helpers/reference_hqp.py``).
 
 Every cycle is a function of its state and stack: the least-norm choices start from a
 reference the controller computes from the state (:meth:`solve_levels`), and what the
@@ -116,7 +116,7 @@ class HierarchicalQP:
                      dampings: dict | None = None) -> SolveResult:
         """Solve the cascade. ``dampings``: level index -> :class:`Damping` for the levels
         that do not use the solver's own (the weighted QP's folded level). ``scale``: per-variable scale D, x = D x̃; the cascade's
-        least-norm choices are then made in x̃ (see :class:`~wbc.controller.Controller`).
+        least-norm choices are then made in x̃ (see :class:`~wbc.controller.cycle.Controller`).
 
         ``x_ref``: the reference of the least-norm choices (default 0). Every level's
         step is the smallest change that solves it, starting from x_ref instead of the

@@ -13,8 +13,11 @@ grid and random draws), :mod:`~wbc.sweep.bisect` (per-group bisection),
 worker process), :mod:`~wbc.sweep.executor`, :mod:`~wbc.sweep.local`,
 :mod:`~wbc.sweep.ray_pool` (executors), :mod:`~wbc.sweep.store` (the CSV),
 :mod:`~wbc.sweep.criteria` (survival), :mod:`~wbc.sweep.engine` (the driver),
-:mod:`~wbc.sweep.summary`, :mod:`~wbc.sweep.plots`, :mod:`~wbc.sweep.cli` (the command).
+:mod:`~wbc.sweep.summary`, :mod:`~wbc.sweep.plots`, :mod:`~wbc.cli.sweep` (the command).
 Nothing heavy is imported here: ``wbc --help`` stays fast.
+
+May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.jsonable`, :mod:`wbc.blas`,
+:mod:`wbc.robot`, :mod:`wbc.scenario`, :mod:`wbc.runner`. Not the CLI (its command is :mod:`wbc.cli.sweep`).
 """
 
 from __future__ import annotations

@@ -18,8 +18,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from wbc.validation.schema import boolean, integer, mapping, number, sequence
+
 from ..errors import ConfigError
-from ..schema import boolean, integer, mapping, number, sequence
 from . import keypath
 
 MAX_CASES = 1_000_000

@@ -75,8 +75,9 @@ def robot_file_digest(robot: Any) -> str:
         return ""
     import yaml
 
+    from wbc.robot.loader import robot_yaml_path
+
     from ..errors import WbcError
-    from ..robots import robot_yaml_path
 
     try:
         data = yaml.safe_load(robot_yaml_path(robot).read_text(encoding="utf-8"))

@@ -21,7 +21,8 @@ from .axes import max_probes
 from .bisect import Bisection
 from .cases import Case, grid_points, make_case, ordered_values, static_cases
 from .criteria import survived
-from .executor import Executor, Job, Outcome, make_executor
+from .executor import make_executor
+from .jobs import Executor, Job, Outcome
 from .spec import SweepSpec
 from .store import RETRY, ResultStore
 

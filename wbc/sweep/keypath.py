@@ -3,7 +3,7 @@
 
 One reader (:func:`get`) and one writer (:func:`assign`) for every sweep axis: an axis
 sets a value of the scenario's YAML document (a plain dict from ``yaml.safe_load``)
-before the :class:`~wbc.scenario.Scenario` is built, so any key the scenario format has
+before the :class:`~wbc.scenario.loader.Scenario` is built, so any key the scenario format has
 (``simulator``, once it exists, included) is an axis without code here.
 
 A key path may end in a *vector component* suffix, for 3-vectors such as a push force

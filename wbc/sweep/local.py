@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as mp_wait
 
-from .executor import Job, Outcome, default_workers
+from .jobs import Job, Outcome, default_workers
 
 
 def _die_with_parent() -> None:
@@ -42,7 +42,7 @@ def _serve(conn_in: Connection, conn_out: Connection) -> None:
     """A worker process: announce readiness, then run cases until the pipe closes."""
     _die_with_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)      # Ctrl-C is the parent's to handle
-    import wbc.runner  # noqa: F401  (imported before the clock of the first case starts)
+    import wbc.runner.loop  # noqa: F401  (imported before the clock of the first case starts)
 
     from . import worker
 

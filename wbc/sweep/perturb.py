@@ -24,8 +24,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from wbc.validation.schema import number, text
+
 from ..errors import ConfigError
-from ..schema import number, text
 
 APPLY_TO = ("simulator", "controller", "both")
 #: scale factors allowed (unitless): a model 10× off is not a perturbation any more
@@ -71,7 +72,7 @@ def body_joint(model: pin.Model, name: str) -> int:
         if f.name == name and f.type == pin.FrameType.BODY:
             return int(f.parentJoint)
     links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
-    from ..schema import suggest
+    from wbc.validation.schema import suggest
 
     raise ConfigError(f"no link or joint '{name}' in the robot model{suggest(name, links)}; links: "
                       f"{', '.join(links[:12])}{', ...' if len(links) > 12 else ''}")

@@ -24,7 +24,7 @@ import time
 from collections import deque
 
 from ..errors import ConfigError
-from .executor import Job, Outcome
+from .jobs import Job, Outcome
 
 
 def import_ray():

@@ -1,4 +1,4 @@
-"""The sweep spec YAML: read (``yaml.safe_load`` semantics, :mod:`wbc.yamlio`) and checked.
+"""The sweep spec YAML: read (``yaml.safe_load`` semantics, :mod:`wbc.validation.yamlio`) and checked.
 
     base: talos_push                  # bundled scenario, or a path relative to this file
     mode: bisect                      # grid (default) | random | bisect
@@ -45,9 +45,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from wbc.runner.metrics import BOOLEAN_METRICS
+from wbc.validation.schema import integer, mapping, number, sequence, text
+from wbc.validation.yamlio import Document, read_document
+
 from ..errors import ConfigError, WbcError, placed
-from ..schema import integer, mapping, number, sequence, text
-from ..yamlio import Document, read_document
 from .axes import MAX_CASES, Axis, check_key, check_mode, grid_size, max_probes, parse_axis
 
 MODES = ("grid", "random", "bisect")
@@ -159,7 +161,7 @@ def _build(doc: Document, src: Path) -> SweepSpec:
 
 
 def _base_path(value: Any, src: Path) -> Path:
-    from ..examples import scenario_path
+    from wbc.scenario.examples import scenario_path
 
     name = text(value, "base", what="a bundled scenario name or a path to a scenario YAML")
     p = Path(name)
@@ -186,6 +188,17 @@ def _robot_value(key: str, value: Any, src: Path) -> Any:
     return value
 
 
+def _is_boolean_metric(column: str) -> bool:
+    """Whether ``column`` names one of the run's true/false metrics (``BOOLEAN_METRICS``),
+    wildcards on either side matching one part of a name."""
+    parts = column.split(".")
+    for name in BOOLEAN_METRICS:
+        known = name.split(".")
+        if len(known) == len(parts) and all(a == b or "*" in (a, b) for a, b in zip(parts, known)):
+            return True
+    return False
+
+
 def _survive(spec: Any) -> list[Condition]:
     out = []
     for col, v in mapping(spec, "survive").items():
@@ -196,6 +209,8 @@ def _survive(spec: Any) -> list[Condition]:
                 raise ConfigError("give max: or min:", key=where)
             out += [Condition(col, op, number(m[op], f"{where}.{op}")) for op in ("max", "min") if op in m]
         elif isinstance(v, (bool, int, float, str)):
+            if _is_boolean_metric(col) and not isinstance(v, bool):
+                raise ConfigError(f"is a true/false metric: give true or false, got {v!r}", key=where)
             out.append(Condition(col, "eq", v))
         else:
             raise ConfigError(f"must be a value (equal) or {{max: x}} / {{min: x}}, got {v!r}", key=where)

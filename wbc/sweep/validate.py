@@ -9,7 +9,7 @@ what only the base scenario can tell:
   did-you-mean); ``model.mass_scale.<link>`` names a link or joint of the robot;
 - a sample case builds (the first value of every axis), and so does the case with each
   listed value, choice or range end of each axis in turn (the others at their first),
-  through :func:`wbc.scenario.load_config`, exactly as a worker builds it.
+  through :func:`wbc.scenario.loader.load_config`, exactly as a worker builds it.
 
 Errors are :class:`ConfigError` naming the spec file, the line and the key path of the
 axis (``axes.solver.type``) with the scenario's own message quoted.

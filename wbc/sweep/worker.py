@@ -1,8 +1,8 @@
 """Running one case inside a worker process (a local pool's or a Ray worker's).
 
-:func:`execute` builds the case's scenario through :func:`wbc.scenario.load_config` (the
+:func:`execute` builds the case's scenario through :func:`wbc.scenario.loader.load_config` (the
 same checks as ``wbc validate``: the resolved document is written to a temporary YAML
-file), runs it with :func:`wbc.runner.run` and returns a plain dict: ``status`` (``ok``,
+file), runs it with :func:`wbc.runner.loop.run` and returns a plain dict: ``status`` (``ok``,
 ``fell`` (also a run stopped early: its ``stopped`` metric) or ``error``), ``error`` (the
 message of an exception the case raised), ``metrics`` (flattened, :func:`flatten`) and ``wall_s`` (s). It never raises for a bad
 case; a case that kills or hangs its process is the executor's to record (``failed``,
@@ -10,7 +10,7 @@ case; a case that kills or hangs its process is the executor's to record (``fail
 
 Each worker process loads a robot once per robot name (or path) and reuses it for
 every later case (:func:`robot_loader`; a run leaves no state in the RobotModel that the
-next one reads, which ``tests/test_sweep.py`` checks by comparing executors), runs BLAS
+next one reads, which ``tests/sweep/test_sweep.py`` checks by comparing executors), runs BLAS
 on one thread (the pool has one process per core) and shares numba's on-disk kernel
 cache with every other process.
 """
@@ -33,8 +33,8 @@ _blas_set = False
 
 
 def robot_loader(name_or_path) -> Any:
-    """``wbc.robots.load_robot``, cached in this process by name (or path)."""
-    from ..robots import load_robot
+    """``wbc.robot.loader.load_robot``, cached in this process by name (or path)."""
+    from wbc.robot.loader import load_robot
 
     key = str(name_or_path)
     if key not in _robots:
@@ -91,11 +91,12 @@ def _injected(what: list[str]) -> None:
 
 
 def build(payload: dict):
-    """The :class:`~wbc.scenario.Scenario` of a case payload (ConfigError if it does not
+    """The :class:`~wbc.scenario.loader.Scenario` of a case payload (ConfigError if it does not
     build) and the perturbation for the runner (or None)."""
     import yaml
 
-    from ..scenario import load_config
+    from wbc.scenario.loader import load_config
+
     from .perturb import Perturbation, perturbed_robot
 
     pert = Perturbation(payload["perturbation"]["mass_scale"], dict(payload["perturbation"]["link_scale"]),
@@ -126,12 +127,12 @@ def execute(payload: dict) -> dict:
     _one_blas_thread()
     try:
         _injected(payload.get("inject", []))
-        from ..runner import run
+        from wbc.runner.loop import run
 
         sc, sim_pert = build(payload)
         metrics = run(sc, model_perturbation=sim_pert)
         flat = flatten(metrics)
-        # a run stopped early (a controller stop, a diverged simulation: wbc.faults) did not
+        # a run stopped early (a controller stop, a diverged simulation: wbc.controller.faults) did not
         # run to its end: it never survives, its metrics are kept, like a fall's
         status = "fell" if metrics.get("fell") or metrics.get("stopped") else "ok"
         return {"status": status, "error": "", "metrics": flat, "wall_s": time.perf_counter() - t0}

@@ -1,4 +1,8 @@
-"""Task library: one task kind per module. Each returns affine rows over x = (q̈, f)."""
+"""Task library: one task kind per module. Each returns affine rows over x = (q̈, f).
+
+May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.problem`,
+:mod:`wbc.null_space`. Not the stack (the sugar is :mod:`.group`), the controller or the chapter.
+"""
 
 from .base import MotionTask, Task
 from .com import CoM

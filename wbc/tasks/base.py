@@ -17,14 +17,15 @@ from typing import TYPE_CHECKING
 import numba as nb
 import numpy as np
 
-from ..checks import finite_vector
+from wbc.validation.inputs import finite_vector
+from wbc.validation.schema import found, is_number, number, show, vector
+
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import found, is_number, number, show, vector
 from .group import TaskGroup
 
 if TYPE_CHECKING:
-    from ..model import RobotModel
+    from wbc.robot.model import RobotModel
 
 
 _GAIN_UNITS = {"kp": "1/s²", "kd": "1/s", "k_q": "N·m/rad"}

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbc.validation.schema import show
+
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import show
 from .base import MotionTask, as_vector, eq_buffer, motion_rows
 
 _AXES = "xyz"

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbc.robot.model import LOCAL, WORLD_ALIGNED, ContactSurface
+from wbc.validation.schema import boolean, number, text
+
 from ..errors import TaskDefinitionError
-from ..model import LOCAL, WORLD_ALIGNED, ContactSurface
 from ..problem.rows import ContactData, Layout, Rows
-from ..schema import boolean, number, text
 from .base import MotionTask, eq_buffer, motion_rows
 
 
@@ -93,7 +94,7 @@ class Contact(MotionTask):
     equality rows keep only the directions the surface constrains, the normal translation (a
     point: world z; a surface: its LOCAL z and the two tilts x, y), the natural constraint
     J_φ q̇ = 0 of 5.30; the tangential motion is left to a motion task (the hybrid force/motion
-    construct, :mod:`wbc.hybrid`) and the force inequalities stay as they are.
+    construct, :mod:`wbc.interaction.hybrid_selection`) and the force inequalities stay as they are.
     """
 
     kind = "contact"

@@ -75,9 +75,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from wbc.validation.schema import number
+
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import number
 from .base import Task, eq_buffer
 
 #: smallest sole half size (m) the moment rows divide by

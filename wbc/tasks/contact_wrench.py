@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..checks import finite_vector
+from wbc.validation.inputs import finite_vector
+from wbc.validation.schema import text, vector
+
 from ..errors import StackError, TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import text, vector
 from .base import Task, as_vector, eq_buffer
 
 

@@ -23,10 +23,10 @@ environment reacts with the f the torques τ = S_a(M q̈ + h − J_fᵀ f) assum
 corrects what the model does not know (a payload, a soft contact, friction in the joints).
 
 Measurement: :meth:`Force.feed` gives f_m (the contact's d force components, N and N·m)
-once per control period of ``dt`` s, before the solve; :mod:`wbc.force_sensing` does it in a
+once per control period of ``dt`` s, before the solve; :mod:`wbc.interaction.force_sensing` does it in a
 run, from ``source``: ``"simulator"`` (the contact force the simulator applied over the last
 step, what a force sensor at the contact reads) or ``"observer"`` (the generalised-momentum
-observer's τ_ext, :mod:`wbc.estimation.momentum_observer`, projected on the stack's contact
+observer's τ_ext, :mod:`wbc.interaction.momentum_observer`, projected on the stack's contact
 forces: no force sensor). Until the first feed the rows are pure feed-forward, f_λ = λ_D.
 
 Discrete law per feed (h = dt; e = λ_D − λ_m; per direction):
@@ -49,7 +49,7 @@ there, the friction of a sliding hand, is fed forward, so the torques account fo
 the motion task is not disturbed by it; the chapter's scheme cancels the measured h_e alike).
 
 ``motion``: the name of the motion task (a :class:`~wbc.tasks.Frame` on the contact's frame)
-driving the other directions: the hybrid force/motion construct of :mod:`wbc.hybrid` checks
+driving the other directions: the hybrid force/motion construct of :mod:`wbc.interaction.hybrid_selection` checks
 S_fᵀ S_v = 0 (5.33) between them.
 """
 
@@ -57,9 +57,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbc.validation.schema import found, is_number, number, show, text, vector
+
 from ..errors import StackError, TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import found, is_number, number, show, text, vector
 from .base import Task, eq_buffer
 
 SOURCES = ("simulator", "observer")

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from wbc.validation.schema import number
+
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import number
 from .base import Task
 
 

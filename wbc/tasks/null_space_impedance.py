@@ -39,7 +39,7 @@ Rows (5.39, 5.43). The task asks
 
 with ν̃ = −ν (ν_d = 0), q̃ = q_d ⊖ q on the joints (no spring on a floating or planar root),
 τ̂_e the external torque the controller was told of (``RobotModel.external_torque``,
-:mod:`wbc.interaction`; 0 when none). Its r = n − rank J_H rows are exactly the freedom
+:mod:`wbc.interaction.external_force`; 0 when none). Its r = n − rank J_H rows are exactly the freedom
 the higher levels leave (q̈ = q̈₀ + Z w ⇒ Z# q̈ = Z# q̈₀ + w), so it is met exactly and
 changes nothing above it. The solvers get (4) times Lᵀ (Λ_ν = L Lᵀ, Cholesky):
 L⁻¹ Zᵀ M q̈ = L⁻¹ ((μ_ν + B_ν) ν̃ + Zᵀ (k_q q̃ + τ̂_e)) − Lᵀ Ż# q̇. The same solution when the
@@ -50,7 +50,7 @@ what a physical stop there would pass them, no more (in ν̇ units the light mod
 at 1e-3 kg·m², claim thousands of rad/s² from the others; measured in the tests).
 
 In closed loop, the controller's model holds τ̂_e (it is in
-h, :class:`~wbc.model.RobotModel`), the plant the true τ_e, so by (3)
+h, :class:`~wbc.robot.model.RobotModel`), the plant the true τ_e, so by (3)
 
     Λ_ν ν̃̇ + (μ_ν + B_ν) ν̃ + Zᵀ k_q q̃ = −Zᵀ τ_e            (5.44; sign: τ_e = −τ_ext)
 
@@ -98,11 +98,12 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import solve_triangular
 
-from ..checks import finite_vector
+from wbc.validation.inputs import finite_vector
+from wbc.validation.schema import found, is_number, matrix, number, text, vector
+
 from ..errors import TargetError, TaskDefinitionError
 from ..null_space import NullSpaceTerms, null_basis_at, null_space_terms
 from ..problem.rows import Layout, Rows
-from ..schema import found, is_number, matrix, number, text, vector
 from .base import Task, as_vector, eq_buffer, gain
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

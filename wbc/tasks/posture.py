@@ -5,10 +5,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..checks import finite_vector
+from wbc.validation.inputs import finite_vector
+from wbc.validation.schema import sequence, show, suggest, text, vector
+
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import sequence, show, suggest, text, vector
 from .base import MotionTask, as_vector, eq_buffer
 
 

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbc.validation.schema import number
+
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows
-from ..schema import number
 from .base import Task, dynamics_block
 
 _NO_FORCES = np.zeros((0, 0))

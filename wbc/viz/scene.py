@@ -438,7 +438,7 @@ class Scene:
 
 def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float = 1.0, fps: float = 30.0,
                     diagnostics_hz: float = 10.0, frames=()):
-    """A :func:`wbc.runner.run` callback drawing ``fps`` frames per simulated second,
+    """A :func:`wbc.runner.loop.run` callback drawing ``fps`` frames per simulated second,
     paced to ``speed`` × real time when ``realtime``, and the priority diagnostics
     ``diagnostics_hz`` times per simulated second (0: never). Between frames it
     only counts cycles. ``frames``: robot frames drawn with their actual axes
@@ -472,5 +472,5 @@ def viewer_callback(scene: Scene, stack, dt: float, realtime: bool, speed: float
 
 def shown_frames(sc) -> tuple[str, ...]:
     """The robot frames a scenario's view draws with their actual axes: the glass's frame
-    of an ``interaction:`` section (:mod:`wbc.interaction`), else none."""
+    of an ``interaction:`` section (:mod:`wbc.interaction.external_force`), else none."""
     return (sc.interaction.glass_frame,) if sc.interaction is not None else ()

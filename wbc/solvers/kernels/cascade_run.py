@@ -5,7 +5,7 @@ higher levels' inequalities checked, a QP solved by KKT certificate where one is
 :mod:`.qp_rows`) until a level needs what only Python does (a back-end QP); the solver
 (:class:`~wbc.solvers.hqp.HierarchicalQP`) solves that QP from the state the run hands
 over (decoded by :func:`.records.decode`) and resumes the run below it. This is the
-cascade's only copy in the package; ``tests/reference_hqp.py`` is the same level by level
+cascade's only copy in the package; ``tests/helpers/reference_hqp.py`` is the same level by level
 in Python, the reference it is tested against.
 """
 
@@ -35,7 +35,7 @@ from .records import (
 def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
                    max_damping, gram_min_ratio, tol, certify, regularization, margin):
     """The strict cascade's levels, one after the other, for as long as none needs a
-    back-end QP: the hierarchical QP's common case in one call (``tests/reference_hqp.py``
+    back-end QP: the hierarchical QP's common case in one call (``tests/helpers/reference_hqp.py``
     is the same mathematics, step for step, in Python).
 
     Level k's equalities are rows [e_end[k−1], e_end[k]) of (A, b) and its inequalities

@@ -53,7 +53,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
                       max_damping, gram_min_ratio, box_tol, saturation_rank_tol):
     """The projection solver's levels in q̈, one after the other, each with Saturation in
     the Null Space where a joint limit is in the way (the steps of
-    :class:`~wbc.solvers.projection.RecursiveProjection`; ``tests/reference_projection.py``
+    :class:`~wbc.solvers.projection.RecursiveProjection`; ``tests/helpers/reference_projection.py``
     is the same in Python, level by level).
 
     The cascade's variable is y with q̈ = T y (``weighted``: the inertia weighting's T = L⁻ᵀ,

@@ -1,0 +1,491 @@
+"""Controller: one control cycle, top to bottom.
+
+    robot.update(q, v)           pinocchio, once
+    stack.layout / assemble      task rows, levels (+ the contact regularisation, lowest)
+    solver                       q̈ (and f) by projection, HQP or weighted QP
+    torques                      τ = S_a (M q̈ + h − J_fᵀ f)   (5.26 solved for τ)
+    saturation                   τ_i ← clip(τ_i, −τ_max,i, τ_max,i)
+
+Three guarantees, whatever the solver and the state:
+
+- **Nothing undecided.** Every direction of x = (q̈, f) is decided by the state and the
+  stack, never by the previous cycle. A stack with contacts gets a
+  :class:`~wbc.tasks.ContactRegularization` as its lowest level (unless it has one, or every
+  contact has a ContactWrench target, or ``contact_regularization=False``): it decides the
+  internal forces and the CoPs. What is still free after it (q̈ directions no task
+  names) keeps the value of the cascade's reference, a function of the state: the
+  nominal point x₀ = (q̈₀, f₀), q̈₀ = 0 where level 0's joint-acceleration bounds allow it
+  (else just inside the bound) and f₀ the regularisation's distribution of gravity and the
+  velocity terms
+  (:func:`~wbc.tasks.contact_regularization.reference_point`), or 0.
+- **Output inside the limits.** ``Solution.tau`` is finite and inside ±τ_max (the robot's
+  actuator limits). A solver's torque beyond them (a relaxed level, the projection
+  solver, which does not enforce torque limits, a stack without TorqueLimits) is clipped,
+  the cycle's status is ``"saturated"`` and the diagnostics name the joints.
+- **No NaN.** A non-finite or failed solve is reported in ``Solution.status`` and the
+  torque falls back to the last good one (or gravity compensation on the first cycle)
+  with joint damping, saturated too; q̈ is then 0 and the forces are the last good ones.
+  So do a non-finite or stale measured state, a solver that raised and a solve over its
+  time budget, each counted, and after a bounded number of such cycles in a row the
+  controller stops (``"stopped"``): the fault policy of :mod:`wbc.controller.faults`.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numba as nb
+import numpy as np
+import pinocchio as pin
+
+from wbc.controller.faults import FaultMonitor, FaultPolicy, hold_torque
+from wbc.controller.solution import LevelDiagnostics, Solution
+from wbc.controller.solver_names import SOLVERS
+from wbc.errors import SolverError
+from wbc.problem.buffer import row_values, split_values
+from wbc.problem.problem import Problem
+from wbc.problem.result import SolveResult
+from wbc.problem.rows import Layout, Level
+from wbc.robot.model import RobotModel
+from wbc.solvers import SOLVER_CLASSES
+from wbc.solvers.backends import Backend
+from wbc.solvers.cascade import Damping
+from wbc.stack import Stack
+from wbc.tasks.contact_regularization import ContactRegularization, reference_point
+from wbc.tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
+
+__all__ = ["SOLVERS", "Controller"]
+
+
+class Controller:
+    """Whole-body controller of ``robot`` for ``stack``.
+
+    ``solver``: ``"hqp"`` (strict, inequalities at any level), ``"projection"``
+    (analytic recursive null-space projection, q̈ only, SNS joint limits) or
+    ``"weighted"`` (level 0 hard, the rest one weighted QP). ``backend``: QP
+    back-end (``"proxqp"``, ``"daqp"``, any qpsolvers name, or a
+    :class:`~wbc.solvers.backends.Backend` instance). ``weighting``:
+    generalised-inverse weight W of the projection solver (``"identity"``, or
+    ``"inertia"`` for the dynamically consistent inverse; with W = M light distal
+    joints such as grippers are the cheapest to accelerate and saturate first).
+    ``sacrifice_tol`` and ``sacrifice_rel``: a task is reported as sacrificed when its
+    residual exceeds sacrifice_tol + sacrifice_rel·‖b‖, b what its rows ask (units of its
+    rows, m/s², rad/s², N): by default 0.1 % of the request, so a task met to the QPs'
+    accuracy is not flagged. ``warm_start`` (hqp, weighted): the cascade's least-norm
+    choices start from the state's nominal point x₀ = (q̈₀, f₀) (module docstring: the
+    contacts already carry the weight there and the joints keep their acceleration
+    bounds, so level 0's point lies inside its cones and limits and needs no QP) instead
+    of 0. Either way a function of the state: no cycle
+    depends on the previous one (see :meth:`HierarchicalQP.solve_levels`).
+    ``contact_regularization``: True (default) adds a :class:`ContactRegularization` as the
+    lowest level of a stack with contacts that has none (module docstring); a
+    ContactRegularization instance is added instead (its weights); False adds nothing
+    (the internal forces are then left to the reference x₀).
+    ``faults``: the run-time fault policy (:class:`~wbc.controller.faults.FaultPolicy`: hold cycles,
+    damping, stale-state detection); ``solve_timeout`` (s): its per-cycle budget of the
+    solve's wall time, None for none (shorthand for ``FaultPolicy.solve_timeout``).
+    """
+
+    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
+                 weighting: str = "identity", damping: Damping | None = None,
+                 sacrifice_tol: float = 1e-6, level_weight: float = 1e-3, dt: float = 1e-3,
+                 warm_start: bool = True, sacrifice_rel: float = 1e-3,
+                 contact_regularization: bool | ContactRegularization = True,
+                 faults: FaultPolicy | None = None, solve_timeout: float | None = None) -> None:
+        if solver not in SOLVERS:
+            raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
+        if not isinstance(stack, Stack):
+            stack = Stack(stack)
+        self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
+        self.sacrifice_tol = sacrifice_tol
+        self.sacrifice_rel = sacrifice_rel
+        self.solver = SOLVER_CLASSES[solver].create(backend=backend, damping=damping, weighting=weighting,
+                                                    level_weight=level_weight)
+        self._dynamics = FloatingBaseDynamics()
+        self._diff_drive = DifferentialDrive() if robot.differential_drive else None
+        self._last_tau: np.ndarray | None = None
+        policy = faults or FaultPolicy()
+        if solve_timeout is not None:
+            policy = FaultPolicy(policy.max_hold_cycles, policy.damping, policy.detect_stale, solve_timeout)
+        self.faults = FaultMonitor(policy)
+        self.warm_start = bool(warm_start)
+        if isinstance(contact_regularization, ContactRegularization):
+            self.regularization: ContactRegularization | None = contact_regularization
+        elif contact_regularization is True:
+            self.regularization = ContactRegularization()
+        elif contact_regularization is False or contact_regularization is None:
+            self.regularization = None
+        else:
+            raise SolverError("contact_regularization must be True, False or a ContactRegularization, got "
+                              f"{contact_regularization!r}")
+        # the weights of the nominal distribution f₀ when neither the stack nor the
+        # controller has a regularisation task
+        self._nominal_weights_of = self.regularization or ContactRegularization()
+        self._lowest_for: tuple | None = None   # (stack version, tasks added below the stack, weights' task)
+        self._x_ref: np.ndarray | None = None
+        self._last_forces: dict[str, np.ndarray] = {}
+        self.dt = float(dt)
+        # The cascade can make its least-norm choices in x̃ = (q̈, f / force_scale).
+        # Measured: 100 makes level 0 pick interior forces (no QP there) but worsens
+        # the conditioning of the lower levels' QPs (9/40 random states degraded vs 0),
+        # with no net gain in cycle time; kept at 1 until the QPs are rescaled.
+        self.force_scale = 1.0
+        self._ramps: dict[str, tuple] = {}   # contact task name -> (f_start, f_end, cycles, k, remove)
+        self.layout: Layout | None = None
+        self.levels: list[Level] = []
+        #: an object with ``lap(phase, t0) -> t`` (the bench's phase timer) told the time of each
+        #: phase of a cycle (update, rows, solve, finish); None: not timed
+        self.phase_clock = None
+        # bind every task to the robot now, so a wrong frame fails here, not mid-run
+        for task in self.stack:
+            task.bind(robot)
+        self.stack.layout(robot)
+
+    # ------------------------------------------------------ contact switching
+    def release_contact(self, name: str, duration: float = 0.2) -> None:
+        """Lift-off without a torque jump: ramp the contact's normal-force bound from the
+        force it carries now down to 0 N over ``duration`` (s, a smoothstep profile), then
+        remove the task."""
+        task = self.stack[name]
+        f_now = float(self._last_forces.get(name, np.zeros(3))[2])
+        self._ramps[name] = (max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), 0, True)
+        task.fmax = max(f_now, 0.0)
+
+    def make_contact(self, task, level: int = 0, duration: float = 0.1, fmax_end: float = np.inf) -> None:
+        """Touch-down: add a Contact task (its reference is where the frame is now) with
+        its normal-force bound ramped up from 0 N over ``duration`` (s, a smoothstep profile)."""
+        task.bind(self.robot)
+        task.reference = None
+        task.fmax = 0.0
+        self.stack.add(task, level)
+        weight = self.robot.mass * 9.81
+        self._ramps[task.name] = (0.0, weight, max(1, int(round(duration / self.dt))), 0, False)
+
+    def _advance_ramps(self) -> None:
+        for name in list(self._ramps):
+            f0, f1, n, k, remove = self._ramps[name]
+            k += 1
+            task = self.stack[name]
+            if k >= n:
+                del self._ramps[name]
+                if remove:
+                    self.stack.remove(name)
+                else:
+                    task.fmax = np.inf
+                continue
+            s_ = k / n
+            # smoothstep 3s² − 2s³: the bound starts and ends with zero slope. The contact
+            # regularisation loads a contact as far as the bound lets it, so the bound's
+            # profile is the torque's: a linear ramp starts at full slope (a step in dτ/dt,
+            # 1.4 N·m per cycle at Talos's touch-down), this one from rest (1.0).
+            task.fmax = f0 + (f1 - f0) * s_ * s_ * (3.0 - 2.0 * s_)
+            self._ramps[name] = (f0, f1, n, k, remove)
+
+    def _internal_constraints(self, layout: Layout) -> list:
+        extra = []
+        if len(self.robot.unactuated_idx) and (not self.solver.distributes_forces or layout.nf == 0):
+            extra.append(self._dynamics)
+        if self._diff_drive is not None:
+            extra.append(self._diff_drive)
+        return extra
+
+    def _lowest(self) -> tuple[list, ContactRegularization]:
+        """(the tasks added as the lowest level, the task whose weights define the nominal
+        forces f₀), worked out once per stack structure: the controller's regularisation
+        when the stack has contacts, no ContactRegularization of its own, and a contact
+        without a ContactWrench target (a wrench target on every contact decides every
+        force direction already)."""
+        got = self._lowest_for
+        if got is not None and got[0] == self.stack.version:
+            return got[1], got[2]
+        own = next((t for t in self.stack if isinstance(t, ContactRegularization)), None)
+        contacts = {c.name for c in self.stack.contacts()}
+        wrenched = {t.contact for t in self.stack if t.kind == "contact_wrench"}
+        lowest = []
+        if own is None and self.regularization is not None and contacts - wrenched:
+            self.regularization.bind(self.robot)
+            lowest = [self.regularization]
+        weights_of = own or self._nominal_weights_of
+        self._lowest_for = (self.stack.version, lowest, weights_of)
+        return lowest, weights_of
+
+    def lowest_tasks(self) -> list:
+        """The tasks the controller adds below the stack's levels (see ``contact_regularization``)."""
+        return list(self._lowest()[0])
+
+    def _reference(self, layout: Layout, weights_of: ContactRegularization, levels: list[Level]) -> np.ndarray | None:
+        """The cascade's reference x₀ = (q̈₀, f₀) (module docstring): q̈₀ = 0 where level 0's
+        joint-acceleration bounds allow it, else inside the bound 0 is beyond (a joint
+        braking towards its limit needs q̈ ≠ 0: from q̈ = 0 level 0 needed a QP in 9 % of the
+        bench's cycles), f₀ the nominal forces; None (x₀ = 0) when both are 0."""
+        robot = self.robot
+        box = levels[0].box if levels else None
+        forces = layout.nf and len(robot.unactuated_idx)
+        if not forces and box is None:
+            return None
+        x = self._x_ref
+        if x is None or len(x) != layout.nx:
+            x = self._x_ref = np.zeros(layout.nx)
+        idx, lo, hi = box if box is not None else (_NO_INDEX, _NO_BOUNDS, _NO_BOUNDS)
+        # inside the bounds by the margin the solver's QPs keep (a point on a bound sends
+        # the next level's step across it), in one compiled call with f₀
+        reference_point(x, layout.nv, idx, lo, hi, self.solver.margin,
+                        layout.force_jacobian if forces else _NO_FORCES, robot.h, robot.unactuated_idx,
+                        weights_of.force_weights(layout) if forces else _NO_BOUNDS)
+        return x
+
+    def solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
+        """One control cycle at state (q, v) under the fault policy (:mod:`wbc.controller.faults`); see
+        the module docstring. ``Solution.fault`` names a faulty cycle's counter.
+        ``external_torque``: a known external generalised force on the robot (nv; a measured
+        or estimated push, :mod:`wbc.interaction.external_force`), put into the dynamics every level sees
+        (``RobotModel.update``)."""
+        solve = self._solve if external_torque is None else partial(self._solve, external_torque=external_torque)
+        sol = self.faults.cycle(q, v, solve, self._hold)
+        if not sol.fault:           # accepted: what a later faulty cycle holds
+            self._last_tau, self._last_forces = sol.tau_full.copy(), sol.forces
+        return sol
+
+    def fault_counts(self) -> dict[str, int]:
+        """The fault policy's counters (:data:`wbc.controller.faults.COUNTERS`) and
+        ``qp_backend_failures``: QP answers the solver rejected or its back-end failed on,
+        each rescued by its fallback back-end (not a faulty cycle by itself)."""
+        return {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
+
+    def _solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
+        robot, clock = self.robot, self.phase_clock
+        q, v = robot.check_state(q, v, finite=False)      # finite: FaultMonitor.state_fault
+        if self._ramps:
+            self._advance_ramps()
+        t = clock and clock.lap(None, 0.0)
+        robot.update(q, v, external_torque)
+        t = clock and clock.lap("update", t)
+        layout = self.stack.layout(robot)
+        lowest, weights_of = self._lowest()
+        levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),
+                                     lowest if layout.nf else ())
+        t = clock and clock.lap("rows", t)
+        self.layout, self.levels = layout, levels
+        scale = None
+        if layout.nf and self.force_scale != 1.0:
+            scale = np.ones(layout.nx)
+            scale[layout.nv:] = self.force_scale
+        x_ref = None
+        if self.warm_start and self.solver.uses_reference:
+            x_ref = self._reference(layout, weights_of, levels)
+        contacts = []
+        if self.solver.distributes_forces and layout.nf:
+            contacts = [t.contact_data() for lvl in levels for t in lvl.tasks if t.kind == "contact"]
+        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, scale, contacts)
+        t = clock and clock.lap(None, t)
+        res = self.solver.solve(problem)
+        t = clock and clock.lap("solve", t)
+        sol = self._finish(res.x, res, levels, layout, res.ok, res.message, res.qp_count)
+        if clock:
+            clock.lap("finish", t)
+        return sol
+
+    def _finish(self, x, res: SolveResult, levels, layout, ok, message, qp_count) -> Solution:
+        robot, nv = self.robot, layout.nv
+        qdd, f = x[:nv], x[nv:]
+        # τ, and every level's row values this cycle produced (the stack's buffer is refilled
+        # next cycle), in one compiled call; the per-level and per-task breakdown is done
+        # only if the caller asks for it
+        buf = self.stack.row_buffer
+        # τ (saturated in place), whether x and τ are finite, the rows' values, the worst
+        # |τ_i|/τ_max,i the solver asked for and the joints clipped beyond rounding
+        tau_full, finite, values, ratio, n_sat = _cycle_outputs(
+            robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, x, robot.unactuated_idx,
+            buf.A, buf.b, buf.C, buf.lo, buf.hi, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+        relaxed = any(info.relaxed for info in res.levels)
+        status = "ok" if ok else "failed"
+        if ok and relaxed:
+            status = "relaxed"
+        elif ok and res.degraded:
+            status = "degraded"
+        if not finite:
+            status, message = "failed", "non-finite solution"
+        if status == "failed":
+            tau_full = self._fallback_torque(robot.v)
+            ratio, n_sat = _saturate(tau_full, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+            qdd = np.zeros(nv)
+            forces = {name: self._last_forces.get(name, np.zeros(sl.stop - sl.start)).copy()
+                      for name, sl in layout.contact_slices.items()}
+            x = np.concatenate([qdd] + [forces[name] for name in layout.contact_slices])
+        else:
+            forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
+        saturated = n_sat > 0
+        if saturated:
+            lim = robot.tau_max[robot.actuated_idx]
+            at_limit = robot.actuated_idx[np.abs(tau_full[robot.actuated_idx]) >= lim * (1.0 - 1e-12)].tolist()
+            note = (f"τ saturated at ±τ_max on {n_sat} joint(s) (the solver asked up to {ratio:.3g} × τ_max)")
+            message = f"{message}; {note}" if message else note
+            if status != "failed":
+                status = "saturated"
+        else:
+            at_limit = []
+        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
+                           not self.solver.enforces_inequality_rows, self.sacrifice_tol, self.sacrifice_rel,
+                           saturated_torques=at_limit)
+        return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
+                        x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
+                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit)
+
+    def _fallback_torque(self, v: np.ndarray) -> np.ndarray:
+        """The hold torque of :mod:`wbc.controller.faults` (before saturation): the last accepted τ, or
+        g(q) at the model's last state before the first, with the joint damping on v."""
+        robot = self.robot
+        good = self._last_tau
+        if good is None:
+            good = pin.computeGeneralizedGravity(robot.model, robot.data, robot.q).copy()
+        return hold_torque(good, robot.M, np.asarray(v, dtype=float).reshape(-1), robot.actuated_idx,
+                           self.faults.policy.damping)
+
+    def _hold(self, v: np.ndarray, message: str) -> Solution:
+        """A faulty cycle that was not solved (:mod:`wbc.controller.faults`): the hold torque, saturated,
+        q̈ = 0, the last accepted forces, no diagnostics."""
+        robot = self.robot
+        v = np.asarray(v, dtype=float).reshape(-1)
+        tau = self._fallback_torque(v if v.shape == (robot.nv,) else np.zeros(robot.nv))
+        ratio, n_sat = _saturate(tau, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+        forces = {name: f.copy() for name, f in self._last_forces.items()}
+        x = np.concatenate([np.zeros(robot.nv)] + list(forces.values()))
+        return Solution(qdd=np.zeros(robot.nv), tau=tau[robot.actuated_idx], tau_full=tau, forces=forces, x=x,
+                        status="failed", message=message, residuals=[], task_residuals={}, diagnostics=[],
+                        saturated=n_sat > 0, tau_ratio=ratio)
+
+
+_NO_FORCES = np.zeros((0, 0))
+_NO_INDEX = np.zeros(0, dtype=np.int64)
+_NO_BOUNDS = np.zeros(0)
+#: relative excess |τ_i| > τ_max,i (1 + tol) (+ 1e-9 N·m) counted as a saturation: below
+#: it τ is clipped silently (a QP meets its torque rows to ~1e-7, not exactly)
+SATURATION_TOL = 1e-6
+
+
+@nb.njit(cache=True)
+def _saturate(tau, actuated, tau_max, tol):
+    """Clip τ_i to [−τ_max,i, τ_max,i] in place over the actuated joints; returns (the
+    worst |τ_i|/τ_max,i before, how many joints were beyond τ_max,i (1 + tol) + 1e-9).
+    Non-finite entries are left (the caller fails the cycle)."""
+    worst = 0.0
+    n = 0
+    for i in actuated:
+        lim = tau_max[i]
+        t = tau[i]
+        a = abs(t)
+        if lim > 0.0:
+            worst = max(worst, a / lim)
+        elif a > 0.0:
+            worst = np.inf
+        if a > lim:
+            if a > lim * (1.0 + tol) + 1e-9:
+                n += 1
+            tau[i] = lim if t > 0.0 else -lim
+    return worst, n
+
+
+@nb.njit(cache=True)
+def _joint_torques(M, h, Jf, x, unactuated):
+    """(τ = M q̈ + h − J_fᵀ f with zeros on the unactuated rows (5.26), whether x and τ are
+    all finite), x = (q̈, f)."""
+    nv = M.shape[0]
+    tau = M @ x[:nv] + h
+    if Jf.shape[0]:
+        tau -= Jf.T @ x[nv:]
+    for i in unactuated:
+        tau[i] = 0.0
+    finite = np.all(np.isfinite(x)) and np.all(np.isfinite(tau))
+    return tau, finite
+
+
+@nb.njit(cache=True)
+def _cycle_outputs(M, h, Jf, x, unactuated, A, b, C, lo, hi, actuated, tau_max, tol):
+    """(τ saturated by :func:`_saturate`, whether x and τ are finite, the rows' values of
+    :func:`~wbc.stack.row_values` (residuals +inf when not finite), the worst |τ_i|/τ_max,i
+    before saturation, the joints saturated)."""
+    tau, finite = _joint_torques(M, h, Jf, x, unactuated)
+    values = row_values(A, b, C, lo, hi, x)
+    if not finite:
+        values[:b.shape[0] + lo.shape[0]] = np.inf
+        return tau, finite, values, np.inf, 0
+    ratio, n = _saturate(tau, actuated, tau_max, tol)
+    return tau, finite, values, ratio, n
+
+
+def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
+                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7, saturated_torques: list | None = None):
+    """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
+    of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
+    inequality rows): A x − b, C x, l, u and b over every level, level k's part
+    given by ``spans[k]``; see :meth:`Controller._finish`). The projection solver enforces
+    equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
+    force distribution and its torque limits are not enforced (the controller saturates
+    τ): those rows are reported apart (``unenforced_violation``), not as residuals.
+    ``saturated_torques``: the joints the controller clipped at ±τ_max, reported by the
+    level holding the torque limits (level 0 if the stack has none) as
+    ``saturated_torques`` and ``active["torque_saturation"]``. A regularisation task
+    (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met."""
+    residuals, task_res, diags = [], {}, []
+    E, Y, LO, HI, B = split_values(*values)
+    sat_level = -1
+    if saturated_torques:
+        sat_level = next((k for k, lvl in enumerate(levels) if any(t.kind == "torque_limits" for t in lvl.tasks)), 0)
+    for lvl, (e0, e1, i0, n_gen, i1), info in zip(levels, spans, infos):
+        index, tasks, eq_slices, in_slices, has_box = lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.box is not None
+        e, b = E[e0:e1], B[e0:e1]
+        y, lo, hi = Y[i0:i1], LO[i0:i1], HI[i0:i1]
+        with np.errstate(invalid="ignore"):          # a failed cycle's values are inf
+            viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+            act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
+        unenforced = 0.0
+        if projection and n_gen:
+            unenforced = float(np.linalg.norm(viol[:n_gen]))
+            viol[:n_gen] = 0.0
+        residuals.append(float(np.sqrt(e @ e + viol @ viol)))
+        sacrificed, active, violations = [], {}, {}
+        for t in tasks:
+            r2 = 0.0
+            tol = sacrifice_tol
+            sl = eq_slices.get(t.name)
+            if sl is not None:
+                es = e[sl]
+                r2 += float(es @ es)
+                if sacrifice_rel:
+                    tol += sacrifice_rel * float(np.linalg.norm(b[sl]))
+            isl = in_slices.get(t.name)
+            if isl is not None:
+                vs = viol[isl]
+                r2 += float(vs @ vs)
+                n_act = int(np.count_nonzero(act[isl]))
+                if n_act:
+                    active[t.name] = n_act
+                _violated_rows(violations, t.name, vs, np.arange(len(vs)), sacrifice_tol)
+            r = r2**0.5
+            task_res[t.name] = r
+            if r > tol and not t.regularizer:
+                sacrificed.append(t.name)
+        if has_box:
+            n_act = int(np.count_nonzero(act[n_gen:]))
+            if n_act:
+                active["joint_limits"] = n_act
+            _violated_rows(violations, "joint_limits", viol[n_gen:], lvl.box[0], sacrifice_tol)
+        sat = list(saturated_torques) if len(diags) == sat_level else []
+        if sat:
+            active["torque_saturation"] = len(sat)
+        diags.append(LevelDiagnostics(
+            index=index, tasks=[t.name for t in tasks], residual=residuals[-1],
+            rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
+            dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
+            sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
+            unenforced_violation=unenforced, qp_status=info.qp_status, saturated_torques=sat,
+            violations=violations))
+    return residuals, task_res, diags
+
+
+def _violated_rows(out: dict, name: str, viol: np.ndarray, rows: np.ndarray, tol: float, keep: int = 8) -> None:
+    """``out[name]`` = [(row, violation)] of the rows violated beyond ``tol``, worst first."""
+    bad = np.flatnonzero((viol > tol) & np.isfinite(viol))      # a failed cycle's rows are inf
+    if len(bad):
+        bad = bad[np.argsort(-viol[bad], kind="stable")][:keep]
+        out[name] = [(int(rows[i]), float(viol[i])) for i in bad]

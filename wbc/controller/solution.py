@@ -1,0 +1,140 @@
+"""What a control cycle returns: accelerations, torques, forces, and diagnostics."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class LevelDiagnostics:
+    """Per priority level: how well it was served and what limited it.
+
+    ``residual``: √(Σ w‖A x − b‖² + ‖violation‖²) of the level's rows;
+    ``rank``/``sigma_min``: of the projected Jacobian J̄_k = J_k N_{k−1};
+    ``dof_before``: free directions the level had; ``sacrificed``: its tasks whose
+    residual exceeds ``tol``; ``active``: its inequality rows at a bound.
+    """
+
+    index: int
+    tasks: list[str]
+    residual: float
+    rank: int
+    sigma_min: float
+    damping: float
+    dof_before: int
+    used_qp: bool
+    relaxed: bool
+    sacrificed: list[str] = field(default_factory=list)
+    active: dict[str, int] = field(default_factory=dict)
+    saturated_joints: list[int] = field(default_factory=list)
+    #: violation of rows this solver does not enforce (projection: torque limits, cones)
+    unenforced_violation: float = 0.0
+    #: how the level's QP was answered, if it needed one: the back-end's status, or
+    #: ``"certified"`` (its optimum from a guessed active set, see wbc.solvers.kernels.active_set)
+    qp_status: str = ""
+    #: velocity indices of the joints whose torque the controller clipped at ±τ_max this
+    #: cycle (reported by the level holding the torque limits, else level 0)
+    saturated_torques: list[int] = field(default_factory=list)
+    #: the level's inequality rows left violated (a relaxed level, an infeasible one):
+    #: task name -> [(row, violation)], worst first, at most 8 per task; ``row`` counts the
+    #: task's inequality rows (TorqueLimits: its k-th actuated joint with a finite limit;
+    #: "joint_limits": the velocity index of the bounded joint), violation in the rows'
+    #: units (N·m, N, rad/s²) beyond the bound
+    violations: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
+
+    @property
+    def why(self) -> str:
+        """Why the level's tasks are not met, in words ("" when nothing is amiss): its
+        sacrificed tasks and what limited them (a singular J̄_k damped, no freedom left by
+        the higher levels, inequality rows left violated, joint limits or torque saturation)."""
+        causes = []
+        if self.damping > 0.0:
+            causes.append(f"J̄ near-singular (σ_min {self.sigma_min:.3g} below the damping threshold): "
+                          f"damped least squares, λ² = {self.damping:.3g}")
+        if self.dof_before == 0:
+            causes.append("the higher levels left no free direction")
+        for task, rows in self.violations.items():
+            shown = ", ".join(f"row {r} by {w:.3g}" for r, w in rows)
+            causes.append(f"'{task}' inequalities violated ({shown})")
+        if self.saturated_joints:
+            causes.append(f"joint limits bound {len(self.saturated_joints)} joint(s)")
+        if self.saturated_torques:
+            causes.append(f"torque saturated at ±τ_max on joint(s) {self.saturated_torques}")
+        if not (self.sacrificed or causes):
+            return ""
+        head = f"level {self.index}: " + (f"sacrificed {self.sacrificed}" if self.sacrificed else "tasks met")
+        return head + ("; " + "; ".join(causes) if causes else "")
+
+
+class Solution:
+    """Result of :meth:`wbc.Controller.solve`.
+
+    ``qdd`` (nv, m/s² rad/s²); ``tau`` (na actuated torques, N·m or N) and
+    ``tau_full`` (nv, zeros on unactuated rows); ``forces``: contact task name ->
+    force (3) or wrench (6) in the contact frame (N, N·m); ``residuals``: one
+    float per level; ``task_residuals``: per task name; ``diagnostics``: one
+    :class:`LevelDiagnostics` per level; ``status``, the first that applies of:
+    ``"stopped"`` (the fault policy stopped the controller after too many faulty cycles in
+    a row, :mod:`wbc.controller.faults`: the hold torque, latched),
+    ``"failed"`` (no usable solution, or a faulty cycle held: the torque falls back to the
+    last good one with joint damping, q̈ = 0),
+    ``"saturated"`` (the solver's torque exceeded ±τ_max on some joint and was clipped:
+    ``tau`` is inside the limits, but on those joints it is not S_a(M q̈ + h − J_fᵀ f) of
+    the returned q̈ and f, which stay the solver's plan), ``"relaxed"`` (a level's
+    inequalities could not all hold), ``"degraded"`` (a level's QP failed numerically and
+    that level was held at the feasible point the higher levels left: priorities and
+    limits intact, the level under-served) or ``"ok"``.
+
+    ``relaxed`` and ``saturated`` (bool) say the same whatever the status;
+    ``tau_ratio``: the worst |τ_i|/τ_max,i the solver asked for, before saturation (≤ 1
+    when nothing was clipped); ``saturated_torques``: velocity indices of the joints held
+    at ±τ_max by the saturation. ``tau`` is always finite and within ±τ_max. ``fault``: the
+    :mod:`wbc.controller.faults` counter of a faulty cycle (``"state_faults"``, ``"solve_timeouts"``,
+    ...), "" for an accepted one.
+
+    ``residuals``, ``task_residuals`` and ``diagnostics`` are worked out on first
+    access, from row values the controller keeps for this cycle (a cycle whose
+    caller never reads them does not pay for them).
+    """
+
+    def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
+                 x: np.ndarray, status: str, message: str, qp_count: int = 0, residuals=None,
+                 task_residuals=None, diagnostics=None, evaluate=None, relaxed: bool = False,
+                 saturated: bool = False, tau_ratio: float = 0.0, saturated_torques: list | None = None) -> None:
+        self.qdd, self.tau, self.tau_full, self.forces, self.x = qdd, tau, tau_full, forces, x
+        self.status, self.message, self.qp_count = status, message, qp_count
+        self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(tau_ratio)
+        self.saturated_torques = list(saturated_torques or [])
+        self.fault = ""
+        self._residuals, self._task_residuals, self._diagnostics = residuals, task_residuals, diagnostics
+        self._evaluate = evaluate
+
+    def _ensure(self) -> None:
+        if self._diagnostics is None and self._evaluate is not None:
+            self._residuals, self._task_residuals, self._diagnostics = self._evaluate()
+            self._evaluate = None
+
+    @property
+    def residuals(self) -> list[float]:
+        self._ensure()
+        return self._residuals
+
+    @property
+    def task_residuals(self) -> dict[str, float]:
+        self._ensure()
+        return self._task_residuals
+
+    @property
+    def diagnostics(self) -> list[LevelDiagnostics]:
+        self._ensure()
+        return self._diagnostics
+
+    @property
+    def ok(self) -> bool:
+        return self.status not in ("failed", "stopped")
+
+    def __repr__(self) -> str:
+        return (f"Solution(status={self.status!r}, qp_count={self.qp_count}, "
+                f"residuals={[round(r, 6) for r in self.residuals]})")

@@ -1,0 +1,7 @@
+"""The closed loop: :func:`~wbc.runner.loop.run` (scenario + controller + simulator, cycle
+by cycle), its metrics (:mod:`~wbc.runner.metrics`, :mod:`~wbc.runner.stats`), plots
+(:mod:`~wbc.runner.plot`) and the numba compile notice.
+
+May import: everything below the CLI (:mod:`wbc.scenario`, :mod:`wbc.controller`,
+:mod:`wbc.sim`, :mod:`wbc.interaction`, :mod:`wbc.trajectories`, :mod:`wbc.tasks`,
+:mod:`wbc.robot`, :mod:`wbc.validation`, :mod:`wbc.errors`). Not the CLI, the sweep or the viewer."""

@@ -1,0 +1,304 @@
+"""Run a scenario: controller and simulator in closed loop, metrics in SI units.
+
+Per control period: the simulator's measurement (q, v) -> ``Controller.solve`` ->
+torques -> the simulator's ``step``. The simulator is any
+:class:`wbc.sim.backends.PhysicsSimulator` (ours on pinocchio, or MuJoCo); the controller
+never reads its state otherwise. Metrics follow DESIGN.md (``violations`` count control cycles).
+
+Metrics on limits and contacts: ``relaxed_cycles`` (a level's inequalities gave way),
+``saturated_cycles`` (the controller clipped τ at ±τ_max), ``tau_ratio_max`` (the worst
+|τ_i|/τ_max,i sent, ≤ 1) and ``tau_ratio_requested_max`` (asked by the solver, before the
+clipping); per sole contact ``cop_edge_min`` (m), ``cop_inside_1cm`` and
+``normal_force_min`` (N), and for two contacts ``internal_force`` (N), all from the
+simulator's contact forces (:class:`~wbc.runner.metrics.ContactMetrics`).
+
+Faults (:mod:`wbc.controller.faults`, ``docs/faults.md``): ``faults`` holds the controller's fault
+counters (a non-finite or stale measurement, a solver that raised, failed or overran, the
+cycles held, the stops); a run the controller stopped, or whose simulated state diverged
+(:func:`wbc.controller.faults.diverged`, or a numerical failure the simulator reported), ends there
+with ``stopped`` = {``time`` (s), ``by`` ("controller" or "simulator"), ``reason``} and the
+metrics of the cycles before (``stopped`` is None otherwise).
+
+A stack with :class:`~wbc.tasks.Force` tasks gets their measurement each cycle and the
+interaction figures (``normal_force_rms_error``, ``path_error_max``, ``interaction``) from
+:class:`~wbc.interaction.measurement.InteractionRun`; a ``sliding`` contact (a hand wiping a
+table) is no support and stays out of the contact figures.
+
+``run(..., series=True)`` also records time series (task errors, per-level residual,
+rank and σ_min, contact normal forces and friction margins, torque/limit ratios, CoM
+support margin) into preallocated arrays and returns them under ``metrics["series"]``
+(see :class:`~wbc.runner.metrics.Series`); ``wbc plot`` draws them. Without it nothing extra is kept: the
+other metrics are running sums (:mod:`wbc.runner.stats`) and the cycle times one array
+filled at the start, so a run's memory does not grow with its length.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.controller.cycle import Controller
+from wbc.controller.faults import FaultPolicy, diverged, simulation_diverged
+from wbc.interaction.external_force import ExternalForceRun
+from wbc.interaction.measurement import InteractionRun
+from wbc.runner.compile_notice import CompileNotice
+from wbc.runner.metrics import RunMetrics, tilt
+from wbc.scenario.loader import Scenario
+from wbc.scenario.sections import duration_value
+from wbc.sim.backends import make_simulator
+from wbc.tasks.contact import Contact
+from wbc.tasks.frame import to_se3
+from wbc.trajectories.position import frame_reference
+
+
+def _apply_event(ev, ctrl, robot, measured, refs, start, t, switched) -> None:
+    """A timeline event: release a contact, touch down, add or remove a task. ``measured`` is
+    this cycle's one measurement (q, v): the simulator is measured once per control cycle,
+    since ``measure()`` advances its latency queue and draws its sensor noise."""
+    stack = ctrl.stack
+    if ev["kind"] == "release":
+        ctrl.release_contact(ev["name"], ev["duration"])
+        switched.add(ev["name"])
+    elif ev["kind"] == "remove":
+        if ev["name"] in stack:
+            stack.remove(ev["name"])
+        refs.pop(ev["name"], None)
+    elif ev["kind"] == "touchdown":
+        robot.update(*measured)
+        ctrl.make_contact(ev["task"], level=ev["level"], duration=ev["duration"])
+        switched.add(ev["task"].name)
+    else:
+        task = ev["task"]
+        robot.update(*measured)
+        task.bind(robot)
+        given = ev.get("target")            # the add's own target (world), else the pose when added
+        if task.kind == "frame":
+            here = robot.frame_placement(robot.frame_id(task.frame))
+            start[task.name] = here.copy() if given is None else to_se3(task.name, given, here)
+            task.target = start[task.name]
+        elif task.kind == "com":
+            start[task.name] = robot.com.copy() if given is None else np.array(given, dtype=float)
+            task.target = start[task.name]
+        stack.add(task, min(ev["level"], len(stack.levels)))
+        if "trajectory" in ev:
+            traj, absolute = ev["trajectory"]
+            refs[task.name] = (traj, absolute, t)
+
+
+def _simulated_robot(robot, model_perturbation):
+    """The robot the simulator is built for: ``robot`` itself, or (``model_perturbation``
+    given) a copy of it whose pinocchio model, a copy too, ``model_perturbation`` changed."""
+    if model_perturbation is None:
+        return robot
+    import dataclasses
+
+    model = pin.Model(robot.model)
+    model_perturbation(model)
+    return dataclasses.replace(robot, model=model)
+
+
+class ScenarioRun:
+    """One closed-loop run of a scenario: set up by the constructor (controller, simulator,
+    pushes, the referenced tasks' start values, the metrics), advanced by :meth:`cycle`,
+    reported by :meth:`metrics`. Arguments as :func:`run`."""
+
+    def __init__(self, sc: Scenario, solver: str | None = None, backend: str | None = None,
+                 duration: float | None = None, progress: bool = False, callback=None, series: bool = False,
+                 simulator: str | None = None, model_perturbation=None, faults: FaultPolicy | None = None,
+                 wrap_simulator=None, joint_dynamics: bool | None = None) -> None:
+        robot, stack = sc.robot, sc.stack
+        self.sc, self.robot, self.stack, self.progress, self.callback = sc, robot, stack, progress, callback
+        self.tty = progress and sys.stderr.isatty()      # how the progress line is written (cycle)
+        opts = dict(sc.solver)
+        self.solver_name = solver or opts.pop("type", "hqp")
+        opts.pop("type", None)
+        if backend:
+            opts["backend"] = backend
+        self.backend = opts.get("backend", "daqp")        # a name, or a Backend instance
+        self.simulator = simulator or sc.simulator
+        self.joint_dynamics = sc.joint_dynamics if joint_dynamics is None else bool(joint_dynamics)
+        self.notice = CompileNotice(enabled=progress)    # a first run compiles the kernels: say so
+        self.notice.start()
+        self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
+                               faults=faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
+        sim = make_simulator(self.simulator, _simulated_robot(robot, model_perturbation), sc.environment,
+                             joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
+                             tau_limits=robot.tau_max, **sc.sensing)
+        if wrap_simulator is not None:
+            sim = wrap_simulator(sim)
+        self.sim = sim
+        for p in sc.pushes:
+            sim.push(p["frame"], p["force"], p["start"], p["duration"])
+        self.interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)  # force tasks: measurement, figures
+        # external-force source and glass figures of an interaction scenario (wbc.interaction.external_force)
+        self.external = (ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)
+                         if sc.interaction is not None else None)
+        self.last_sol = None
+        self.duration = sc.duration if duration is None else duration_value(duration, sc.dt)
+        self.n = round(self.duration / sc.dt)
+        self.start = self._start_values()
+        # a sliding hand is no support
+        self.contacts = contacts = [t for t in stack if isinstance(t, Contact) and not t.sliding]
+        m = robot.model
+        pts_of = {}
+        for c in contacts:
+            jid = m.frames[robot.frame_id(robot.contact(c.contact).frame)].parentJoint
+            pts_of[c.name] = [i for i, (j, _) in enumerate(sim.points) if j == jid]
+        self.base_z0 = sim.q[2] if robot.root == "free_flyer" else None
+        mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
+        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, series,
+                                   self.ctrl.lowest_tasks())
+        self.cycle_times = np.full(self.n, np.nan)     # touched now: no growth mid-run
+        self.failures, self.fell, self.stopped = 0, False, None
+        self.sim_failures = getattr(sim, "solver_failures", 0)
+        self.t_wall, self.k_wall = time.perf_counter(), 0
+        self.refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
+        self.pending = list(sc.events)
+        self.switched: set[str] = set()
+
+    def _start_values(self) -> dict:
+        """Start values of the referenced tasks (the controller's model at the initial
+        state), and the scenario's offsets applied to their targets."""
+        robot, stack, sc, sim = self.robot, self.stack, self.sc, self.sim
+        robot.update(sim.q, sim.v)
+        start = {}
+        for t in stack:
+            if t.kind == "com":
+                start[t.name] = robot.com.copy() if t.target is None else t.target.copy()
+            elif t.kind == "frame":
+                M = robot.frame_placement(robot.frame_id(t.frame))
+                start[t.name] = M.copy() if t.target is None else t.target.copy()
+        for tname, off in sc.offsets.items():
+            t = stack[tname]
+            if t.kind == "com":
+                t.target = start[tname] + off
+            else:
+                t.target = pin.SE3(start[tname].rotation, start[tname].translation + off)
+        return start
+
+    def cycle(self, k: int) -> bool:
+        """Control cycle k: events due, references, measure, solve, step, metrics. False
+        when the run ends here (the controller stopped, the simulation diverged, the robot fell)."""
+        sc, stack, sim, ctrl = self.sc, self.stack, self.sim, self.ctrl
+        t = k * sc.dt
+        pending = self.pending
+        q, v = sim.measure()                # once per cycle: events and the solve see the same sample
+        if k == 0 or (pending and pending[0]["time"] <= t + 1e-9):
+            while pending and pending[0]["time"] <= t + 1e-9:
+                _apply_event(pending.pop(0), ctrl, self.robot, (q, v), self.refs, self.start, t, self.switched)
+            self.measured.watch(stack, self.switched)     # what the metrics watch changes only at events
+        for tname, (traj, absolute, t0) in self.refs.items():
+            x, dx, ddx = traj.sample(t - t0)
+            task = stack[tname]
+            if task.kind == "com":
+                task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
+            else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
+                task.set_reference(*frame_reference(traj, absolute, self.start[tname], t - t0))
+        if self.interaction is not None:
+            self.interaction.before_solve(q, v, self.last_sol)
+        tau_e = self.external.before_solve(t, q, v, sim) if self.external is not None else None
+        t0 = time.perf_counter()
+        sol = self.last_sol = ctrl.solve(q, v, tau_e)
+        self.cycle_times[k] = time.perf_counter() - t0
+        if k == 0:
+            # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
+            self.notice.stop()
+            self.t_wall, self.k_wall = time.perf_counter(), 1
+        if sol.fault in ("solve_failures", "solver_errors"):     # (a held state fault is in "faults")
+            self.failures += 1
+        if sol.status == "stopped":
+            self.stopped = {"time": t, "by": "controller", "reason": sol.message}
+            return False
+        self.measured.record_command(sol)
+        sim.step(sol.tau_full)
+        why = simulation_diverged(sim, self.sim_failures)
+        if why:
+            self.stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}
+            return False
+        if self.interaction is not None:
+            self.interaction.after_step()
+        if self.external is not None:
+            self.external.after_step(sim, sol)
+        if self.callback is not None:
+            self.callback(t, sim, sol)
+        self.measured.record_state(t, sim, sol, stack)
+        qs = sim.q
+        if self.base_z0 is not None and (qs[2] < 0.6 * self.base_z0 or tilt(qs) > np.pi / 3
+                                         or not np.all(np.isfinite(qs))):
+            self.fell = True
+            return False
+        if self.progress and (k % 500 == 0 or k == self.n - 1):
+            rtf = (k + 1 - self.k_wall) * sc.dt / max(time.perf_counter() - self.t_wall, 1e-9)
+            # a terminal gets one line redrawn in place; a log or pipe one plain line per report
+            start, end = ("\r", "") if self.tty else ("", "\n")
+            sys.stderr.write(f"{start}  t = {t + sc.dt:6.2f} s / {self.duration:.2f} s   real-time factor {rtf:5.2f}   "
+                             f"solver failures {self.failures}{end}")
+            sys.stderr.flush()
+        return True
+
+    def metrics(self) -> dict:
+        """The metrics dict of the cycles run (see the module docstring)."""
+        if self.k_wall == 0:      # no cycle ran
+            self.notice.stop()
+        if self.progress and self.tty:
+            sys.stderr.write("\n")
+        sc, robot, sim = self.sc, self.robot, self.sim
+        ct = self.cycle_times[~np.isnan(self.cycle_times)]
+        measured = self.measured.summary(self.switched)
+        out = {
+            "scenario": sc.name, "robot": robot.name, "solver": self.solver_name, "simulator": self.simulator,
+            "joint_dynamics": self.joint_dynamics,
+            "backend": getattr(self.backend, "name", self.backend), "duration": float(len(ct) * sc.dt),
+            "fell": self.fell,
+            "tasks": measured.pop("tasks"),
+            "violations": measured.pop("violations"),
+            "contacts": measured.pop("contacts"),
+            "cycle_time": {"median": float(np.median(ct)), "p99": float(np.percentile(ct, 99)),
+                           "max": float(ct.max())},
+            "solver_failures": self.failures,            # cycles whose solve failed or raised (held)
+            "faults": self.ctrl.fault_counts(),
+            "stopped": self.stopped,
+        }
+        for key in ("relaxed_cycles", "saturated_cycles", "tau_ratio_max", "tau_ratio_requested_max"):
+            out[key] = measured.pop(key)
+        out["real_time_factor"] = float((len(ct) - self.k_wall) * sc.dt / max(time.perf_counter() - self.t_wall, 1e-9))
+        out.update(measured)
+        if self.contacts and not diverged(sim.q, sim.v):
+            robot.update(sim.q, sim.v)
+            out["com_final"] = robot.com.tolist()
+        if self.interaction is not None:
+            out.update(self.interaction.metrics())
+        if self.external is not None:
+            out.update(self.external.summary())
+        if self.measured.rec is not None:
+            out["series"] = self.measured.rec.to_dict()
+        return out
+
+
+def run(sc: Scenario, solver: str | None = None, backend: str | None = None, duration: float | None = None,
+        progress: bool = False, callback=None, series: bool = False, simulator: str | None = None,
+        model_perturbation=None, faults: FaultPolicy | None = None, wrap_simulator=None,
+        joint_dynamics: bool | None = None) -> dict:
+    """Simulate ``sc``; returns the metrics dict. ``callback(t, sim, sol)`` runs each cycle
+    (after the simulator's step). ``series``: also return the run's time series under
+    ``"series"`` (:class:`~wbc.runner.metrics.Series`, JSON-ready). ``simulator``: the physics
+    back-end (:data:`wbc.sim.backends.SIMULATORS`; default the scenario's ``simulator``).
+    ``model_perturbation(model)``: changes (in place) a copy of the robot's pinocchio model
+    that the simulator then simulates, the controller keeping the nominal one (model
+    error, e.g. :class:`wbc.sweep.perturb.Perturbation`; see :func:`_simulated_robot`).
+    ``duration`` (s): at least one control period (a :class:`~wbc.errors.ConfigError`
+    otherwise). ``faults``: the controller's fault policy (default: the scenario's ``faults:``
+    section with stale-state detection on, the simulator's state always moving).
+    ``wrap_simulator(sim)``: the object the loop drives in place of the simulator, one with
+    the same :class:`~wbc.sim.backends.PhysicsSimulator` members (e.g. the bench's timer).
+    ``joint_dynamics``: the URDF's joint damping and friction in the simulator (default the
+    scenario's ``joint_dynamics``)."""
+    r = ScenarioRun(sc, solver, backend, duration, progress, callback, series, simulator, model_perturbation,
+                    faults, wrap_simulator, joint_dynamics)
+    for k in range(r.n):
+        if not r.cycle(k):
+            break
+    return r.metrics()

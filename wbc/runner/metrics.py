@@ -1,0 +1,397 @@
+"""What a run measures: contact, support and limit metrics, and the optional time series.
+
+:class:`RunMetrics` accumulates, cycle by cycle, what :func:`wbc.runner.loop.run` reports
+(``violations`` count control cycles; slip and lift per contact; the CoM's support margin;
+relaxed and saturated cycles, the worst |τ_i|/τ_max,i); :class:`ContactMetrics` the CoP and
+normal-force figures per sole and the internal force between two; :class:`Series` the time
+series of ``run(..., series=True)``. All from the simulator's true state and contact forces.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+from scipy.spatial import ConvexHull, QhullError
+
+from wbc.runner.stats import Running
+
+#: the metrics a run reports as true/false (flattened names, ``*`` one part): a sweep's
+#: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
+BOOLEAN_METRICS = ("fell", "contacts.*.lifted")
+
+
+def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
+    """Signed distance (m) of p to the boundary of the convex hull of points (> 0 inside)."""
+    if len(points_xy) < 3:
+        return -np.inf
+    hull = ConvexHull(points_xy)
+    return float(np.min(-(hull.equations[:, :2] @ p + hull.equations[:, 2])))
+
+
+def polygon_margin(vertices, p) -> float:
+    """Signed distance (m) of p to the boundary of a convex polygon given by its
+    vertices in counter-clockwise order (> 0 inside): min over edges of
+    cross(e_i, p − v_i) / ‖e_i‖. Plain floats: a handful of edges is faster in Python
+    than through numpy's per-call overhead."""
+    px, py = float(p[0]), float(p[1])
+    verts = vertices.tolist() if isinstance(vertices, np.ndarray) else vertices
+    x0, y0 = verts[-1][0], verts[-1][1]
+    best = math.inf
+    for v in verts:
+        x1, y1 = v[0], v[1]
+        ex, ey = x1 - x0, y1 - y0
+        d = (ex * (py - y0) - ey * (px - x0)) / math.hypot(ex, ey)
+        best = min(best, d)
+        x0, y0 = x1, y1
+    return best
+
+
+class SupportPolygon:
+    """The support polygon's hull, built once per contact set.
+
+    The hull's vertex indices (counter-clockwise, scipy's ConvexHull) are kept while the
+    set of contact points is unchanged and refreshed every ``refresh`` cycles (feet may
+    creep or turn); in between the margin is computed on the current positions of those
+    vertices: a few flops instead of a Qhull call per cycle."""
+
+    def __init__(self, refresh: int = 50) -> None:
+        self.refresh = refresh
+        self._key: tuple | None = None
+        self._vertices: np.ndarray | None = None
+        self._age = 0
+
+    def margin(self, idx: list[int], points_xy: np.ndarray, p: np.ndarray) -> float:
+        """Signed distance (m) of p to the hull of ``points_xy[idx]`` (> 0 inside)."""
+        if len(idx) < 3 or not np.all(np.isfinite(points_xy[idx])):
+            return -np.inf                       # no support, or a simulation that diverged
+        key = tuple(idx)
+        self._age += 1
+        if key != self._key or self._age >= self.refresh:
+            self._key, self._age = key, 0
+            try:
+                self._vertices = np.asarray(idx)[ConvexHull(points_xy[idx]).vertices]
+            except QhullError:   # degenerate (collinear) support
+                self._key, self._vertices = None, None
+                return -np.inf
+        return polygon_margin(points_xy[self._vertices], p)
+
+
+class ContactMetrics:
+    """Per-contact figures from the simulator's contact forces, accumulated over a run.
+
+    Centre of pressure of a sole (a contact with at least 3 simulated points, its corners):
+    p = Σ f_z,i r_i / Σ f_z,i over its points (world xy, m), and its distance to the sole's
+    edge, the signed margin of p in the polygon of those points (> 0 inside,
+    :func:`polygon_margin`), in every cycle in which the sole carries more than
+    ``loaded`` × m g. Reported per contact: ``cop_edge_min`` (m, the smallest distance
+    over the run), ``cop_inside_1cm`` (the fraction of its loaded cycles with the CoP at
+    least 1 cm inside) and ``normal_force_min`` (N, the least total normal force it carried:
+    a sole near 0 N is about to slip or lift).
+
+    Internal force of two contacts (``internal_force``, N): with F_a, F_b the resultant
+    ground forces on the first and second contact's points and d the horizontal unit
+    vector from b to a, s = (F_a − F_b)·d / 2: the part of the two forces that pulls the
+    contacts towards each other (s < 0: the ground pulls them together, i.e. the legs push
+    the feet apart) or pushes them apart (s > 0), which no motion needs. ``mean`` and
+    ``max_abs`` over the cycles in which both are watched."""
+
+    def __init__(self, contacts, pts_of: dict, p0: np.ndarray, weight: float, loaded: float = 0.02) -> None:
+        self.soles = {}
+        for c in contacts:
+            idx = np.asarray(pts_of[c.name])
+            if len(idx) >= 3:
+                try:
+                    order = idx[ConvexHull(p0[idx, :2]).vertices]    # counter-clockwise corners
+                except QhullError:
+                    continue
+                self.soles[c.name] = (idx, order)
+        self.min_force = loaded * weight
+        self.edge_min = {name: np.inf for name in self.soles}
+        self.inside = {name: 0 for name in self.soles}
+        self.loaded = {name: 0 for name in self.soles}
+        self.fn_min = {name: np.inf for name in self.soles}
+        self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
+        self.internal = Running()
+
+    def record(self, pf: np.ndarray, pts: np.ndarray, watched: set, pts_of: dict) -> None:
+        for name, (idx, order) in self.soles.items():
+            if name not in watched:
+                continue
+            fz = pf[idx, 2]
+            total = float(fz.sum())
+            if total < self.fn_min[name]:
+                self.fn_min[name] = total
+            if total <= self.min_force:
+                continue
+            cop = (fz @ pts[idx, :2]) / total
+            e = polygon_margin(pts[order, :2], cop)
+            self.loaded[name] += 1
+            self.inside[name] += e >= 0.01
+            if e < self.edge_min[name]:
+                self.edge_min[name] = e
+        if self.pair is not None and self.pair[0] in watched and self.pair[1] in watched:
+            a, b = pts_of[self.pair[0]], pts_of[self.pair[1]]
+            d = pts[a, :2].mean(axis=0) - pts[b, :2].mean(axis=0)
+            n = math.hypot(d[0], d[1])
+            if n > 1e-6:
+                fa, fb = pf[a, :2].sum(axis=0), pf[b, :2].sum(axis=0)
+                s = float((fa - fb) @ d) / (2.0 * n)
+                if math.isfinite(s):
+                    self.internal.add(s)
+
+    def summary(self, name: str) -> dict:
+        if name not in self.soles or not np.isfinite(self.fn_min[name]):
+            return {}
+        out = {"normal_force_min": float(self.fn_min[name])}
+        if self.loaded[name]:
+            out.update(cop_edge_min=float(self.edge_min[name]), cop_inside_1cm=self.inside[name] / self.loaded[name])
+        return out
+
+    def internal_force(self) -> dict | None:
+        if not self.internal:
+            return None
+        return {"mean": self.internal.mean, "max_abs": self.internal.max_abs}
+
+
+def tilt(q: np.ndarray) -> float:
+    """Angle (rad) between a free-flyer base's z axis and the vertical (R_zz = 1 − 2(x² + y²))."""
+    x, y = float(q[3]), float(q[4])
+    return math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
+
+
+class Series:
+    """Time series of one run, in preallocated arrays (``n`` cycles at most).
+
+    Per control cycle: ``t`` (s); ``task_errors[name]``: ‖error‖ of each task that has
+    one (m, rad or N); every ``level_every`` cycles (at times ``level_t``: the solver's
+    diagnostics are worked out only when read, ~0.1 ms), per priority level (the
+    stack's levels at the start; NaN where a level does not exist) the
+    ``level_residual`` (units of its rows), ``level_rank`` and ``level_sigma_min`` of
+    J̄_k; per contact of the starting stack
+    the total ``normal_force`` (N) measured by the simulator and the ``friction_margin``
+    μ F_n − ‖F_t‖ of the resultant force (N; ≥ 0 inside the friction cone); the
+    ``torque_ratio`` |τ_i| / τ_max,i of every actuated joint; the CoM's
+    ``support_margin`` (m, > 0 inside the support polygon).
+    """
+
+    def __init__(self, n: int, dt: float, robot, stack, contacts: list[str], mu: float,
+                 level_every: int = 10, lowest: list | None = None) -> None:
+        self.dt, self.mu, self.k, self.level_every, self.kl = dt, mu, 0, max(1, level_every), 0
+        nd = (n + self.level_every - 1) // self.level_every
+        # the stack's levels, and the one the controller adds below them (its contact
+        # regularisation), if any
+        self.levels = [[t.name for t in lvl] for lvl in stack.levels] + ([[t.name for t in lowest]] if lowest else [])
+        self.level_of = {t.name: k for k, lvl in enumerate(stack.levels) for t in lvl}
+        self.error_names: list[str] = []
+        nl = len(self.levels) + 2           # room for levels added by events
+        self.t = np.zeros(n)
+        self.task_errors = None             # allocated on the first record (names known then)
+        self.level_t = np.zeros(nd)
+        self.level_residual = np.full((nd, nl), np.nan)
+        self.level_rank = np.full((nd, nl), np.nan)
+        self.level_sigma_min = np.full((nd, nl), np.nan)
+        self.contacts = contacts
+        self.normal_force = np.zeros((n, len(contacts)))
+        self.friction_margin = np.zeros((n, len(contacts)))
+        a = robot.actuated_idx
+        m = robot.model
+        self.joint_names = [m.names[int(np.searchsorted([m.joints[j].idx_v for j in range(1, m.njoints)], i,
+                                                         side="right"))] for i in a]
+        self.tau_max = robot.tau_max[a].copy()
+        self._inv_tau_max = 1.0 / np.where(self.tau_max > 0, self.tau_max, np.inf)
+        self._a = a
+        self.torque_ratio = np.zeros((n, len(a)), dtype=np.float32)
+        self.support_margin = np.full(n, np.nan)
+        self.mass = float(robot.mass)
+
+    def record(self, t: float, errors: list[float], sol, contact_forces, margin: float) -> None:
+        k = self.k
+        if self.task_errors is None:
+            self.task_errors = np.full((len(self.t), len(errors)), np.nan)
+        self.t[k] = t
+        self.task_errors[k, :len(errors)] = errors
+        if k % self.level_every == 0:
+            kl = self.kl
+            self.level_t[kl] = t
+            nl = self.level_residual.shape[1]
+            for d in sol.diagnostics[:nl]:
+                self.level_residual[kl, d.index] = d.residual
+                self.level_rank[kl, d.index] = d.rank
+                self.level_sigma_min[kl, d.index] = d.sigma_min
+            self.kl = kl + 1
+        for j, f in enumerate(contact_forces):   # resultant force (world) of each contact's points
+            fn = f[2]
+            self.normal_force[k, j] = fn
+            self.friction_margin[k, j] = self.mu * fn - np.hypot(f[0], f[1])
+        self.torque_ratio[k] = np.abs(sol.tau_full[self._a]) * self._inv_tau_max
+        self.support_margin[k] = margin
+        self.k = k + 1
+
+    def to_dict(self, worst: int = 6, digits: int = 5) -> dict:
+        """JSON-ready: every array cut to the recorded length, ``digits`` significant
+        digits; torques as the per-cycle worst ratio and the ``worst`` joints' traces."""
+        n, nd = self.k, self.kl
+
+        def lst(x, m=None):
+            m = n if m is None else m
+            return [None if not np.isfinite(v) else float(f"{v:.{digits}g}") for v in np.asarray(x[:m], float)]
+
+        tr = self.torque_ratio[:n].astype(float)
+        peak = tr.max(axis=0) if n else np.zeros(tr.shape[1])
+        order = np.argsort(-peak)[:worst]
+        nl = max(len(self.levels), int(np.max(np.nonzero(np.isfinite(self.level_residual[:nd]).any(axis=0))[0],
+                                                initial=-1)) + 1)
+        return {
+            "dt": self.dt, "mass": self.mass, "g": 9.81, "mu": self.mu,
+            "t": lst(self.t),
+            "levels": self.levels,
+            "task_level": {name: self.level_of.get(name) for name in self.error_names},
+            "task_errors": {name: lst(self.task_errors[:, j]) for j, name in enumerate(self.error_names)}
+            if self.task_errors is not None else {},
+            "level_t": lst(self.level_t, nd),
+            "level_residual": [lst(self.level_residual[:, i], nd) for i in range(nl)],
+            "level_rank": [lst(self.level_rank[:, i], nd) for i in range(nl)],
+            "level_sigma_min": [lst(self.level_sigma_min[:, i], nd) for i in range(nl)],
+            "contacts": {c: {"normal_force": lst(self.normal_force[:, j]),
+                             "friction_margin": lst(self.friction_margin[:, j])}
+                         for j, c in enumerate(self.contacts)},
+            "torque": {"ratio_max": lst(tr.max(axis=1)) if n else [],
+                       "joints": {self.joint_names[i]: lst(tr[:, i]) for i in order},
+                       "limits": {self.joint_names[i]: float(self.tau_max[i]) for i in order},
+                       "peak_ratio": {self.joint_names[i]: float(peak[i]) for i in order}},
+            "support_margin": lst(self.support_margin),
+        }
+
+
+class RunMetrics:
+    """The metrics of one run, accumulated cycle by cycle (see :mod:`wbc.runner.loop`).
+
+    Per cycle, :meth:`record_command` takes the controller's solution (before the step: the
+    task errors on the controller's model, the relaxed/saturated counts and torque ratios)
+    and :meth:`record_state` the simulator's true state after the step (joint position and
+    velocity limits, torque limits, unilateral and friction violations, slip and lift per
+    watched contact, CoP figures, the CoM's support margin, the time series).
+    :meth:`watch` is called at every event: it sets the tasks and contacts watched.
+    """
+
+    def __init__(self, robot, stack, sim, contacts: list, pts_of: dict, mu_max: float, n: int, dt: float,
+                 series: bool, lowest: list) -> None:
+        m = robot.model
+        self.robot, self.contacts, self.pts_of, self.mu_max = robot, contacts, pts_of, mu_max
+        pin.forwardKinematics(m, sim.data, sim.q)
+        self.p0 = sim.point_positions()
+        self.errs: dict[str, Running] = {t.name: Running() for t in stack if t.error(robot) is not None
+                                         and t.kind not in ("contact",)}
+        self.err_tasks = [(name, stack[name]) for name in self.errs]
+        self.viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
+        self.slip = {c.name: 0.0 for c in contacts}
+        self.lifted = {c.name: False for c in contacts}
+        self.margins = Running()
+        self.lateral = 0.0
+        self.qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
+        self.vi = np.array([m.joints[j].idx_v for j in range(1, m.njoints) if m.joints[j].nq == 1])
+        self.q_lo, self.q_hi = robot.q_min[self.qi] - 1e-6, robot.q_max[self.qi] + 1e-6
+        self.v_hi = robot.v_max[self.vi] + 1e-6 if len(self.vi) else None
+        self.tau_hi = robot.tau_max[robot.actuated_idx] * (1 + 1e-6) + 1e-9
+        self.inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
+        self.hull = SupportPolygon()
+        self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.mass * 9.81)
+        self.relaxed_cycles = self.saturated_cycles = 0
+        self.tau_ratio_max = self.tau_ratio_asked = 0.0
+        self.rec = Series(n, dt, robot, stack, [c.name for c in contacts], mu_max, lowest=lowest) if series else None
+        if self.rec is not None:
+            self.rec.error_names = list(self.errs)
+        self.err_live: list = []
+        self.watched: list = []
+        self.watched_names: set = set()
+
+    def watch(self, stack, switched: set) -> None:
+        """What the metrics watch, after events: the tasks still in the stack and the
+        contacts not switched during the run."""
+        self.err_live = [(name, task, name in stack) for name, task in self.err_tasks]
+        self.watched = [(c.name, np.asarray(self.pts_of[c.name])) for c in self.contacts if c.name not in switched]
+        self.watched_names = {name for name, _ in self.watched}
+
+    def record_command(self, sol) -> None:
+        """The cycle's solution: relaxed/saturated, torque ratios (sent and asked), task
+        errors (m, rad) on the controller's model of the measured state."""
+        self.relaxed_cycles += sol.relaxed
+        self.saturated_cycles += sol.saturated
+        self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
+        self.tau_ratio_max = max(self.tau_ratio_max, float(np.max(np.abs(sol.tau) * self.inv_tau_max, initial=0.0)))
+        errs, robot = self.errs, self.robot
+        for name, task, live in self.err_live:
+            if live:
+                e = task.error(robot)
+                errs[name].add(math.sqrt(float(e @ e)))
+            elif errs[name]:     # a task removed by an event keeps its last value
+                errs[name].add(errs[name].last)
+
+    def record_state(self, t: float, sim, sol, stack) -> None:
+        """The true (simulated) state after the step."""
+        qs, vs = sim.q, sim.v
+        viol, qi, vi = self.viol, self.qi, self.vi
+        if len(qi):
+            qj = qs[qi]
+            if (qj < self.q_lo).any() or (qj > self.q_hi).any():
+                viol["joint_position"] += 1
+            if (np.abs(vs[vi]) > self.v_hi).any():
+                viol["joint_velocity"] += 1
+        if (np.abs(sol.tau_full[self.robot.actuated_idx]) > self.tau_hi).any():
+            viol["torque"] += 1
+        pf = sim.point_forces
+        fn = pf[:, 2]
+        if np.any(fn < -1e-6):
+            viol["unilateral"] += 1
+        if np.any(np.linalg.norm(pf[:, :2], axis=1) > self.mu_max * fn + 1e-6):
+            viol["friction"] += 1
+        pts = sim.point_positions()
+        d = pts - self.p0
+        slip2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+        up = d[:, 2] > 1e-3
+        for name, idx in self.watched:
+            s2 = float(slip2[idx].max())
+            self.slip[name] = max(self.slip[name], s2)          # squared until the end
+            if not self.lifted[name] and up[idx].any():
+                self.lifted[name] = True
+        self.contact_metrics.record(pf, pts, self.watched_names, self.pts_of)
+        # the controller removes a released contact when its force ramp ends: membership per cycle
+        support_idx = [i for c in self.contacts if c.name in stack for i in self.pts_of[c.name]]
+        if support_idx:
+            robot_com = pin.centerOfMass(sim.model, sim.data, qs)  # true CoM, simulator model and data
+            margin = self.hull.margin(support_idx, pts[:, :2], robot_com[:2])
+            self.margins.add(margin)
+        else:
+            margin = np.nan
+        if self.rec is not None:
+            self.rec.record(t, [e.last for e in self.errs.values()], sol,
+                            [pf[self.pts_of[c.name]].sum(axis=0) for c in self.contacts], margin)
+        if self.robot.differential_drive:
+            self.lateral = max(self.lateral, abs(vs[1]))
+
+    def summary(self, switched: set) -> dict:
+        """The run's metrics on tasks, limits and contacts (the runner adds the rest)."""
+        out = {
+            "tasks": {k: v.stats() for k, v in self.errs.items() if v},
+            "violations": self.viol,
+            "contacts": {c.contact: {"slip": math.sqrt(self.slip[c.name]), "lifted": self.lifted[c.name],
+                                     **self.contact_metrics.summary(c.name)}
+                         for c in self.contacts if c.name not in switched},
+            # cycles with a relaxed level (an inequality that could not hold), cycles whose
+            # torque the controller clipped at ±τ_max, the worst |τ_i|/τ_max,i sent (≤ 1) and
+            # asked for by the solver before the clipping
+            "relaxed_cycles": int(self.relaxed_cycles),
+            "saturated_cycles": int(self.saturated_cycles),
+            "tau_ratio_max": self.tau_ratio_max,
+            "tau_ratio_requested_max": self.tau_ratio_asked,
+        }
+        if self.margins:
+            out["support_margin_min"] = float(self.margins.min)
+        internal = self.contact_metrics.internal_force()
+        if internal is not None:
+            out["internal_force"] = internal
+        if self.robot.differential_drive:
+            out["base_lateral_velocity_max"] = self.lateral
+        return out
