@@ -26,6 +26,7 @@ ALLOWED: dict[str, set[str]] = {
     "wbc.validation": BASE,
     "wbc.robot": BASE | {"wbc.validation"},
     "wbc.problem": BASE,
+    "wbc.collision": BASE | {"wbc.validation", "wbc.robot"},
     "wbc.tasks": BASE | {"wbc.validation", "wbc.robot", "wbc.problem", "wbc.null_space"},
     "wbc.stack": BASE | {"wbc.tasks", "wbc.problem"},
     "wbc.solvers": BASE | {"wbc.problem"},

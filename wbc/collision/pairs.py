@@ -24,9 +24,9 @@ from ..errors import RobotDefinitionError
 
 def srdf_path(robot) -> Path | None:
     """The robot's SRDF (from its YAML's ``srdf:``), or None."""
-    from ..robot_schema import check_document
-    from ..robots import _resolve_file
-    from ..yamlio import read_document
+    from ..robot.loader import _resolve_file
+    from ..robot.schema import check_document
+    from ..validation.yamlio import read_document
 
     if robot.source is None:
         return None

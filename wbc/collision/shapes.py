@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ConfigError
-from ..schema import mapping, number, text, vector
+from ..validation.schema import mapping, number, text, vector
 
 _KEYS = {"sphere": ("radius",), "box": ("size",), "cylinder": ("radius", "length"), "capsule": ("radius", "length"),
          "plane": ("height",)}
