@@ -87,12 +87,13 @@ class CollisionModel:
         obstacle_links: robot links (URDF names) checked against the obstacles; None: all.
         self_collision: whether self pairs are monitored.
         self_pairs: explicit self pairs (geometry names); None: the pair file beside the robot
-            YAML if there is one, else every pair minus the SRDF's disabled and adjacent ones.
+            YAML if there is one, else (and with ``"default"``) every pair minus the SRDF's
+            disabled and adjacent ones.
         hull_dir: the hull cache directory (None: :func:`wbc.collision.hulls.cache_dir`).
     """
 
     def __init__(self, robot, obstacles: list[Obstacle] = (), obstacle_links: list[str] | None = None,
-                 self_collision: bool = True, self_pairs: list[tuple[str, str]] | None = None,
+                 self_collision: bool = True, self_pairs: list[tuple[str, str]] | str | None = None,
                  hull_dir: Path | None = None) -> None:
         from .pairs import default_self_pairs, read_pair_file
 
@@ -120,10 +121,15 @@ class CollisionModel:
         if self_collision:
             if self_pairs is None:
                 self_pairs = read_pair_file(robot)
-            if self_pairs is None:
+            if self_pairs is None or self_pairs == "default":
                 self_pairs = default_self_pairs(robot, gm, self.n_robot)
             idx = {n: i for i, n in enumerate(robot_names)}
-            pairs += [(idx[a], idx[b]) for a, b in self_pairs]
+            for a, b in self_pairs:
+                for name in (a, b):
+                    if name not in idx:
+                        raise RobotDefinitionError(f"self pair ({a}, {b}): no robot geometry '{name}'; expected one "
+                                                   f"of {robot_names}")
+                pairs.append((idx[a], idx[b]))
         for k in range(len(obstacles)):
             ob = self.n_robot + k
             for i in range(self.n_robot):

@@ -60,7 +60,7 @@ def sample_self_pairs(robot, influence: float = 0.05, samples: int = 2000, seed:
     random configurations inside the joint limits (seeded); and a summary dict."""
     from .model import CollisionModel
 
-    cm = CollisionModel(robot)
+    cm = CollisionModel(robot, self_pairs="default")
     rng = np.random.default_rng(seed)
     data = robot.model.createData()
     closest = np.full(len(cm.pairs), np.inf)
