@@ -27,7 +27,7 @@ ALLOWED: dict[str, set[str]] = {
     "wbc.robot": BASE | {"wbc.validation"},
     "wbc.problem": BASE,
     "wbc.collision": BASE | {"wbc.validation", "wbc.robot"},
-    "wbc.tasks": BASE | {"wbc.validation", "wbc.robot", "wbc.problem", "wbc.null_space"},
+    "wbc.tasks": BASE | {"wbc.validation", "wbc.robot", "wbc.problem", "wbc.null_space", "wbc.collision"},
     "wbc.stack": BASE | {"wbc.tasks", "wbc.problem"},
     "wbc.solvers": BASE | {"wbc.problem"},
     "wbc.controller": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks", "wbc.problem", "wbc.solvers", "wbc.stack"},
