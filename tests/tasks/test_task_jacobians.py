@@ -48,6 +48,7 @@ import wbc.tasks
 from tests.helpers.stacks import random_state
 from wbc.scenario.contacts import with_contacts
 from wbc.tasks import (
+    CollisionAvoidance,
     CoM,
     Contact,
     ContactRegularization,
@@ -175,6 +176,8 @@ CASES: dict[str, tuple[type, Case]] = {
                                             robots=("talos", "g1"))),
     "torque_limits": (TorqueLimits, Case(lambda r, c, g: TorqueLimits(scale=0.8), "dynamics")),
     "joint_limits": (JointLimits, Case(lambda r, c, g: JointLimits(), "box")),
+    "collision_avoidance": (CollisionAvoidance, Case(lambda r, c, g: CollisionAvoidance(influence=0.08, safety=0.01),
+                                                     "collision", robots=("talos", "tiago"))),
 }
 
 
@@ -375,7 +378,27 @@ def check_box(robot, task, layout, q, v):
     close(D, np.eye(robot.nv)[limited], what="box rows vs ∂q_j/∂δ")
 
 
-CHECKS = {"motion": check_motion, "null_space": check_null_space, "lateral_velocity": check_lateral_velocity,
+def check_collision(robot, task, layout, q, v):
+    """Each used row is J_d of its pair (∂d/∂δ along pin.integrate, coal's distance, GJK at
+    1e-10 m) and its bound the damper's −2ω ḋ − ω²(d − d_s) − J̇_d q̇; the unused rows are 0."""
+    for req in task.model.geometry_data.distanceRequests:
+        req.gjk_tolerance = 1e-10
+    rows = task.rows(robot, layout)
+    r, order = task.last
+    k = len(order)
+    assert k >= 1, "no pair within the influence distance"
+    pairs = r.pairs[order].copy()
+    C = rows.C[:k, :robot.nv].copy()
+    fd = jacobian_fd(robot, q, v, lambda: task.model.all_distances(robot.q)[pairs])
+    close(C, fd, tol=1e-4, what="collision rows vs ∂d/∂δ")
+    close(rows.C[:k, robot.nv:], np.zeros((k, layout.nx - robot.nv)), what="no force columns")
+    close(rows.C[k:], np.zeros_like(rows.C[k:]), what="unused rows")
+    w = task.omega
+    close(rows.lo[:k], -2 * w * (C @ v) - w * w * (r.d[order] - task.safety) - r.drift[order], what="damper bound")
+
+
+CHECKS = {"collision": check_collision,
+          "motion": check_motion, "null_space": check_null_space, "lateral_velocity": check_lateral_velocity,
           "force": check_force, "dynamics": check_dynamics, "box": check_box}
 
 

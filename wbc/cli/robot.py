@@ -317,6 +317,23 @@ def _cmd_init(args) -> int:
     return 0
 
 
+def _cmd_collisions(args) -> int:
+    from wbc.collision.pairs import pair_file, sample_self_pairs, write_pair_file
+    from wbc.errors import ConfigError, RobotDefinitionError
+    from wbc.robot.loader import load_robot
+
+    if args.samples < 1 or not 0 < args.influence < 1:
+        raise ConfigError(f"--samples must be ≥ 1 and --influence in (0, 1) m, got {args.samples}, {args.influence:g}")
+    robot = load_robot(args.robot)
+    if pair_file(robot) is None:
+        raise RobotDefinitionError(f"robot '{robot.name}' has no YAML file to write the pairs beside")
+    pairs, summary = sample_self_pairs(robot, influence=args.influence, samples=args.samples, seed=args.seed)
+    path = write_pair_file(robot, pairs, summary)
+    print(f"{robot.name}: {summary['kept']} of {summary['candidates']} self pairs come within {args.influence:g} m "
+          f"in {args.samples} random configurations; wrote {path}")
+    return 0
+
+
 def add_parser(sub) -> None:
     """Register ``wbc robot init`` on the ``wbc`` sub-command parser ``sub``."""
     p = sub.add_parser("robot", help="make a robot YAML: wbc robot init URDF [--srdf FILE] [-o OUT.yaml]",
@@ -329,3 +346,13 @@ def add_parser(sub) -> None:
     i.add_argument("--srdf", metavar="FILE", help="its SRDF: the first group_state becomes the default posture")
     i.add_argument("-o", "--output", metavar="OUT.yaml", help="file to write (default: standard output)")
     i.set_defaults(fn=_cmd_init)
+    c = s.add_parser("collisions", help="the self pairs to monitor, written beside the robot YAML",
+                     description="Every pair of the robot's collision geometries minus the SRDF's disabled pairs, "
+                                 "minus adjacent links, minus pairs that never come within the influence distance "
+                                 "in N random configurations inside the joint limits (the MoveIt setup assistant's "
+                                 "method); written to ROBOT.collisions.yaml beside the robot YAML.")
+    c.add_argument("robot", metavar="ROBOT", help="a bundled robot name or a robot YAML")
+    c.add_argument("--samples", type=int, default=2000, help="random configurations (default 2000)")
+    c.add_argument("--influence", type=float, default=0.05, help="influence distance d_i in m (default 0.05)")
+    c.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    c.set_defaults(fn=_cmd_collisions)

@@ -5,6 +5,7 @@ May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wb
 """
 
 from .base import MotionTask, Task
+from .collision_avoidance import CollisionAvoidance
 from .com import CoM
 from .contact import Contact, friction_pyramid, wrench_cone, wrench_cone_generators
 from .contact_regularization import ContactRegularization
@@ -19,10 +20,12 @@ from .torque_limits import TorqueLimits
 
 #: task types a YAML stack may name, by their ``type:`` key
 TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench,
-                                        ContactRegularization, NullSpaceImpedance, Force)}
+                                        ContactRegularization, NullSpaceImpedance, Force,
+                                        CollisionAvoidance)}
 
 __all__ = [
-    "Task", "MotionTask", "CoM", "Contact", "ContactRegularization", "ContactWrench", "Force", "Frame", "JointLimits",
+    "Task", "MotionTask", "CoM", "CollisionAvoidance",
+    "Contact", "ContactRegularization", "ContactWrench", "Force", "Frame", "JointLimits",
     "NullSpaceImpedance", "Posture", "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
     "friction_pyramid", "wrench_cone_generators",
 ]

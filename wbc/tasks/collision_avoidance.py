@@ -1,0 +1,117 @@
+"""CollisionAvoidance: one inequality row per monitored pair closer than the influence distance.
+
+Rows from :meth:`wbc.collision.model.CollisionModel.distance_rows` (d, J_d, J̇_d q̇ per pair;
+the same rows serve a velocity level: J_d q̇ ≥ −ξ (d − d_s)/(d_i − d_s)).
+
+Acceleration level, the second-order damper on e = d − d_s (critically damped, ζ = 1):
+
+    d̈ ≥ −2ω ḋ − ω² (d − d_s),    i.e.   J_d q̈ ≥ −2ω ḋ − ω² (d − d_s) − J̇_d q̇.
+
+Why this one: held with equality, e(t) = (e₀ + (ė₀ + ω e₀) t) e^{−ωt} crosses zero only if
+ė₀ < −ω e₀. A pair enters the rows at e₀ = d_i − d_s with at most the approach speed
+v̄ (``max_speed``, m/s), so ω = v̄/(d_i − d_s) guarantees d ≥ d_s for every approach no faster
+than v̄; a faster ω only brakes earlier. Against the velocity damper differentiated, this
+form needs no ḋ-dependent switching and asks at most ω v̄ of braking (m/s²) at entry.
+
+Rows are fixed in number (``max_rows``, so that the stack's buffers keep their size): the
+nearest pairs first; the unused rows are 0 ≤ 0 · x ≤ 1, always satisfied. Units: m, m/s, m/s².
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.validation.schema import number
+
+from ..errors import TaskDefinitionError
+from ..problem.rows import Layout, Rows
+from .base import Task
+
+#: the bound of an unused row's 0 · x (any positive number: the row is always satisfied)
+_FREE = 1.0
+
+
+class CollisionAvoidance(Task):
+    """Keep every monitored pair at least ``safety`` (d_s, m) apart (module docstring).
+
+    Args:
+        influence: d_i (m): pairs closer than this get a row.
+        safety: d_s (m) < d_i: the distance never to go below.
+        max_speed: v̄ (m/s), the fastest approach the damper stops in time; ω = v̄/(d_i − d_s).
+        max_rows: rows kept each cycle (the nearest pairs).
+        self_collision: whether the robot's self pairs are monitored.
+        obstacles: fixed obstacles (:class:`~wbc.collision.shapes.Obstacle` or their YAML mappings,
+            :func:`wbc.collision.shapes.obstacle`).
+        links: robot links checked against the obstacles (None: all).
+        name, weight: as for every task.
+    """
+
+    kind = "collision_avoidance"
+
+    def __init__(self, influence: float = 0.05, safety: float = 0.01, max_speed: float = 0.5, max_rows: int = 16,
+                 self_collision: bool = True, obstacles=(), links: list[str] | None = None,
+                 name: str = "collision_avoidance", weight: float = 1.0) -> None:
+        super().__init__(name, weight)
+        owner = f"task '{self.name}'"
+        self.influence = number(influence, "influence", gt=0, le=1, unit="m", error=TaskDefinitionError, owner=owner)
+        self.safety = number(safety, "safety", ge=0, le=1, unit="m", error=TaskDefinitionError, owner=owner)
+        if self.safety >= self.influence:
+            raise TaskDefinitionError(f"{owner}: safety (d_s = {self.safety:g} m) must be below influence "
+                                      f"(d_i = {self.influence:g} m)", key="safety")
+        self.max_speed = number(max_speed, "max_speed", gt=0, le=100, unit="m/s", error=TaskDefinitionError,
+                                owner=owner)
+        self.max_rows = int(number(max_rows, "max_rows", ge=1, le=1000, error=TaskDefinitionError, owner=owner))
+        self.self_collision = bool(self_collision)
+        from wbc.collision.shapes import Obstacle, obstacle
+
+        self.obstacles = [o if isinstance(o, Obstacle) else obstacle(o, f"obstacles[{i}]", f"obstacle_{i}")
+                          for i, o in enumerate(obstacles)]
+        self.links = None if links is None else list(links)
+        self.omega = self.max_speed / (self.influence - self.safety)
+        self.model = None
+        self._buf = None
+        #: the last cycle's rows (wbc.collision.model.DistanceRows) and which are active
+        self.last = None
+
+    def bind(self, robot) -> None:
+        if self.model is None or self.model.robot is not robot:
+            from wbc.collision.model import CollisionModel
+
+            self.model = CollisionModel(robot, obstacles=self.obstacles, obstacle_links=self.links,
+                                        self_collision=self.self_collision)
+
+    def rows(self, robot, layout: Layout) -> Rows:
+        self.bind(robot)
+        if self._buf is None or self._buf[0].shape[1] != layout.nx:
+            n = self.max_rows
+            self._buf = (np.zeros((n, layout.nx)), np.zeros(n), np.full(n, _FREE))
+        C, lo, hi = self._buf
+        r = self.model.distance_rows(robot, self.influence)
+        order = np.argsort(r.d)[: self.max_rows]
+        k = len(order)
+        C[:] = 0.0
+        lo[:] = 0.0
+        hi[:] = _FREE
+        if k:
+            w = self.omega
+            C[:k, : robot.nv] = r.J[order]
+            lo[:k] = -2.0 * w * r.d_dot[order] - w * w * (r.d[order] - self.safety) - r.drift[order]
+            hi[:k] = np.inf
+        self.last = (r, order)
+        return Rows(C=C, lo=lo, hi=hi)
+
+    def diagnostics(self) -> dict:
+        """The closest pairs (names, distances in m) of the last cycle and the rows in use."""
+        if self.last is None:
+            return {"rows_active": 0, "closest": []}
+        r, order = self.last
+        return {"rows_active": len(order),
+                "closest": [(self.model.pair_name(int(r.pairs[i])), float(r.d[i])) for i in order[:5]]}
+
+    def params(self) -> dict:
+        p = super().params()
+        p.update(influence=self.influence, safety=self.safety, max_speed=self.max_speed, max_rows=self.max_rows,
+                 self_collision=self.self_collision)
+        if p["name"] == "collision_avoidance":
+            del p["name"]
+        return p
