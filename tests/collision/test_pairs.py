@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from wbc.collision.model import CollisionModel
-from wbc.collision.pairs import default_self_pairs, read_pair_file, sample_self_pairs, srdf_path, write_pair_file
+from wbc.collision.pairs import default_self_pairs, read_pair_file, srdf_path, write_pair_file
+from wbc.collision.sampling import sample_self_pairs
 from wbc.errors import RobotDefinitionError
 from wbc.robot.loader import load_robot
 

@@ -318,7 +318,8 @@ def _cmd_init(args) -> int:
 
 
 def _cmd_collisions(args) -> int:
-    from wbc.collision.pairs import pair_file, sample_self_pairs, write_pair_file
+    from wbc.collision.pairs import pair_file, write_pair_file
+    from wbc.collision.sampling import sample_self_pairs
     from wbc.errors import ConfigError, RobotDefinitionError
     from wbc.robot.loader import load_robot
 

@@ -31,8 +31,10 @@ J_d q̈ ≥ d̈_min − J̇_d q̇, a velocity-level row J_d q̇ ≥ ḋ_min.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import coal
 import numpy as np
@@ -92,7 +94,7 @@ class CollisionModel:
         hull_dir: the hull cache directory (None: :func:`wbc.collision.hulls.cache_dir`).
     """
 
-    def __init__(self, robot, obstacles: list[Obstacle] = (), obstacle_links: list[str] | None = None,
+    def __init__(self, robot, obstacles: Sequence[Obstacle] = (), obstacle_links: list[str] | None = None,
                  self_collision: bool = True, self_pairs: list[tuple[str, str]] | str | None = None,
                  hull_dir: Path | None = None) -> None:
         from .pairs import default_self_pairs, read_pair_file
@@ -117,14 +119,14 @@ class CollisionModel:
         self.geometry_data = pin.GeometryData(gm)
         self.names = [g.name for g in gm.geometryObjects]
         self.links = [model.frames[g.parentFrame].name for g in gm.geometryObjects]
-        pairs = []
+        pairs: list[tuple[int, int]] = []
         if self_collision:
             if self_pairs is None:
                 self_pairs = read_pair_file(robot)
-            if self_pairs is None or self_pairs == "default":
-                self_pairs = default_self_pairs(robot, gm, self.n_robot)
+            chosen: list[tuple[str, str]] = (default_self_pairs(robot, gm, self.n_robot)
+                                              if self_pairs is None or isinstance(self_pairs, str) else list(self_pairs))
             idx = {n: i for i, n in enumerate(robot_names)}
-            for a, b in self_pairs:
+            for a, b in chosen:
                 for name in (a, b):
                     if name not in idx:
                         raise RobotDefinitionError(f"self pair ({a}, {b}): no robot geometry '{name}'; expected one "
@@ -136,8 +138,8 @@ class CollisionModel:
                 if obstacle_links is None or self.links[i] in obstacle_links:
                     pairs.append((i, ob))
         gm.removeAllCollisionPairs()
-        for a, b in pairs:
-            gm.addCollisionPair(pin.CollisionPair(int(a), int(b)))
+        for i0, i1 in pairs:
+            gm.addCollisionPair(pin.CollisionPair(int(i0), int(i1)))
         self.geometry_data = pin.GeometryData(gm)
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         self.requests = [coal.DistanceRequest() for _ in pairs]
@@ -148,8 +150,8 @@ class CollisionModel:
         self.joint_of = np.array([g.parentJoint for g in gm.geometryObjects], dtype=np.int64)
         self.planes = {i: (np.array(g.geometry.n), float(g.geometry.d)) for i, g in enumerate(gm.geometryObjects)
                        if isinstance(g.geometry, coal.Halfspace)}
-        self._cycle = None
-        self._rows = None
+        self._cycle: Any = None
+        self._rows: Any = None
         #: (njoints × nv) 1 where joint j's Jacobian may be non-zero (its supporting chain)
         self._support = np.zeros((model.njoints, model.nv))
         for j in range(1, model.njoints):

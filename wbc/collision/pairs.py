@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pinocchio as pin
 import yaml
 
@@ -55,29 +54,14 @@ def default_self_pairs(robot, gm: pin.GeometryModel, n_robot: int) -> list[tuple
     return out
 
 
-def sample_self_pairs(robot, influence: float = 0.05, samples: int = 2000, seed: int = 0) -> tuple[list, dict]:
-    """The default pairs that come within ``influence`` (m) in at least one of ``samples``
-    random configurations inside the joint limits (seeded); and a summary dict."""
-    from .model import CollisionModel
-
-    cm = CollisionModel(robot, self_pairs="default")
-    rng = np.random.default_rng(seed)
-    data = robot.model.createData()
-    closest = np.full(len(cm.pairs), np.inf)
-    for _ in range(samples):
-        q = robot.random_configuration(rng, margin=0.0)
-        closest = np.minimum(closest, cm.all_distances(q, data))
-    keep = [(cm.names[a], cm.names[b]) for (a, b), d in zip(cm.pairs, closest) if d < influence]
-    return keep, {"candidates": len(cm.pairs), "kept": len(keep), "samples": samples, "influence": influence,
-                  "seed": seed}
-
-
 def pair_file(robot) -> Path | None:
     return None if robot.source is None else robot.source.with_suffix(".collisions.yaml")
 
 
 def write_pair_file(robot, pairs: list, summary: dict) -> Path:
     path = pair_file(robot)
+    if path is None:
+        raise RobotDefinitionError(f"robot '{robot.name}' has no robot YAML to write its collision pairs beside")
     doc = {"robot": robot.name, "method": "MoveIt setup assistant's: default pairs that come within the influence "
                                           "distance in a random configuration", **summary,
            "pairs": [list(p) for p in pairs]}

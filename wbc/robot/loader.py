@@ -57,7 +57,7 @@ def package_share_dir(package: str) -> Path:
 
 def available_robots() -> list[str]:
     """Names of the bundled robot YAMLs (``wbc/data/robots``)."""
-    return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml"))
+    return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml") if not p.name.endswith(".collisions.yaml"))  # not pair files
 
 
 def robot_yaml_path(name_or_path: str | Path) -> Path:

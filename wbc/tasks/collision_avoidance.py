@@ -19,6 +19,8 @@ nearest pairs first; the unused rows are 0 ≤ 0 · x ≤ 1, always satisfied. U
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from wbc.validation.schema import number
@@ -43,7 +45,8 @@ class CollisionAvoidance(Task):
         obstacles: fixed obstacles (:class:`~wbc.collision.shapes.Obstacle` or their YAML mappings,
             :func:`wbc.collision.shapes.obstacle`).
         links: robot links checked against the obstacles (None: all).
-        name, weight: as for every task.
+        name: the task's name in the stack (unique).
+        weight: its weight within its level (unitless, > 0).
     """
 
     kind = "collision_avoidance"
@@ -68,10 +71,10 @@ class CollisionAvoidance(Task):
                           for i, o in enumerate(obstacles)]
         self.links = None if links is None else list(links)
         self.omega = self.max_speed / (self.influence - self.safety)
-        self.model = None
-        self._buf = None
+        self.model: Any = None          # the CollisionModel, built at bind
+        self._buf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         #: the last cycle's rows (wbc.collision.model.DistanceRows) and which are active
-        self.last = None
+        self.last: tuple[Any, np.ndarray] | None = None
 
     def bind(self, robot) -> None:
         if self.model is None or self.model.robot is not robot:
