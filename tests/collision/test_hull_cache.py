@@ -24,7 +24,7 @@ def _points(cv):
 def test_corrupt_and_stale_entries_are_rebuilt(tmp_path):
     bvh, path, scale = _mesh()
     fresh = _points(hulls.convex_hull(bvh, path, scale, tmp_path))
-    entry = tmp_path / f"{hulls.hull_key(path, scale)}.npz"
+    entry = tmp_path / f"{hulls.hull_key(path, scale)}.hull"
     assert entry.exists() and hulls.read_cached(entry, hulls.hull_key(path, scale)) is not None
 
     entry.write_bytes(entry.read_bytes()[:100])                        # truncated
@@ -33,17 +33,16 @@ def test_corrupt_and_stale_entries_are_rebuilt(tmp_path):
     assert hulls.read_cached(entry, hulls.hull_key(path, scale)) is not None   # rewritten
 
     key = hulls.hull_key(path, scale)                                   # edited vertices, same key
-    with np.load(entry) as f:
-        pts, checksum = f["points"] * 2.0, f["checksum"]
-    np.savez(entry.with_suffix(".tmp.npz"), key=np.array(key), points=pts, checksum=checksum)
-    entry.with_suffix(".tmp.npz").replace(entry)
+    good = hulls.read_cached(entry, key)
+    head, body = entry.read_bytes().split(b"\n", 1)
+    pts = good * 2.0
+    entry.write_bytes(head + b"\n" + np.ascontiguousarray(pts, dtype="<f8").tobytes())   # checksum of the old ones
     assert hulls.read_cached(entry, key) is None
     np.testing.assert_allclose(_points(hulls.convex_hull(bvh, path, scale, tmp_path)), fresh)
 
     # stale: an entry written for another key (another mesh file, scale or coal version) is not used
     other = hulls.hull_key(path, np.asarray(scale) * 2.0)
     assert other != key
-    np.savez(entry.with_suffix(".tmp.npz"), key=np.array(other), points=pts, checksum=np.array(hulls._checksum(pts)))
-    entry.with_suffix(".tmp.npz").replace(entry)
+    hulls.write_cached(entry, other, pts)
     assert hulls.read_cached(entry, key) is None
     np.testing.assert_allclose(_points(hulls.convex_hull(bvh, path, scale, tmp_path)), fresh)

@@ -110,7 +110,8 @@ def scenario_documents() -> list[tuple[str, dict]]:
 
 @pytest.fixture(scope="session")
 def robot_documents() -> list[tuple[str, dict]]:
-    return [(p.stem, yaml.safe_load(p.read_text())) for p in sorted(ROBOTS_DIR.glob("*.yaml"))]
+    return [(p.stem, yaml.safe_load(p.read_text())) for p in sorted(ROBOTS_DIR.glob("*.yaml"))
+            if not p.name.endswith(".collisions.yaml")]          # a robot's collision pairs, not a robot
 
 
 #: libyaml's emitter when PyYAML has it (the pure-Python one is most of a case's time)

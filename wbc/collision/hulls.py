@@ -4,7 +4,8 @@ A mesh's distance query costs ~3 ms on its triangles (pinocchio's ``computeDista
 Talos's 52 meshes: 161 ms for all pairs) and ~0.5 µs on its convex hull, so every mesh
 is replaced by the hull of its vertices (coal's ``BVHModel.buildConvexHull``, qhull).
 The hull's vertices are cached in ``$WBC_CACHE_DIR/hulls`` (default ``~/.cache/wbc/hulls``),
-one ``.npz`` per mesh, named by the key ``sha256(mesh file bytes, scale, coal version,
+one ``.hull`` file per mesh (a text line ``key checksum n``, then n × 3 float64 vertices; no
+pickle and no ``numpy.load``), named by the key ``sha256(mesh file bytes, scale, coal version,
 format)``. A cached file is used only when it opens, carries the same key and the
 checksum of its own vertices matches; otherwise (stale, truncated, edited) it is rebuilt
 and rewritten (:func:`convex_hull`).
@@ -20,7 +21,7 @@ import coal
 import numpy as np
 
 #: bump when the cached content changes meaning
-FORMAT = 1
+FORMAT = 2
 
 
 def cache_dir() -> Path:
@@ -51,17 +52,27 @@ def _hull_points(bvh) -> np.ndarray:
 def read_cached(path: Path, key: str) -> np.ndarray | None:
     """The cached hull vertices at ``path`` if the file is whole and is for ``key``, else None."""
     try:
-        with np.load(path, allow_pickle=False) as f:
-            if str(f["key"]) != key:
-                return None
-            points = np.array(f["points"], dtype=float)
-            if str(f["checksum"]) != _checksum(points):
-                return None
-    except Exception:       # a corrupt file (truncated, not an npz, missing fields): rebuild it
+        raw = Path(path).read_bytes()
+        head, body = raw.split(b"\n", 1)
+        got_key, checksum, n = head.decode("ascii").split(" ")
+        if got_key != key or len(body) != int(n) * 3 * 8:
+            return None
+        points = np.frombuffer(body, dtype="<f8").reshape(int(n), 3).copy()
+        if checksum != _checksum(points):
+            return None
+    except Exception:       # a corrupt file (truncated, not ours, missing fields): rebuild it
         return None
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 4 or not np.isfinite(points).all():
         return None
     return points
+
+
+def write_cached(path: Path, key: str, points: np.ndarray) -> None:
+    """Write ``points`` (n × 3) for ``key`` at ``path`` atomically (a reader never sees half a file)."""
+    pts = np.ascontiguousarray(points, dtype="<f8")
+    tmp = Path(path).with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_bytes(f"{key} {_checksum(pts)} {len(pts)}\n".encode("ascii") + pts.tobytes())
+    os.replace(tmp, path)
 
 
 def convex_hull(bvh, mesh_path: str | Path, scale: np.ndarray, directory: Path | None = None) -> coal.Convex:
@@ -76,12 +87,10 @@ def convex_hull(bvh, mesh_path: str | Path, scale: np.ndarray, directory: Path |
     """
     key = hull_key(mesh_path, scale)
     directory = cache_dir() if directory is None else Path(directory)
-    path = directory / f"{key}.npz"
+    path = directory / f"{key}.hull"
     points = read_cached(path, key) if path.exists() else None
     if points is None:
         points = _hull_points(bvh)
         directory.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-        np.savez(tmp, key=np.array(key), points=points, checksum=np.array(_checksum(points)))
-        os.replace(tmp, path)       # atomic: a reader never sees half a file
+        write_cached(path, key, points)
     return coal.Convex.convexHull([p for p in points], True, "Qt")
