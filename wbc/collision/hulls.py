@@ -93,4 +93,13 @@ def convex_hull(bvh, mesh_path: str | Path, scale: np.ndarray, directory: Path |
         points = _hull_points(bvh)
         directory.mkdir(parents=True, exist_ok=True)
         write_cached(path, key, points)
-    return coal.Convex.convexHull([p for p in points], True, "Qt")
+    return coal.Convex.convexHull(vec3s(points), True, "Qt")
+
+
+def vec3s(points: np.ndarray):
+    """``points`` (n × 3) as coal's std::vector of 3-vectors (coal 3.0's binding, with pinocchio
+    3.8, takes no Python list there)."""
+    out = coal.StdVec_Vec3s()
+    for p in np.asarray(points, dtype=float):
+        out.append(p)
+    return out
