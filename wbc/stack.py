@@ -222,7 +222,8 @@ class Stack:
 
         The levels' arrays are views of one buffer this stack owns and refills every
         cycle (:class:`RowBuffer`; rebuilt only when the stack's structure changes): a
-        Level is valid until the next call.
+        Level is valid until the next call. Each task writes its equality rows into the
+        buffer's :class:`~wbc.problem.rows.RowSlot` handed to its ``rows`` call.
 
         Args:
             robot: the :class:`~wbc.robot.model.RobotModel`, updated to this cycle's state.
@@ -238,12 +239,18 @@ class Stack:
         groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]
         if lowest:
             groups.append(lowest)
-        rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
         key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
         buf = self._row_buffer
-        if buf is None or buf.key != key or not buf.fill(groups, rows):
-            buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key, adopt=True)
-            buf.fill(groups, rows)
+        if buf is not None and buf.key == key:
+            # each task writes its equality rows into its slot of the buffer (for this call only)
+            rows = [[t.rows(robot, layout, out) for t, out in zip(tasks, slots)]
+                    for tasks, slots in zip(groups, buf.slots)]
+            if buf.fill(groups, rows):
+                return buf.levels
+        else:
+            rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
+        buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key)
+        buf.fill(groups, rows)
         return buf.levels
 
     @property

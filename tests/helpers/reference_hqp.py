@@ -18,8 +18,10 @@ from wbc.solvers.kernels.qp_rows import max_violation
 
 
 def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "", x_ref=None,
-                           dampings: dict | None = None) -> SolveResult:
-    """What ``solver.solve_levels`` returns, by the Python loop (same arguments)."""
+                           dampings: dict | None = None, stacked=None, own: int | None = None,
+                           margin: float | None = None) -> SolveResult:
+    """What ``solver.solve_levels`` returns, by the Python loop (same arguments; the rows
+    are read from the levels, ``stacked`` and ``own`` only say where the solver finds them)."""
     cas = Cascade(nx, solver._hints)
     if x_ref is not None:
         cas.x = np.array(x_ref, dtype=float)
@@ -32,7 +34,7 @@ def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "
     dampings = dampings or {}
     n_levels = len(levels)
     for k, lvl in enumerate(levels):
-        margin = solver.margin if k + 1 < n_levels else 0.0
+        margin_k = (solver.margin if margin is None else margin) if k + 1 < n_levels else 0.0
         info = LevelInfo(lvl.index, dof_before=cas.dof)
         # (1) the level's equalities, in the null space of every higher level
         step = cas.ls_step(lvl.A, lvl.b, dampings.get(lvl.index, solver.damping))
@@ -42,7 +44,7 @@ def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "
             info.used_qp = True
             qp_count += 1
             z, _, status = solver._qp(cas, step.AZ, step.r, None, None, None, Ca, la, ha, f"{key}{lvl.index}e",
-                                      margin)
+                                      margin_k)
             info.qp_status = status
             if z is None:
                 degraded.append(f"level {lvl.index}: QP failed ({status}); level held at its "
@@ -58,11 +60,11 @@ def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "
             if _violated(acc_C + [C], acc_lo + [lo], acc_hi + [hi], cas.x, tol):
                 info.used_qp = True
                 qp_count += 1
-                z, status = solver._nearest_feasible(cas, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}h", margin)
+                z, status = solver._nearest_feasible(cas, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}h", margin_k)
                 w = np.zeros(len(lo))
                 if z is None:
                     qp_count += 1
-                    z, w, status = solver._qp(cas, None, None, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}i", margin)
+                    z, w, status = solver._qp(cas, None, None, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}i", margin_k)
                 info.qp_status = status
                 if z is None:
                     ok, msg = False, f"level {lvl.index}: QP failed ({status})"

@@ -23,7 +23,7 @@ def reference_solve_accelerations(solver: RecursiveProjection, levels, layout, d
     infos = []
     for k, lvl in enumerate(levels):
         info = LevelInfo(lvl.index, dof_before=cas.dof)
-        rows = solver._motion_rows(lvl)
+        rows = solver._motion_rows(lvl, layout.nf > 0)
         if rows is None:                # no rows on q̈ (force-only tasks): nothing to do here
             infos.append(info)
             continue

@@ -44,7 +44,7 @@ from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
 from wbc.errors import SolverError
 from wbc.problem.buffer import split_values
-from wbc.problem.problem import Problem
+from wbc.problem.problem import ROW_MARGIN, Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
@@ -199,8 +199,10 @@ class Controller:
         advance_ramps(self._ramps, self.stack)
 
     def _internal_constraints(self, layout: Layout) -> list:
+        """The tasks the controller adds to level 0: the floating-base dynamics (5.26) of a
+        robot with an unactuated root, the differential drive's constraint."""
         extra = []
-        if len(self.robot.unactuated_idx) and (not self.solver.distributes_forces or layout.nf == 0):
+        if len(self.robot.unactuated_idx):
             extra.append(self._dynamics)
         if self._diff_drive is not None:
             extra.append(self._diff_drive)
@@ -246,7 +248,7 @@ class Controller:
         idx, lo, hi = box if box is not None else (_NO_INDEX, _NO_BOUNDS, _NO_BOUNDS)
         # inside the bounds by the margin the solver's QPs keep (a point on a bound sends
         # the next level's step across it), in one compiled call with f₀
-        reference_point(x, layout.nv, idx, lo, hi, self.solver.margin,
+        reference_point(x, layout.nv, idx, lo, hi, ROW_MARGIN,
                         layout.force_jacobian if forces else _NO_FORCES, robot.h, robot.unactuated_idx,
                         weights_of.force_weights(layout) if forces else _NO_BOUNDS)
         return x
@@ -293,13 +295,11 @@ class Controller:
                                      lowest if layout.nf else ())
         t = clock and clock.lap("rows", t)
         self.layout, self.levels = layout, levels
-        x_ref = None
-        if self.warm_start and self.solver.uses_reference:
-            x_ref = self._reference(layout, weights_of, levels)
-        contacts = []
-        if self.solver.distributes_forces and layout.nf:
-            contacts = [t.contact_data() for lvl in levels for t in lvl.tasks if t.kind == "contact"]
-        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, contacts)
+        x_ref = self._reference(layout, weights_of, levels) if self.warm_start else None
+        contacts = [c.contact_data() for c in self.stack.contacts()] if layout.nf else []
+        buf = self.stack.row_buffer
+        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, contacts,
+                          None if buf is None else buf.stacked, ROW_MARGIN)
         t = clock and clock.lap(None, t)
         res = self.solver.solve(problem)
         t = clock and clock.lap("solve", t)
@@ -348,7 +348,8 @@ class Controller:
         else:
             at_limit = []
         evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
-                           not self.solver.enforces_inequality_rows, self.sacrifice_tol, self.sacrifice_rel,
+                           (not res.enforces_inequality_rows, res.outside_cascade),
+                           (self.sacrifice_tol, self.sacrifice_rel),
                            saturated_torques=at_limit)
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
@@ -386,27 +387,39 @@ _NO_BOUNDS = np.zeros(0)
 SATURATION_TOL = 1e-6
 
 
-def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
-                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7, saturated_torques: list | None = None):
+def _diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tuple[str, ...]],
+                 sacrifice: tuple[float, float], tol_act: float = 1e-7, saturated_torques: list | None = None):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
     of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
     inequality rows): A x − b, C x, l, u and b over every level, level k's part
-    given by ``spans[k]``; see :meth:`Controller._finish`). The projection solver enforces
+    given by ``spans[k]``; see :meth:`Controller._finish`). ``unenforced``: (the solver did
+    not enforce the general inequality rows, the tasks whose rows it met outside its
+    cascade), from its SolveResult. The projection solver enforces
     equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
     force distribution and its torque limits are not enforced (the controller saturates
-    τ): those rows are reported apart (``unenforced_violation``), not as residuals.
+    τ): those rows are reported apart (``unenforced_violation``), not as residuals; the
+    floating-base dynamics its forces meet are left out (its ``dynamics_gap`` and level 0's
+    relaxation report them). ``sacrifice``: (absolute, relative) parts of the threshold.
     ``saturated_torques``: the joints the controller clipped at ±τ_max, reported by the
     level holding the torque limits (level 0 if the stack has none) as
     ``saturated_torques`` and ``active["torque_saturation"]``. A regularisation task
     (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met."""
     residuals, task_res, diags = [], {}, []
+    projection, outside = unenforced
+    sacrifice_tol, sacrifice_rel = sacrifice
     E, Y, LO, HI, B = split_values(*values)
     sat_level = -1
     if saturated_torques:
-        sat_level = next((k for k, lvl in enumerate(levels) if any(t.kind == "torque_limits" for t in lvl.tasks)), 0)
+        sat_level = next((k for k, lvl in enumerate(levels) if "torque_limits" in lvl.kinds), 0)
     for lvl, (e0, e1, i0, n_gen, i1), info in zip(levels, spans, infos):
-        index, tasks, eq_slices, in_slices, has_box = lvl.index, lvl.tasks, lvl.eq_slices, lvl.in_slices, lvl.box is not None
+        index, names, eq_slices, in_slices, has_box = lvl.index, lvl.names, lvl.eq_slices, lvl.in_slices, lvl.box is not None
         e, b = E[e0:e1], B[e0:e1]
+        if outside and any(n in outside for n in names):
+            names = [n for n in names if n not in outside]
+            e = e.copy()
+            for n in outside:
+                if n in eq_slices:
+                    e[eq_slices[n]] = 0.0
         y, lo, hi = Y[i0:i1], LO[i0:i1], HI[i0:i1]
         with np.errstate(invalid="ignore"):          # a failed cycle's values are inf
             viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
@@ -417,27 +430,27 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
             viol[:n_gen] = 0.0
         residuals.append(float(np.sqrt(e @ e + viol @ viol)))
         sacrificed, active, violations = [], {}, {}
-        for t in tasks:
+        for name in names:
             r2 = 0.0
             tol = sacrifice_tol
-            sl = eq_slices.get(t.name)
+            sl = eq_slices.get(name)
             if sl is not None:
                 es = e[sl]
                 r2 += float(es @ es)
                 if sacrifice_rel:
                     tol += sacrifice_rel * float(np.linalg.norm(b[sl]))
-            isl = in_slices.get(t.name)
+            isl = in_slices.get(name)
             if isl is not None:
                 vs = viol[isl]
                 r2 += float(vs @ vs)
                 n_act = int(np.count_nonzero(act[isl]))
                 if n_act:
-                    active[t.name] = n_act
-                _violated_rows(violations, t.name, vs, np.arange(len(vs)), sacrifice_tol)
+                    active[name] = n_act
+                _violated_rows(violations, name, vs, np.arange(len(vs)), sacrifice_tol)
             r = r2**0.5
-            task_res[t.name] = r
-            if r > tol and not t.regularizer:
-                sacrificed.append(t.name)
+            task_res[name] = r
+            if r > tol and name not in lvl.regularizers:
+                sacrificed.append(name)
         if has_box:
             n_act = int(np.count_nonzero(act[n_gen:]))
             if n_act:
@@ -447,7 +460,7 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
         if sat:
             active["torque_saturation"] = len(sat)
         diags.append(LevelDiagnostics(
-            index=index, tasks=[t.name for t in tasks], residual=residuals[-1],
+            index=index, tasks=list(names), residual=residuals[-1],
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
             sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),

@@ -1,21 +1,27 @@
 """The stack's rows in five arrays, and the levels as views of them (boundary data).
 
-What a solver reads of a stack: :class:`RowBuffer` (A, b, C, l, u of every level, each
-level a block) and the :class:`~wbc.problem.rows.Level` views of it; a compiled solver run
-reads the leading levels straight from the arrays (:func:`buffered_prefix`).
+What a solver reads of a stack: the :class:`~wbc.problem.rows.Level` views and the five
+arrays themselves (:class:`~wbc.problem.rows.StackedRows`, ``Problem.rows``), which a
+compiled solver run reads in one pass. The tasks write their equality rows straight into
+them: :meth:`RowBuffer.slots` hands each task its :class:`~wbc.problem.rows.RowSlot` for
+one call of ``Task.rows``.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, cast
+from itertools import count
+from typing import TYPE_CHECKING
 
 import numba as nb
 import numpy as np
 
-from .rows import Level, RowBlock, Rows
+from .rows import Level, RowBlock, Rows, RowSlot, StackedRows
 
 if TYPE_CHECKING:
     from ..tasks.base import Task
+
+#: serial number of each buffer built (part of ``StackedRows.structure``)
+_BUILDS = count()
 
 
 class RowBuffer:
@@ -26,33 +32,37 @@ class RowBuffer:
     evaluates every level's rows (:func:`row_values`). Built for one structure (tasks, their
     row counts, weights and box indices); :meth:`fill` refuses another.
 
-    With ``adopt`` (the stack's own buffer), a task of weight 1 that keeps its rows in
-    :func:`~wbc.tasks.base.eq_buffer` is handed its block of A and b as that buffer:
-    it then writes its rows in place and nothing is copied. A task shared by two stacks
-    moves to whichever assembled last (both stay right; a Level of the other stack is
-    then only valid until this one's next call)."""
+    Each task with equality rows has a :class:`RowSlot` (:attr:`slots`): for a task of
+    weight 1 its block of A and b, so that its rows are written in place and nothing is
+    copied; for another weight the buffer's scratch, scaled by √weight into the block."""
 
     def __init__(self, nx: int, groups: list[list[Task]], rows: list[list[Rows]], first_index: int = 0,
-                 key=None, adopt: bool = False) -> None:
-        self.nx, self.key, self.adopt = nx, key, adopt
+                 key=None) -> None:
+        self.nx, self.key = nx, key
         ne = sum(r.n_eq for rs in rows for r in rs)
         ni = sum(r.n_in for rs in rows for r in rs)
         self.A, self.b = np.zeros((ne, nx)), np.zeros(ne)
         self.C, self.lo, self.hi = np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni)
-        self.plans, self.levels, self.spans = [], [], []
+        self.plans: list[list[tuple]] = []
+        self.levels: list[Level] = []
+        self.spans: list[tuple[int, int, int, int, int]] = []
+        #: per level, per task: where it writes its equality rows (None: it has none)
+        self.slots: list[list[RowSlot | None]] = []
         e = i = 0
         for k, (tasks, rs) in enumerate(zip(groups, rows)):
             e0, i0 = e, i
             ng = sum(r.C.shape[0] for r in rs if r.C is not None)
             g, bx = i0, i0 + ng
-            eq_slices, in_slices, plan, box_idx, blocks = {}, {}, [], [], []
+            eq_slices, in_slices, plan, box_idx, blocks, slots = {}, {}, [], [], [], []
             for t, r in zip(tasks, rs):
-                eqv = inv = boxv = None
+                eqv = inv = boxv = slot = None
                 if r.A is not None:
                     m = r.A.shape[0]
                     eq_slices[t.name] = slice(e - e0, e - e0 + m)
-                    blocks.append(RowBlock(t.name, eq_slices[t.name], t.on_forces, t.regularizer, t.layout_only_A))
+                    blocks.append(RowBlock(t.name, eq_slices[t.name], t.on_forces, t.regularizer, t.layout_only_A,
+                                           t.equation_of_motion))
                     eqv = (self.A[e:e + m], self.b[e:e + m], float(np.sqrt(t.weight)))
+                    slot = RowSlot(eqv[0], eqv[1]) if eqv[2] == 1.0 else RowSlot(np.zeros((m, nx)), np.zeros(m))
                     e += m
                 if r.C is not None and r.C.shape[0]:
                     m = r.C.shape[0]
@@ -67,25 +77,32 @@ class RowBuffer:
                     box_idx.append(idx)
                     bx += m
                 plan.append((t.weight, eqv, inv, boxv))
+                slots.append(slot)
             i = bx
             box = None
             if box_idx:
                 box = (np.concatenate(box_idx), self.lo[i0 + ng:i], self.hi[i0 + ng:i])
-            lvl = Level(index=first_index + k, tasks=list(tasks), A=self.A[e0:e], b=self.b[e0:e],
+            lvl = Level(index=first_index + k, names=[t.name for t in tasks], A=self.A[e0:e], b=self.b[e0:e],
                         C=self.C[i0:i0 + ng], lo=self.lo[i0:i0 + ng], hi=self.hi[i0:i0 + ng], box=box,
                         eq_slices=eq_slices, in_slices=in_slices, blocks=blocks,
-                        regularizers_only=bool(tasks) and all(t.regularizer for t in tasks), buffer=self,
+                        regularizers_only=bool(tasks) and all(t.regularizer for t in tasks),
+                        kinds=[t.kind for t in tasks],
+                        regularizers=frozenset(t.name for t in tasks if t.regularizer),
                         ineq=(self.C[i0:i], self.lo[i0:i], self.hi[i0:i]))
             self.plans.append(plan)
             self.levels.append(lvl)
             self.spans.append((e0, e, i0, ng, i))
+            self.slots.append(slots)
         #: where each level's equality and inequality rows end in (A, b) and (C, lo, hi)
         self.eq_end = np.array([sp[1] for sp in self.spans], dtype=np.int64)
         self.ineq_end = np.array([sp[4] for sp in self.spans], dtype=np.int64)
+        #: the five arrays as the problem hands them to the solvers
+        self.stacked = StackedRows(self.A, self.b, self.C, self.lo, self.hi, self.eq_end, self.ineq_end,
+                                   self.spans, (key, next(_BUILDS)))
 
     def fill(self, groups: list[list[Task]], rows: list[list[Rows]]) -> bool:
-        """Copy this cycle's rows in; False (nothing to trust) if they no longer have
-        the structure the buffer was built for."""
+        """Copy this cycle's rows in (those written into a slot of A, b are there already);
+        False (nothing to trust) if they no longer have the structure the buffer was built for."""
         if len(rows) != len(self.plans):
             return False
         copyto = np.copyto
@@ -101,16 +118,12 @@ class RowBuffer:
                         return False
                     A, b, w = eqv
                     if rA is A and r.b is b:
-                        pass                        # written in place (see below)
+                        pass                        # written in place, in its slot
                     elif rA.shape != A.shape:
                         return False
                     elif w == 1.0:
                         copyto(A, rA)
                         copyto(b, r.b)
-                        if self.adopt and _owns_rows(t, r):
-                            # from now on the task writes its rows straight into the
-                            # buffer: eq_buffer hands it these views
-                            t.adopt_row_storage(A, b)
                     else:
                         np.multiply(rA, w, out=A)
                         np.multiply(r.b, w, out=b)
@@ -139,19 +152,6 @@ class RowBuffer:
         return True
 
 
-def buffered_prefix(levels: list[Level]) -> tuple[RowBuffer | None, int]:
-    """(the row buffer behind ``levels``, how many leading levels are its own levels in
-    order): what a compiled solver run may read straight from the buffer's arrays."""
-    buf = cast("RowBuffer | None", levels[0].buffer) if levels else None   # Level.buffer is a RowBuffer
-    n = 0
-    if buf is not None:
-        for lvl, own in zip(levels, buf.levels):
-            if lvl is not own:
-                break
-            n += 1
-    return buf, n
-
-
 def split_values(values: np.ndarray, ne: int, ni: int) -> tuple[np.ndarray, ...]:
     """(A x − b, C x, l, u, b) as views of :func:`row_values`' array (ne equality rows, ni
     inequality rows; level k's rows are ``RowBuffer.spans[k]`` of each)."""
@@ -172,9 +172,3 @@ def row_values(A, b, C, lo, hi, x):
     out[ne + 2 * ni:ne + 3 * ni] = hi
     out[ne + 3 * ni:] = b
     return out
-
-
-def _owns_rows(t: Task, r: Rows) -> bool:
-    """Whether the task's equality rows are its :func:`~wbc.tasks.base.eq_buffer` arrays."""
-    own = t.row_storage
-    return own is not None and own[0] is r.A and own[1] is r.b

@@ -64,7 +64,12 @@ class SolveResult:
     QP failed and x is not to be used as is), the QPs solved, a message, ``degraded`` (a
     level was held at a feasible point after its QP failed). The projection's force
     distribution also gives ``dynamics_gap``, how far the root dynamics are from holding,
-    and their scale (N, N·m)."""
+    and their scale (N, N·m). ``enforces_inequality_rows`` False: the solver did not meet
+    the levels' general inequality rows (the projection: torque limits, friction cones),
+    which the diagnostics then report apart. ``outside_cascade``: the tasks whose equality
+    rows the solver met outside its priority cascade (the projection: the floating-base
+    dynamics, by its force distribution, how well in ``dynamics_gap``), left out of the
+    levels' residuals."""
 
     x: np.ndarray
     levels: list[LevelInfo]
@@ -74,4 +79,6 @@ class SolveResult:
     degraded: bool = False
     dynamics_gap: float = 0.0
     dynamics_scale: float = 0.0
+    enforces_inequality_rows: bool = True
+    outside_cascade: tuple[str, ...] = ()
 

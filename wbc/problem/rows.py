@@ -71,14 +71,17 @@ class RowBlock:
     """One task's equality rows in its level: ``rows`` (a slice of the level's rows),
     whether they act on the contact forces only (``on_forces``: a wrench target, the
     contact regularisation), whether the task is a ``regularizer`` (decides only what the
-    others leave free) and whether its A depends on the layout only (``constant_A``: the
-    rows change with the state through b alone)."""
+    others leave free), whether its A depends on the layout only (``constant_A``: the
+    rows change with the state through b alone) and whether they are the unactuated rows
+    of the equation of motion (``equation_of_motion``: a solver that finds the forces after
+    q̈ meets them there, not among q̈'s rows)."""
 
     name: str
     rows: slice
     on_forces: bool = False
     regularizer: bool = False
     constant_A: bool = False
+    equation_of_motion: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,12 +105,47 @@ class ContactData:
         return (self.mu, self.fmin, self.bilateral, self.cop_margin, self.fmax != np.inf)
 
 
+@dataclass(slots=True)
+class RowSlot:
+    """Where one task writes its equality rows A x = b in one call of ``Task.rows``: arrays
+    the problem owns (a block of the stack's row buffer, or the buffer's scratch for a task
+    whose rows it scales by √weight), handed in for that call only; the task keeps no
+    reference to them. ``written`` is what the task last wrote into A here (None: nothing,
+    A is zero): a task whose A changes only with the layout writes it when that differs
+    (:func:`~wbc.tasks.base.eq_rows`)."""
+
+    A: np.ndarray
+    b: np.ndarray
+    written: object = None
+
+
+@dataclass(frozen=True, slots=True)
+class StackedRows:
+    """Every level's rows in five arrays, level after level (what the levels' arrays are
+    views of): equalities (A, b), level k's rows ``[eq_end[k−1], eq_end[k])``; inequalities
+    (C, lo, hi), general rows then box bounds as unit rows, level k's rows
+    ``[ineq_end[k−1], ineq_end[k])``; ``spans[k]`` = (e0, e1, i0, number of general rows,
+    i1). ``structure`` is equal for two problems only when their rows have the same
+    structure (the same buffer): what a solver may key what it keeps across cycles on."""
+
+    A: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    eq_end: np.ndarray
+    ineq_end: np.ndarray
+    spans: list
+    structure: tuple
+
+
 @dataclass
 class Level:
-    """All rows of one priority level, stacked; equality rows pre-scaled by √weight."""
+    """All rows of one priority level, stacked; equality rows pre-scaled by √weight. The
+    tasks are known by their ``names`` (and type names, ``kinds``), in their order."""
 
     index: int
-    tasks: list
+    names: list[str]
     A: np.ndarray
     b: np.ndarray
     C: np.ndarray
@@ -116,12 +154,14 @@ class Level:
     box: tuple[np.ndarray, np.ndarray, np.ndarray] | None
     eq_slices: dict[str, slice]
     in_slices: dict[str, slice]
-    #: each task's equality rows, in the order of ``tasks`` (tasks without any left out)
+    #: each task's equality rows, in the order of ``names`` (tasks without any left out)
     blocks: list[RowBlock] = field(default_factory=list)
     #: every task of the level is a regularizer (the contact regularisation's level)
     regularizers_only: bool = False
-    #: the :class:`~wbc.problem.buffer.RowBuffer` whose views these arrays are, if any
-    buffer: object | None = None
+    #: each task's type name (``Task.kind``), in the order of ``names``
+    kinds: list[str] = field(default_factory=list)
+    #: the tasks that are regularisations (``Task.regularizer``: never reported as sacrificed)
+    regularizers: frozenset[str] = frozenset()
     #: all inequality rows (general, then box bounds as unit rows), when built
     ineq: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 

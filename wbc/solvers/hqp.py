@@ -37,12 +37,13 @@ answer is computed, not the answer (the fallback back-end is not warm-started).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from ..problem.buffer import buffered_prefix
 from ..problem.problem import Problem
 from ..problem.result import CERTIFIED, LevelInfo, SolveResult
-from ..problem.rows import Level
+from ..problem.rows import Level, StackedRows
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
 from .kernels import prepare
@@ -73,13 +74,6 @@ class HierarchicalQP:
     only where its KKT certificate fails (False: every QP goes to the back-end)."""
 
     name = "hqp"
-    #: starts its least-norm choices from the problem's ``x_ref``
-    uses_reference = True
-    #: x holds the contact forces too, decided in the cascade with the rest (the controller
-    #: adds the floating-base dynamics rows)
-    distributes_forces = False
-    #: meets inequality rows at every level (else they are reported as not enforced)
-    enforces_inequality_rows = True
 
     #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
     options: tuple[str, ...] = ()
@@ -107,21 +101,26 @@ class HierarchicalQP:
         self._hints = hint_table()
         #: the fallback back-end (:meth:`_fallback`), made when first needed
         self._fb: Backend | None = None
-        #: (row buffer, damping key, level ends, tolerances) of the last compiled run's rows
-        #: when they are the buffer's, and the arrays they are copied into when they are not
-        #: (:meth:`_stacked_rows`)
-        self._stack_plan: tuple | None = None
-        self._prefix_plan: tuple | None = None
+        #: the arrays levels not all of the problem's own rows are copied into
+        #: (:meth:`_stacked_rows`), and the damping tolerances per level of the last run
+        self._stack_plan: _StackPlan | None = None
+        self._tols: tuple | None = None
         prepare()
 
     def solve(self, problem: Problem) -> SolveResult:
-        """The problem's levels by the strict cascade (:meth:`solve_levels`)."""
-        return self.solve_levels(problem.levels, problem.layout.nx, x_ref=problem.x_ref)
+        """The problem's levels by the strict cascade (:meth:`solve_levels`), from its
+        ``x_ref``, keeping its ``margin``, reading its stacked ``rows``."""
+        return self.solve_levels(problem.levels, problem.layout.nx, x_ref=problem.x_ref,
+                                 stacked=problem.rows, margin=problem.margin)
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
-                     dampings: dict | None = None) -> SolveResult:
+                     dampings: dict | None = None, stacked: StackedRows | None = None, own: int | None = None,
+                     margin: float | None = None) -> SolveResult:
         """Solve the cascade. ``dampings``: level index -> :class:`Damping` for the levels
-        that do not use the solver's own (the weighted QP's folded level).
+        that do not use the solver's own (the weighted QP's folded level). ``stacked``: the
+        rows of the leading ``own`` levels (default all) in five arrays, read as they are
+        (None: the levels' rows are copied into such arrays). ``margin``: the room kept from
+        a limit (default the solver's).
 
         ``x_ref``: the reference of the least-norm choices (default 0). Every level's
         step is the smallest change that solves it, starting from x_ref instead of the
@@ -137,7 +136,8 @@ class HierarchicalQP:
         cas = Cascade(nx, self._hints)
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
-        rows = self._rows(levels, nx, dampings or {})
+        margin = self.margin if margin is None else margin
+        rows = self._rows(levels, nx, dampings or {}, stacked, len(levels) if own is None else own)
         infos, ok, qp_count, msg = [], True, 0, ""
         degraded: list[str] = []
         k, n_levels = 0, len(levels)
@@ -148,14 +148,14 @@ class HierarchicalQP:
             out = cascade_prefix(rows.A, rows.b, rows.e_end, rows.C, rows.lo, rows.hi, rows.i_end, cas.x, Z,
                                  identity, k, cas.calls, self._hints, rows.rank_tol, rows.threshold,
                                  rows.max_damping, GRAM_MIN_RATIO, self.tol, self.certify, self.regularization,
-                                 self.margin)
+                                 margin)
             stop, pending, certified = adopt_run(levels, cas, infos, k, *out)
             qp_count += certified
             if stop == n_levels:
                 break
             k = stop + 1
             info, used, failed, w = self._backend_level(levels[stop], pending, rows, stop, cas, key, degraded,
-                                                        self.margin if k < n_levels else 0.0)
+                                                        margin if k < n_levels else 0.0)
             qp_count += used
             if failed:
                 ok, msg = False, failed
@@ -166,54 +166,52 @@ class HierarchicalQP:
         res.degraded = bool(degraded)
         return res
 
-    def _rows(self, levels: list[Level], nx: int, dampings: dict) -> _LevelRows:
-        """Every level's rows as the compiled run reads them: the row buffer's arrays when
-        the levels are the buffer's own, else the levels' rows stacked afresh (the weighted
-        QP's folded level, levels built outside a stack)."""
+    def _rows(self, levels: list[Level], nx: int, dampings: dict, stacked: StackedRows | None,
+              own: int) -> _LevelRows:
+        """Every level's rows as the compiled run reads them: the problem's stacked arrays
+        when every level is one of its own, in order, else the levels' rows stacked afresh
+        (the weighted QP's folded level, levels built outside a stack)."""
         n = len(levels)
         damp = [dampings.get(lvl.index, self.damping) for lvl in levels] if dampings else [self.damping] * n
         d0 = self.damping
         key = (n, d0.rank_tol, d0.threshold, d0.max_damping) if not dampings else \
             (n, tuple((d.rank_tol, d.threshold, d.max_damping) for d in damp))
-        got = self._prefix_plan
-        if got is not None and got[0] is not None and levels is got[0].levels and got[1] == key:
-            buf = got[0]            # the buffer's own level list, as last cycle
-        else:
-            buf, own = buffered_prefix(levels)
-            if own < n:
-                return self._stacked_rows(levels, nx, damp, key, buf, own)
-        if got is None or got[0] is not buf or got[1] != key:
-            tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).T.copy()
-            got = self._prefix_plan = (buf, key, buf.eq_end[:n].copy(), buf.ineq_end[:n].copy(), tols)
-        _, _, e_end, i_end, tols = got
-        return _LevelRows(buf.A, buf.b, e_end, buf.C, buf.lo, buf.hi, i_end, tols, True)
+        got = self._tols
+        if got is None or got[0] != key:
+            got = self._tols = (key, np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp])
+                                .reshape(n, 3).T.copy())
+        tols = got[1]
+        if stacked is None or own < n:
+            return self._stacked_rows(levels, nx, key, tols, stacked, 0 if stacked is None else own)
+        return _LevelRows(stacked.A, stacked.b, stacked.eq_end[:n], stacked.C, stacked.lo, stacked.hi,
+                          stacked.ineq_end[:n], tols, True)
 
-    def _stacked_rows(self, levels: list[Level], nx: int, damp: list, key: tuple, buf, own: int) -> _LevelRows:
-        """The levels' rows copied into one set of arrays, laid out as the row buffer's; the
-        arrays are kept and refilled while the same Level objects come with the same shapes
-        (the weighted QP's folded level), else made afresh. When only the buffer's own
-        leading levels have inequality rows (the folded level has none), the inequalities
-        are read from the buffer itself."""
+    def _stacked_rows(self, levels: list[Level], nx: int, key: tuple, tols: np.ndarray,
+                      stacked: StackedRows | None, own: int) -> _LevelRows:
+        """The levels' rows copied into one set of arrays, laid out as the stacked rows; the
+        arrays are kept and refilled while the levels come with the same shapes (the
+        weighted QP's folded level), else made afresh. When only the problem's own leading
+        ``own`` levels have inequality rows (the folded level has none), the inequalities
+        are read from ``stacked`` itself."""
         shapes = [(lvl.A.shape[0], lvl.n_in) for lvl in levels]
+        from_stacked = stacked is not None and own > 0 and not any(mi for _, mi in shapes[own:])
         plan = self._stack_plan
-        if plan is None or plan[0] != key or plan[2] != shapes or plan[7] is not buf or \
-                any(a is not lvl for a, lvl in zip(plan[1], levels)):
+        if plan is None or plan.key != key or plan.shapes != shapes or plan.from_stacked != from_stacked or \
+                plan.nx != nx:
             e_end = np.cumsum([0] + [me for me, _ in shapes], dtype=np.int64)
             i_end = np.cumsum([0] + [mi for _, mi in shapes], dtype=np.int64)
-            from_buffer = own > 0 and not any(mi for _, mi in shapes[own:])
-            ne, ni = int(e_end[-1]), (0 if from_buffer else int(i_end[-1]))
-            arrays = (np.zeros((ne, nx)), np.zeros(ne), np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni))
-            tols = np.array([[d.rank_tol, d.threshold, d.max_damping] for d in damp]).reshape(len(levels), 3).T.copy()
-            plan = self._stack_plan = (key, list(levels), shapes, e_end, i_end, arrays, tols, buf, from_buffer)
-        _, _, _, e_end, i_end, (A, b, C, lo, hi), tols, _, from_buffer = plan
+            ne, ni = int(e_end[-1]), (0 if from_stacked else int(i_end[-1]))
+            plan = self._stack_plan = _StackPlan(key, shapes, nx, e_end, i_end, np.zeros((ne, nx)), np.zeros(ne),
+                                                 np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni), from_stacked)
+        e_end, i_end, A, b, C, lo, hi = plan.e_end, plan.i_end, plan.A, plan.b, plan.C, plan.lo, plan.hi
         for k, lvl in enumerate(levels):
             e0, e1, i0, i1 = e_end[k], e_end[k + 1], i_end[k], i_end[k + 1]
             A[e0:e1] = lvl.A
             b[e0:e1] = lvl.b
-            if i1 > i0 and not from_buffer:
+            if i1 > i0 and not from_stacked:
                 C[i0:i1], lo[i0:i1], hi[i0:i1] = lvl.inequalities(nx)
-        if from_buffer:     # the buffer's own levels' rows, where the rest add none
-            return _LevelRows(A, b, e_end[1:], buf.C, buf.lo, buf.hi, i_end[1:], tols, True)
+        if stacked is not None and from_stacked:     # the problem's own levels' rows, where the rest add none
+            return _LevelRows(A, b, e_end[1:], stacked.C, stacked.lo, stacked.hi, i_end[1:], tols, True)
         return _LevelRows(A, b, e_end[1:], C, lo, hi, i_end[1:], tols, False)
 
     def _backend_level(self, lvl: Level, step, rows: _LevelRows, k: int, cas: Cascade, key: str,
@@ -421,6 +419,26 @@ class HierarchicalQP:
                 res2 = res3
             res = res2
         return res.z[:r], res.z[r:], res.status
+
+
+class _StackPlan(NamedTuple):
+    """The arrays :meth:`HierarchicalQP._stacked_rows` copies levels into, for one damping
+    ``key``, level ``shapes`` ((equality rows, inequality rows) per level) and ``nx``:
+    level k's equalities rows [e_end[k], e_end[k+1]) of (A, b), its inequalities rows
+    [i_end[k], i_end[k+1]) of (C, lo, hi) (empty when ``from_stacked``: read from the
+    problem's own arrays)."""
+
+    key: tuple
+    shapes: list
+    nx: int
+    e_end: np.ndarray
+    i_end: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    from_stacked: bool
 
 
 class _LevelRows:

@@ -49,15 +49,16 @@ certifies it as the (unique in f) optimum.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy.linalg import cho_factor, solve_triangular
 from scipy.optimize import nnls
 
 from ..errors import SolverError
-from ..problem.buffer import buffered_prefix
 from ..problem.problem import Problem
 from ..problem.result import LevelInfo, SolveResult
-from ..problem.rows import Layout, Level
+from ..problem.rows import Layout, Level, StackedRows
 from .cascade import GRAM_MIN_RATIO, NO_DAMPING, Cascade, Damping, adopt_run
 from .kernels import prepare
 from .kernels.forces import dynamics_rows, forces_from, nnls_on_support
@@ -69,12 +70,6 @@ class RecursiveProjection:
     """``weighting``: ``"identity"`` or ``"inertia"`` (W = M); ``damping`` as :class:`Damping`."""
 
     name = "projection"
-    #: q̈ from the levels' motion rows alone: no reference point
-    uses_reference = False
-    #: the contact forces come after q̈, from the floating-base dynamics (:meth:`distribute_forces`)
-    distributes_forces = True
-    #: general inequality rows (torque limits, friction cones) are not met in the cascade
-    enforces_inequality_rows = False
     #: QP answers rejected or failed (it solves no QP: always 0)
     backend_failures = 0
 
@@ -101,8 +96,11 @@ class RecursiveProjection:
                 res.levels[0].relaxed = True
                 message = message or (f"q̈ needs contact forces outside the friction/CoP cones "
                                       f"(root dynamics off by {gap:.3g} N or N·m)")
+        # with contacts, the equation-of-motion rows are met by the forces, not in the cascade
+        outside = tuple(blk.name for blk in levels[0].blocks if blk.equation_of_motion) if layout.nf and levels else ()
         return SolveResult(np.concatenate([res.x, fres.x]), res.levels, res.ok and fres.ok, fres.qp_count, message,
-                           res.degraded, fres.dynamics_gap, fres.dynamics_scale)
+                           res.degraded, fres.dynamics_gap, fres.dynamics_scale, enforces_inequality_rows=False,
+                           outside_cascade=outside)
 
     def __init__(self, weighting: str = "identity", damping: Damping | None = None,
                  backend: str = "daqp", box_tol: float = 1e-9, margin: float = 1.0) -> None:
@@ -133,17 +131,17 @@ class RecursiveProjection:
         prepare()
         self._rows_cache: dict = {}
         self._force_plan: _ForcePlan | None = None
-        #: (row buffer, damping key, each level's motion rows in it, tolerances) of the last run
-        self._prefix = None
+        #: each level's motion rows in the problem's stacked arrays, for one structure
+        self._prefix: _MotionPlan | None = None
 
     # ----------------------------------------------------------------- q̈
-    def solve_accelerations(self, levels: list[Level], layout: Layout, dynamics) -> SolveResult:
-        """q̈ of the levels' motion rows; ``dynamics`` has M (the inertia weighting's). Every
-        level, joint-limit saturations and task scaling included, in one call of
-        :func:`~wbc.solvers.kernels.sns_run.projection_prefix`."""
+    def solve_accelerations(self, levels: list[Level], layout: Layout, problem: Problem) -> SolveResult:
+        """q̈ of the levels' motion rows (``problem``: its M for the inertia weighting, its
+        margin, its stacked rows). Every level, joint-limit saturations and task scaling
+        included, in one call of :func:`~wbc.solvers.kernels.sns_run.projection_prefix`."""
         nv = layout.nv
-        T, cas, box = self._start(levels, dynamics, nv)
-        A, b, rows, tols = self._motion(levels, T, nv)
+        T, cas, box = self._start(levels, problem, nv)
+        A, b, rows, tols = self._motion(levels, T, nv, problem.rows, layout.nf > 0)
         b_idx, b_lo, b_hi = box
         out = projection_prefix(A, b, rows, nv, cas.x, b_idx, b_lo, b_hi, _NO_T if T is None else T, T is not None,
                                 self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.box_tol,
@@ -152,13 +150,13 @@ class RecursiveProjection:
         adopt_run(levels, cas, infos, 0, *out)
         return SolveResult(cas.x if T is None else T @ cas.x, infos)
 
-    def _start(self, levels: list[Level], dynamics, nv: int) -> tuple:
+    def _start(self, levels: list[Level], problem: Problem, nv: int) -> tuple:
         """(T, the cascade at its starting point, the joint-acceleration box (b_idx, b_lo,
         b_hi) the SNS keeps) of a cycle: q̈ = T y, T = L⁻ᵀ for the inertia weighting (None
         for the identity); the start is the point of the box nearest q̈ = 0."""
         T = None
         if self.weighting == "inertia":
-            c, lower = cho_factor(dynamics.M, lower=True, check_finite=False)
+            c, lower = cho_factor(problem.M, lower=True, check_finite=False)
             L = np.tril(c) if lower else np.triu(c).T
             T = solve_triangular(L.T, np.eye(nv), lower=False)  # L⁻ᵀ: q̈ = T y
         boxes = [l.box for l in levels if l.box is not None]
@@ -176,31 +174,35 @@ class RecursiveProjection:
             # the box the SNS keeps, ``margin`` inside each bound where the range allows, and
             # the start: its point nearest q̈ = 0 (a joint braking towards its limit needs a
             # non-zero acceleration even before any task)
-            b_lo, b_hi, x0 = sns_box(b_idx, b_lo, b_hi, self.margin, nv)
+            margin = self.margin if problem.margin is None else problem.margin
+            b_lo, b_hi, x0 = sns_box(b_idx, b_lo, b_hi, margin, nv)
             cas.x = x0 if T is None else L.T @ x0
         return T, cas, (b_idx, b_lo, b_hi)
 
-    def _motion(self, levels: list[Level], T, nv: int) -> tuple:
+    def _motion(self, levels: list[Level], T, nv: int, stacked: StackedRows | None, forces_after: bool) -> tuple:
         """(A, b, rows, tolerances) of :func:`~wbc.solvers.kernels.sns_run.projection_prefix`:
-        the row buffer's arrays when the levels are its own, with the identity weighting and
-        each level's motion rows one block of it; else the levels' motion rows (times T)
-        stacked afresh."""
+        the problem's stacked arrays when the levels are its own, with the identity weighting
+        and each level's motion rows one block of it; else the levels' motion rows (times T)
+        stacked afresh. ``forces_after``: the forces come after q̈ (there are contacts), so
+        the equation-of-motion rows are theirs, not q̈'s."""
         n = len(levels)
         d = self.damping
-        key = (n, d.rank_tol, d.threshold, d.max_damping)
-        buf, own = buffered_prefix(levels)
+        key = (n, d.rank_tol, d.threshold, d.max_damping, forces_after)
         got = self._prefix
-        if T is None and own == n and got is not None and got[0] is buf and got[1] == key:
-            return buf.A, buf.b, got[2], got[3]
+        if stacked is not None and len(stacked.spans) != n:
+            stacked = None              # not the problem's own levels: stacked afresh below
+        if T is None and stacked is not None and got is not None and got.structure == stacked.structure and \
+                got.key == key:
+            return stacked.A, stacked.b, got.rows, got.tols
         tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * n).reshape(n, 3).T.copy()
-        sels = [self._motion_rows(lvl) for lvl in levels]
-        if T is None and own == n and all(sel is None or isinstance(sel, slice) for sel in sels):
+        sels = [self._motion_rows(lvl, forces_after) for lvl in levels]
+        if T is None and stacked is not None and all(sel is None or isinstance(sel, slice) for sel in sels):
             rows = np.empty((n, 2), dtype=np.int64)
             for k, sel in enumerate(sels):
-                e0 = buf.spans[k][0]
+                e0 = stacked.spans[k][0]
                 rows[k] = (-1, -1) if sel is None else (e0 + sel.start, e0 + sel.stop)
-            self._prefix = (buf, key, rows, tols)
-            return buf.A, buf.b, rows, tols
+            self._prefix = _MotionPlan(stacked.structure, key, rows, tols)
+            return stacked.A, stacked.b, rows, tols
         rows = np.full((n, 2), -1, dtype=np.int64)
         As, bs, e = [], [], 0
         for k, (lvl, sel) in enumerate(zip(levels, sels)):
@@ -215,22 +217,23 @@ class RecursiveProjection:
         b = np.concatenate(bs) if bs else np.zeros(0)
         return A, b, rows, tols
 
-    def _motion_rows(self, lvl: Level) -> slice | np.ndarray | None:
-        """The level's equality rows on q̈ (not on contact forces): a slice when they are
-        all of them, None when there are none, cached per level structure (the stack
-        keeps ``eq_slices`` while its structure is unchanged)."""
-        key = id(lvl.eq_slices)
+    def _motion_rows(self, lvl: Level, forces_after: bool = True) -> slice | np.ndarray | None:
+        """The level's equality rows on q̈ (not on contact forces, nor the equation of motion
+        when ``forces_after``: the forces meet those): a slice when they are contiguous, None
+        when there are none, cached per level structure (the stack keeps ``eq_slices`` while
+        its structure is unchanged)."""
+        key = (id(lvl.eq_slices), forces_after)
         got = self._rows_cache.get(lvl.index)
         if got is not None and got[0] == key and got[1] is lvl.eq_slices:
             return got[2]
         idx = []
         for blk in lvl.blocks:
-            if not blk.on_forces:
+            if not blk.on_forces and not (forces_after and blk.equation_of_motion):
                 idx.extend(range(blk.rows.start, blk.rows.stop))
         if not idx:
             rows = None
         else:
-            rows = slice(0, lvl.n_eq) if idx == list(range(lvl.n_eq)) else np.array(idx, dtype=int)
+            rows = slice(idx[0], idx[-1] + 1) if idx == list(range(idx[0], idx[-1] + 1)) else np.array(idx, dtype=int)
         self._rows_cache[lvl.index] = (key, lvl.eq_slices, rows)
         return rows
 
@@ -249,9 +252,9 @@ class RecursiveProjection:
         nf, nv = layout.nf, layout.nv
         if nf == 0:
             return SolveResult(np.zeros(0), [])
-        # the stack hands out the same layout and level list while its structure is
-        # unchanged; the plan holds both, so their ids cannot be reused meanwhile
-        key = (id(layout), id(levels), len(levels), layout.nx)
+        # the plan is kept while the rows' structure is (levels built outside a stack: while the
+        # level list is the same; the plan holds it, so its id cannot be reused meanwhile)
+        key = (id(levels) if problem.rows is None else problem.rows.structure, layout.structure_key(), len(levels))
         plan = self._force_plan
         if plan is None or plan.key != key or not plan.still_valid(levels, contacts, nv):
             plan = self._force_plan = _ForcePlan(key, levels, layout, contacts, dynamics, self)
@@ -278,6 +281,16 @@ class RecursiveProjection:
         res = SolveResult(f, [LevelInfo(0)])
         res.dynamics_gap, res.dynamics_scale = gap, scale
         return res
+
+
+class _MotionPlan(NamedTuple):
+    """Each level's motion rows [rows[k, 0], rows[k, 1]) in the stacked arrays of one
+    ``structure`` (``StackedRows.structure``) and damping ``key``, and the tolerances."""
+
+    structure: tuple
+    key: tuple
+    rows: np.ndarray
+    tols: np.ndarray
 
 
 #: stands for T with the identity weighting (the compiled run then reads q̈ = y)

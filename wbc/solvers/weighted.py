@@ -4,10 +4,12 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..problem.result import SolveResult
-from ..problem.rows import Level
+from ..problem.rows import Level, StackedRows
 from .cascade import Damping
 from .hqp import HierarchicalQP
 
@@ -36,20 +38,22 @@ class WeightedQP(HierarchicalQP):
     def __init__(self, *args, level_weight: float = 1e-3, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self.level_weight = level_weight
-        #: (the levels folded, the folded Level, its row blocks per level), refilled in place
-        #: while the stack hands over the same levels (:meth:`_merge`)
-        self._merge_plan: tuple | None = None
+        #: the folded Level and its row blocks per level, refilled in place while the levels
+        #: folded have the same structure (:meth:`_merge`)
+        self._merge_plan: _MergePlan | None = None
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
-                     dampings: dict | None = None) -> SolveResult:
+                     dampings: dict | None = None, stacked: StackedRows | None = None, own: int | None = None,
+                     margin: float | None = None) -> SolveResult:
         """The soft hierarchy's two strict levels (level 0, the folded rest) and the
         regularisation tail, by the strict cascade (``dampings`` as there: unused here,
-        the folded level gets its own)."""
+        the folded level gets its own; ``stacked``, ``own``, ``margin`` as there)."""
         tail = []
         if len(levels) > 2 and levels[-1].regularizers_only:
             levels, tail = levels[:-1], levels[-1:]
         if len(levels) <= 2:
-            return super().solve_levels(levels + tail, nx, key, x_ref=x_ref)
+            return super().solve_levels(levels + tail, nx, key, x_ref=x_ref, stacked=stacked, own=own,
+                                        margin=margin)
         rest = levels[1:]
         w = [np.sqrt(self.level_weight ** k) for k in range(len(rest))]
         merged = self._merge(rest, w)
@@ -61,19 +65,21 @@ class WeightedQP(HierarchicalQP):
         # singularity of the folded rows is damped.
         d, wmin = self.damping, w[-1]
         folded = {1: Damping(threshold=d.threshold * wmin, max_damping=d.max_damping * wmin, rank_tol=d.rank_tol)}
-        res = super().solve_levels([levels[0], merged] + tail, nx, key, x_ref=x_ref, dampings=folded)
+        res = super().solve_levels([levels[0], merged] + tail, nx, key, x_ref=x_ref, dampings=folded,
+                                   stacked=stacked, own=1 if own is None else min(own, 1), margin=margin)
         # report the merged level's info for every folded level
         res.levels = res.levels[:1] + [res.levels[1]] * len(rest) + res.levels[2:]
         return res
 
     def _merge(self, rest: list[Level], w: list[float]) -> Level:
         """Levels 1.. folded into one, row blocks scaled by √weight. The folded level's
-        arrays are kept and refilled while the levels are the same objects (the stack
-        reuses its Levels while its structure is unchanged; the plan holds them)."""
+        arrays are kept and refilled while the levels have the same structure (their
+        names and row counts)."""
         plan = self._merge_plan
-        if plan is not None and len(plan[0]) == len(rest) and all(a is b for a, b in zip(plan[0], rest)):
-            merged, parts = plan[1], plan[2]
-            for (A, b, C, lo, hi), l, wk in zip(parts, rest, w):
+        structure = [(l.names, l.A.shape, l.C.shape, l.box is not None) for l in rest]
+        if plan is not None and plan.structure == structure:
+            merged = plan.merged
+            for (A, b, C, lo, hi), l, wk in zip(plan.parts, rest, w):
                 np.multiply(l.A, wk, out=A)
                 np.multiply(l.b, wk, out=b)
                 if C is not None:
@@ -84,7 +90,9 @@ class WeightedQP(HierarchicalQP):
         boxes = [l.box for l in rest if l.box is not None]
         merged = Level(
             index=1,
-            tasks=[t for l in rest for t in l.tasks],
+            names=[n for l in rest for n in l.names],
+            kinds=[n for l in rest for n in l.kinds],
+            regularizers=frozenset().union(*(l.regularizers for l in rest)),
             A=np.vstack([wk * l.A for wk, l in zip(w, rest)]),
             b=np.concatenate([wk * l.b for wk, l in zip(w, rest)]),
             C=np.vstack([l.C for l in rest]),
@@ -102,5 +110,14 @@ class WeightedQP(HierarchicalQP):
             parts.append((merged.A[e:e + me], merged.b[e:e + me],
                           merged.C[i:i + mi] if mi else None, merged.lo[i:i + mi], merged.hi[i:i + mi]))
             e, i = e + me, i + mi
-        self._merge_plan = (list(rest), merged, parts)
+        self._merge_plan = _MergePlan(structure, merged, parts)
         return merged
+
+
+class _MergePlan(NamedTuple):
+    """The folded level of :meth:`WeightedQP._merge` for levels of one ``structure``
+    ((names, A's shape, C's shape, a box or not) per level), and its (A, b, C, lo, hi) blocks per level."""
+
+    structure: list
+    merged: Level
+    parts: list

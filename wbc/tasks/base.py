@@ -21,7 +21,7 @@ from wbc.validation.inputs import finite_vector
 from wbc.validation.schema import found, is_number, number, show, vector
 
 from ..errors import TargetError, TaskDefinitionError
-from ..problem.rows import Layout, Rows
+from ..problem.rows import Layout, Rows, RowSlot
 from .group import TaskGroup
 
 if TYPE_CHECKING:
@@ -67,10 +67,9 @@ class Task(ABC):
     layout_only_A: bool = False
     #: a regularisation: its rows are not meant to be met (never reported as sacrificed)
     regularizer: bool = False
-    #: (A, b) arrays the task writes its equality rows into (:func:`eq_buffer`): its own,
-    #: or its block of the stack's row buffer once the stack hands it over
-    #: (:meth:`adopt_row_storage`), so nothing is copied
-    row_storage: tuple[np.ndarray, np.ndarray] | None = None
+    #: its rows are the unactuated rows of the equation of motion (5.26), met by the forces
+    #: in a solver that finds them after q̈ (``RowBlock.equation_of_motion``)
+    equation_of_motion: bool = False
 
     def __init__(self, name: str, weight: float = 1.0) -> None:
         if not isinstance(name, str) or not name:
@@ -80,16 +79,20 @@ class Task(ABC):
         self.weight = number(weight, "weight", gt=0, le=MAX_WEIGHT, unit="unitless", error=TaskDefinitionError,
                              owner=f"task '{name}'")
 
-    def adopt_row_storage(self, A: np.ndarray, b: np.ndarray) -> None:
-        """Write the equality rows into (A, b) from now on (views of a stack's row buffer)."""
-        self.row_storage = (A, b)
-
     def bind(self, robot: RobotModel) -> None:  # noqa: B027 (optional hook: most tasks have nothing to resolve)
         """Resolve names (frames, joints, contacts) against ``robot``; raises early."""
 
     @abstractmethod
-    def rows(self, robot: RobotModel, layout: Layout) -> Rows:
-        """The task's rows for the robot's current (cached) state."""
+    def rows(self, robot: RobotModel, layout: Layout, out: RowSlot | None = None) -> Rows:
+        """The task's rows for the robot's current (cached) state.
+
+        Args:
+            robot: the robot, updated to this cycle's state (``RobotModel.update``).
+            layout: where each contact's force lives in x = (q̈, f), and nx.
+            out: where to write the equality rows this call (the problem's storage, handed in
+                by the stack; :func:`eq_rows`); None: new arrays. The task keeps no reference
+                to it after the call.
+        """
 
     def error(self, robot: RobotModel) -> np.ndarray | None:
         """Task-space error x_d − x (m, rad or N) for metrics; None for constraints."""
@@ -199,12 +202,16 @@ def as_vector(task_name: str, what: str, value, dim: int) -> np.ndarray:
     return finite_vector(f"task '{task_name}'", what, value, dim)
 
 
-def eq_buffer(task: Task, m: int, nx: int) -> tuple[np.ndarray, np.ndarray]:
-    """Zeroed (m × nx, m) buffers owned by the task, reallocated only when nx changes."""
-    buf = task.row_storage
-    if buf is None or buf[0].shape != (m, nx):
-        buf = task.row_storage = (np.zeros((m, nx)), np.zeros(m))
-    return buf
+def eq_rows(out: RowSlot | None, m: int, nx: int) -> RowSlot:
+    """Where a task writes its m equality rows over nx variables this call: ``out``, the
+    problem's storage the stack handed to ``Task.rows``, when it has that shape; else a new
+    zeroed :class:`~wbc.problem.rows.RowSlot` (the first cycle of a stack structure, a task
+    used outside a stack). Return ``Rows(A=slot.A, b=slot.b)``. Columns a task never writes
+    stay 0; ``slot.written`` says what the task last wrote into A there (None: nothing), so
+    an A that changes only with the layout is written once."""
+    if out is not None and out.A.shape == (m, nx):
+        return out
+    return RowSlot(np.zeros((m, nx)), np.zeros(m))
 
 
 @nb.njit(cache=True)

@@ -26,7 +26,7 @@ import numpy as np
 from wbc.validation.schema import number
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import Layout, Rows
+from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task
 
 #: the bound of an unused row's 0 · x (any positive number: the row is always satisfied)
@@ -83,7 +83,7 @@ class CollisionAvoidance(Task):
             self.model = CollisionModel(robot, obstacles=self.obstacles, obstacle_links=self.links,
                                         self_collision=self.self_collision)
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         self.bind(robot)
         if self._buf is None or self._buf[0].shape[1] != layout.nx:
             n = self.max_rows

@@ -7,8 +7,8 @@ import numpy as np
 from wbc.validation.schema import show
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import MotionTask, as_vector, eq_buffer, motion_rows
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import MotionTask, as_vector, eq_rows, motion_rows
 
 _AXES = "xyz"
 
@@ -74,9 +74,10 @@ class CoM(MotionTask):
     def error_units(self, robot) -> tuple[str, ...]:
         return ("m",) * len(self._sel)
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         s = self._sel
-        A, b = eq_buffer(self, len(s), layout.nx)
+        slot = eq_rows(out, len(s), layout.nx)
+        A, b = slot.A, slot.b
         if self._target is None:
             self._target = robot.com.copy()
         if len(s) == 3 or (np.ndim(self.kp) == 0 and np.ndim(self.kd) == 0):

@@ -9,8 +9,8 @@ from wbc.robot.model import LOCAL, WORLD_ALIGNED, ContactSurface
 from wbc.validation.schema import boolean, number, text
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import ContactData, Layout, Rows
-from .base import MotionTask, eq_buffer, motion_rows
+from ..problem.rows import ContactData, Layout, Rows, RowSlot
+from .base import MotionTask, eq_rows, motion_rows
 
 
 def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
@@ -213,11 +213,12 @@ class Contact(MotionTask):
         axes = self._zero_axes(s.force_dim)[1]
         return tuple("m" if s.force_dim == 3 or i < 3 else "rad" for i in axes)
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         s = self._surface if self._surface is not None else self.surface(robot)
         m = s.force_dim
         zero, axes = self._zero_axes(m)
-        A, b = eq_buffer(self, len(axes), layout.nx)
+        slot = eq_rows(out, len(axes), layout.nx)
+        A, b = slot.A, slot.b
         e, vel, drift = self._errors(robot)
         kp, kd = self.gain_vectors(m)
         # J_c q̈ = K_p e − K_d v_c − J̇_c q̇

@@ -78,8 +78,8 @@ import numpy as np
 from wbc.validation.schema import number
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import Task, eq_buffer
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import Task, eq_rows
 
 #: smallest sole half size (m) the moment rows divide by
 MIN_HALF_SIZE = 1e-3
@@ -103,7 +103,6 @@ class ContactRegularization(Task):
 
     def __init__(self, weight: float = 1.0, normal_weight: float = 2.0, name: str = "contact_regularization") -> None:
         super().__init__(name, weight)
-        self._A_for: tuple | None = None   # (id of A, id of the weights) its rows were written for
         self.normal_weight = number(normal_weight, "normal_weight", ge=1e-6, le=1e6, unit="unitless",
                                     error=TaskDefinitionError,
                                     owner=f"task '{self.name}'")
@@ -135,15 +134,16 @@ class ContactRegularization(Task):
         self._w = (layout, self.normal_weight, key, w)
         return w
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         nf, nv = layout.nf, layout.nv
-        A, b = eq_buffer(self, nf, layout.nx)
+        slot = eq_rows(out, nf, layout.nx)
+        A, b = slot.A, slot.b
         w = self.force_weights(layout)
-        if self._A_for != (id(A), id(w)):
+        if slot.written != id(w):          # A is written once per weights' array
             A[:] = 0.0
             A[np.arange(nf), nv + np.arange(nf)] = w
             b[:] = 0.0
-            self._A_for = (id(A), id(w))
+            slot.written = id(w)
         return Rows(A=A, b=b)
 
     def error_from(self, f: np.ndarray, layout: Layout) -> np.ndarray:

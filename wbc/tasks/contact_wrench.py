@@ -8,8 +8,8 @@ from wbc.validation.inputs import finite_vector
 from wbc.validation.schema import text, vector
 
 from ..errors import StackError, TargetError, TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import Task, as_vector, eq_buffer
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import Task, as_vector, eq_rows
 
 
 class ContactWrench(Task):
@@ -38,7 +38,6 @@ class ContactWrench(Task):
              error=TaskDefinitionError, owner="task 'contact_wrench'")
         super().__init__(name or f"{contact}_wrench", weight)
         self._checked_dim: int | None = None   # the target length checked
-        self._A_for: tuple | None = None       # (id of A, force slice) its rows were written for
         self.contact = contact
         if target is not None:      # 6 for a surface contact, 3 for a point: checked against the stack's contact
             target = vector(target, "target", (3, 6), unit="N and N·m", error=TargetError,
@@ -72,14 +71,15 @@ class ContactWrench(Task):
             self._checked_dim = dim
         return self._target
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         sl = self._slice(layout)
         dim = sl.stop - sl.start
-        A, b = eq_buffer(self, dim, layout.nx)
-        if self._A_for != (id(A), sl.start, sl.stop):
+        slot = eq_rows(out, dim, layout.nx)
+        A, b = slot.A, slot.b
+        if slot.written != (sl.start, sl.stop):   # A is written once per force slice
             A[:] = 0.0
             A[:, sl] = np.eye(dim)
-            self._A_for = (id(A), sl.start, sl.stop)
+            slot.written = (sl.start, sl.stop)
         b[:] = self._ref(dim)
         return Rows(A=A, b=b)
 

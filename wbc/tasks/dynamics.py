@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..problem.rows import Layout, Rows
-from .base import Task, dynamics_block, eq_buffer
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import Task, dynamics_block, eq_rows
 
 _NO_FORCES = np.zeros((0, 0))
 
@@ -21,16 +21,18 @@ class FloatingBaseDynamics(Task):
     """
 
     kind = "dynamics"
+    equation_of_motion = True
 
     def __init__(self, name: str = "dynamics") -> None:
         super().__init__(name)
         self._u: np.ndarray | None = None  # the unactuated coordinates, from the robot at the first cycle
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         u = self._u
         if u is None:
             u = self._u = np.asarray(robot.unactuated_idx, dtype=np.int64)
-        A, b = eq_buffer(self, len(u), layout.nx)
+        slot = eq_rows(out, len(u), layout.nx)
+        A, b = slot.A, slot.b
         Jf = layout.force_jacobian if layout.nf else _NO_FORCES
         dynamics_block(A, b, robot.M, robot.h, Jf, u, layout.nv, -1.0)
         return Rows(A=A, b=b)
@@ -54,7 +56,7 @@ class DifferentialDrive(Task):
         super().__init__(name)
         self.time_constant = float(time_constant)
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         A = np.zeros((1, layout.nx))
         A[0, 1] = 1.0
         return Rows(A=A, b=np.array([-robot.v[1] / self.time_constant]))

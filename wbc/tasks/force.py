@@ -60,8 +60,8 @@ import numpy as np
 from wbc.validation.schema import found, is_number, number, show, text, vector
 
 from ..errors import StackError, TargetError, TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import Task, eq_buffer
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import Task, eq_rows
 
 SOURCES = ("simulator", "observer")
 TANGENTIAL = ("free", "measured")
@@ -139,7 +139,6 @@ class Force(Task):
             self._bases = {self._directions.shape[0]: selection_basis(self._directions, owner)}
         else:
             self._bases = {d: selection_basis(np.eye(d)[:, 2:3]) for d in (3, 6)}
-        self._A_for: tuple | None = None
         m = 1 if self._directions is None else self._directions.shape[1]
         self.m = m
         self.target = target
@@ -273,19 +272,20 @@ class Force(Task):
                              f"{sorted(layout.contact_slices)}")
         return sl
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         sl = self._slice(layout)
         d = sl.stop - sl.start
         S, Sc = self.selection(d)
         n = self.m + (d - self.m if self.tangential == "measured" else 0)
-        A, b = eq_buffer(self, n, layout.nx)
-        key = (id(A), sl.start, sl.stop)
-        if self._A_for != key:
+        slot = eq_rows(out, n, layout.nx)
+        A, b = slot.A, slot.b
+        key = (sl.start, sl.stop)            # A is written once per force slice
+        if slot.written != key:
             A[:] = 0.0
             A[: self.m, sl] = S.T
             if n > self.m:
                 A[self.m:, sl] = Sc.T
-            self._A_for = key
+            slot.written = key
         b[: self.m] = self.command if self.fed else self.reference()
         if n > self.m:
             b[self.m:] = 0.0 if self.measured is None else Sc.T @ self.measured

@@ -11,8 +11,8 @@ from wbc.validation.inputs import se3_from
 from wbc.validation.schema import found, is_number, matrix, show, suggest, text
 
 from ..errors import TargetError, TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import MotionTask, as_vector, eq_buffer, motion_rows
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import MotionTask, as_vector, eq_rows, motion_rows
 
 _MASKS = {
     "pose": (1, 1, 1, 1, 1, 1),
@@ -175,13 +175,14 @@ class Frame(MotionTask):
         """m for the linear axes of ``mask``, rad for the angular ones."""
         return tuple("m" if i < 3 else "rad" for i in self._sel)
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         fid = self._fid
         if fid is None:
             fid = self._frame(robot)
         oMf = robot.frame_placement(fid)
         T = self._target if self._target is not None else self._target_at(oMf)
-        A, b = eq_buffer(self, len(self._sel), layout.nx)
+        slot = eq_rows(out, len(self._sel), layout.nx)
+        A, b = slot.A, slot.b
         kp, kd = self.gain_vectors(6)
         _frame_rows(A, b, robot.frame_jacobian(fid, WORLD_ALIGNED), self._sel, self.target_acceleration, kp, kd,
                     self.target_velocity, robot.frame_velocity(fid, WORLD_ALIGNED),

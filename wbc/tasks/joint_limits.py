@@ -8,7 +8,7 @@ import numpy as np
 from wbc.validation.schema import number
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import Layout, Rows
+from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task
 
 
@@ -79,7 +79,7 @@ class JointLimits(Task):
                                      self.horizon, self.max_acceleration, extra, vmax_extra)
         return idx, lo, hi
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         return Rows(box=self.bounds(robot))
 
     def params(self) -> dict:

@@ -103,8 +103,8 @@ from wbc.validation.schema import found, is_number, matrix, number, text, vector
 
 from ..errors import TargetError, TaskDefinitionError
 from ..null_space import NullSpaceTerms, null_basis_at, null_space_terms
-from ..problem.rows import Layout, Rows
-from .base import Task, as_vector, eq_buffer, gain
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import Task, as_vector, eq_rows, gain
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 #: largest k_q (N·m/rad) and B_ν entry (N·m·s/rad): far stiffer than any joint, and far from
@@ -269,10 +269,11 @@ class NullSpaceImpedance(Task):
         self._check_B(robot, self._Z0.shape[1], " (the null space of the contacts and protected tasks)")
         return T
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         T = self.terms(robot, layout)
         r = T.Z.shape[1]
-        A, b = eq_buffer(self, r, layout.nx)
+        slot = eq_rows(out, r, layout.nx)
+        A, b = slot.A, slot.b
         L = np.linalg.cholesky(T.Lambda_nu)                          # Λ_ν = L Lᵀ
         A[:, : layout.nv] = solve_triangular(L, T.Lambda_nu @ T.Zsharp, lower=True)     # Lᵀ Z# = L⁻¹ Zᵀ M
         nu_t = -(T.Zsharp @ robot.v)

@@ -9,8 +9,8 @@ from wbc.validation.inputs import finite_vector
 from wbc.validation.schema import sequence, show, suggest, text, vector
 
 from ..errors import TargetError, TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import MotionTask, as_vector, eq_buffer
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import MotionTask, as_vector, eq_rows
 
 
 class Posture(MotionTask):
@@ -37,7 +37,6 @@ class Posture(MotionTask):
                  target=None, joints: list[str] | None = None) -> None:
         super().__init__(name, kp, kd, weight)
         self._checked = False              # the target's length checked against the robot
-        self._A_ready: int | None = None   # nx its (constant) rows were written for
         owner = f"task '{self.name}'"
         if target is not None:      # its length (nq) is checked against the robot at bind
             target = vector(target, "target", unit="rad or m", error=TargetError, owner=owner) \
@@ -103,13 +102,14 @@ class Posture(MotionTask):
         units = robot.velocity_units()
         return tuple(units[i] for i in self._indices(robot))
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         idx = self._idx if self._idx is not None else self._indices(robot)
-        A, b = eq_buffer(self, len(idx), layout.nx)
-        if self._A_ready != layout.nx:
+        slot = eq_rows(out, len(idx), layout.nx)
+        A, b = slot.A, slot.b
+        if slot.written is None:           # A is constant: written once into its storage
             A[:] = 0.0
             A[np.arange(len(idx)), idx] = 1.0
-            self._A_ready = layout.nx
+            slot.written = True
         kp, kd = self.gain_vectors(len(idx))
         _posture_rhs(b, robot.difference(robot.q, self._q_ref(robot)), robot.v, idx, kp, kd)
         return Rows(A=A, b=b)

@@ -7,7 +7,7 @@ import numpy as np
 from wbc.validation.schema import number
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import Layout, Rows
+from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task, dynamics_block
 
 _NO_FORCES = np.zeros((0, 0))
@@ -31,7 +31,7 @@ class TorqueLimits(Task):
         self.scale = number(scale, "scale", gt=0, le=1, unit="fraction of the URDF limits",
                             error=TaskDefinitionError, owner=f"task '{self.name}'")
 
-    def rows(self, robot, layout: Layout) -> Rows:
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         buf = self._buf
         if buf is None or buf[0].shape[1] != layout.nx or buf[3] != self.scale:
             a = robot.actuated_idx
