@@ -15,9 +15,6 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[2] / "wbc"
 MAX_LINES = 500
-#: cycles through deferred imports that are known: each is a lazy import of an optional
-#: part (``rotation:`` trajectories, the ray executor, the sweep command) from a module the
-#: part itself imports. Remove a cycle from here once it is gone.
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:

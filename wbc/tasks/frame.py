@@ -57,7 +57,7 @@ class Frame(MotionTask):
     error of θ rad (across the error axis Jlog₃ rotates by θ/2 about it; along it, it is exact).
     The rows' J_ω q̇ is off the true rate by at most 5.0 %, 25 % and 51 % at θ = 0.1, 0.5 and
     1 rad (measured on Talos's hand against finite differences,
-    ``tests/test_task_jacobians.py::test_frame_orientation_error_approximation``). Kept as it
+    ``tests/tasks/test_task_jacobians.py::test_frame_orientation_error_approximation``). Kept as it
     is: the PD (5.16) acts on the world angular acceleration, ω̇ = K_p e_ω + K_d (ω_d − ω)
     with ω̇ = J_ω q̈ + J̇_ω q̇ exact; exact rows in e_ω would need Jlog₃ and its time derivative
     in the drift, for a law that is the same at zero error.
