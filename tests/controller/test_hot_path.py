@@ -316,11 +316,11 @@ def test_a_qp_answer_outside_its_rows_is_not_accepted():
     g = rng.standard_normal(4)
     C = np.eye(4)
     lo, hi = -np.ones(4), np.ones(4)
-    z, _, status = hqp._solve_qp(H, g, C, lo, hi, 4, 0, 1e-6, "t")
+    z, _, status = hqp._solve_qp(H, g, (C, lo, hi), (4, 0, 1e-6), "t")
     assert z is not None and np.all(np.abs(z) <= 1 + 1e-6)
     np.testing.assert_allclose(z, np.clip(-g, -1, 1), atol=1e-6)     # the fallback's true optimum
     hqp._fb = Liar()                                                  # nobody honest left
-    z, _, status = hqp._solve_qp(H, g, C, lo, hi, 4, 0, 1e-6, "t")
+    z, _, status = hqp._solve_qp(H, g, (C, lo, hi), (4, 0, 1e-6), "t")
     assert z is None and "violated by" in status
 
 
@@ -451,7 +451,7 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
                                 tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol)
         fast, cas_c = [], Cascade(nv, hints_c)
         levels = [SimpleNamespace(index=k) for k in range(L)]
-        assert adopt_run(levels, cas_c, fast, 0, *out)[0] == L
+        assert adopt_run(levels, cas_c, fast, 0, out)[0] == L
         cas = Cascade(nv, hints_p)
         cas.x = x0.copy()
         for k in range(L):

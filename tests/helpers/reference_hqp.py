@@ -43,7 +43,7 @@ def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "
         if acc_C and step.rank and _violated(acc_C, acc_lo, acc_hi, cas.candidate(step), tol):
             info.used_qp = True
             qp_count += 1
-            z, _, status = solver._qp(cas, step.AZ, step.r, None, None, None, Ca, la, ha, f"{key}{lvl.index}e",
+            z, _, status = solver._qp(cas, (step.AZ, step.r), None, (Ca, la, ha), f"{key}{lvl.index}e",
                                       margin_k)
             info.qp_status = status
             if z is None:
@@ -60,11 +60,11 @@ def reference_solve_levels(solver: HierarchicalQP, levels, nx: int, key: str = "
             if _violated(acc_C + [C], acc_lo + [lo], acc_hi + [hi], cas.x, tol):
                 info.used_qp = True
                 qp_count += 1
-                z, status = solver._nearest_feasible(cas, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}h", margin_k)
+                z, status = solver._nearest_feasible(cas, (C, lo, hi), (Ca, la, ha), f"{key}{lvl.index}h", margin_k)
                 w = np.zeros(len(lo))
                 if z is None:
                     qp_count += 1
-                    z, w, status = solver._qp(cas, None, None, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}i", margin_k)
+                    z, w, status = solver._qp(cas, None, (C, lo, hi), (Ca, la, ha), f"{key}{lvl.index}i", margin_k)
                 info.qp_status = status
                 if z is None:
                     ok, msg = False, f"level {lvl.index}: QP failed ({status})"

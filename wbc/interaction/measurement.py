@@ -100,9 +100,11 @@ class InteractionRun:
         """The true force over the step just taken, against the reference it was commanded for."""
         if self.t >= self.settle - 1e-9:
             for w in self.watch:
+                ref = w.ref
+                assert ref is not None, "set by before_solve, which runs first"
                 S, _ = w.task.selection(w.contact.surface(self.robot).force_dim)
                 lam = S.T @ simulated_force(self.sim, w.contact, self.robot, w.points)
-                e = float(np.linalg.norm(lam - w.ref))
+                e = float(np.linalg.norm(lam - ref))
                 w.err2 += e * e
                 w.err_max = max(w.err_max, e)
                 w.lam += lam
@@ -111,7 +113,7 @@ class InteractionRun:
                     dm = S.T @ w.task.measured - lam
                     w.meas2 += float(dm @ dm)
                 normal = float(lam @ S[2]) if np.linalg.norm(S[2]) > 1e-9 else math.inf
-                if normal < 0.01 * float(np.linalg.norm(w.ref)):
+                if normal < 0.01 * float(np.linalg.norm(ref)):
                     w.lost += 1
         self.k += 1
 

@@ -112,31 +112,31 @@ class RowBuffer:
             for (w0, eqv, inv, boxv), r, t in zip(plan, rs, tasks):
                 if t.weight != w0:
                     return False
-                rA = r.A
+                rA, rb = r.A, r.b
                 if rA is not None:
-                    if eqv is None:
+                    if eqv is None or rb is None:
                         return False
                     A, b, w = eqv
-                    if rA is A and r.b is b:
+                    if rA is A and rb is b:
                         pass                        # written in place, in its slot
                     elif rA.shape != A.shape:
                         return False
                     elif w == 1.0:
                         copyto(A, rA)
-                        copyto(b, r.b)
+                        copyto(b, rb)
                     else:
                         np.multiply(rA, w, out=A)
-                        np.multiply(r.b, w, out=b)
+                        np.multiply(rb, w, out=b)
                 elif eqv is not None:
                     return False
-                rC = r.C
+                rC, rlo, rhi = r.C, r.lo, r.hi
                 if rC is not None and len(rC):
-                    if inv is None or rC.shape != inv[0].shape:
+                    if inv is None or rC.shape != inv[0].shape or rlo is None or rhi is None:
                         return False
                     C, lo, hi = inv
                     copyto(C, rC)
-                    copyto(lo, r.lo)
-                    copyto(hi, r.hi)
+                    copyto(lo, rlo)
+                    copyto(hi, rhi)
                 elif inv is not None:
                     return False
                 if r.box is not None:

@@ -199,7 +199,7 @@ class Series:
         self.error_names: list[str] = []
         nl = len(self.levels) + 2           # room for levels added by events
         self.t = np.zeros(n)
-        self.task_errors = None             # allocated on the first record (names known then)
+        self.task_errors: np.ndarray | None = None   # allocated on the first record (names known then)
         self.level_t = np.zeros(nd)
         self.level_residual = np.full((nd, nl), np.nan)
         self.level_rank = np.full((nd, nl), np.nan)
@@ -221,10 +221,11 @@ class Series:
 
     def record(self, t: float, errors: list[float], sol, contact_forces, margin: float) -> None:
         k = self.k
-        if self.task_errors is None:
-            self.task_errors = np.full((len(self.t), len(errors)), np.nan)
+        te = self.task_errors
+        if te is None:
+            te = self.task_errors = np.full((len(self.t), len(errors)), np.nan)
         self.t[k] = t
-        self.task_errors[k, :len(errors)] = errors
+        te[k, :len(errors)] = errors
         if k % self.level_every == 0:
             kl = self.kl
             self.level_t[kl] = t

@@ -26,9 +26,20 @@ SOLE_THICKNESS = 0.01   # m, the sole boxes' height
 POINT_RADIUS = 0.005    # m, the point contacts' spheres
 
 
+def _link_of(joint: ET.Element, key: str) -> str:
+    """The link a URDF joint's ``parent`` or ``child`` element names."""
+    e = joint.find(key)
+    link = None if e is None else e.get("link")
+    if link is None:
+        raise WbcError(f"mujoco: URDF joint '{joint.get('name')}' has no {key} link")
+    return link
+
+
 def _urdf_xml(robot: RobotModel, keep_inertials: bool) -> str:
     """The robot's URDF without visuals/collisions/transmissions; locked joints made fixed at
     the placement pinocchio locked them at (child link frame relative to the parent link's)."""
+    if robot.urdf_path is None:
+        raise WbcError(f"mujoco: robot '{robot.name}' was not built from a URDF file, which MuJoCo's model is made of")
     tree = ET.parse(robot.urdf_path).getroot()
     for tag in ("transmission", "gazebo", "mujoco"):
         for e in tree.findall(tag):
@@ -46,7 +57,7 @@ def _urdf_xml(robot: RobotModel, keep_inertials: bool) -> str:
                 joint.remove(e)
         if not locked:
             continue
-        fp, fc = (m.frames[m.getFrameId(joint.find(k).get("link"))] for k in ("parent", "child"))
+        fp, fc = (m.frames[m.getFrameId(_link_of(joint, k))] for k in ("parent", "child"))
         rel = fp.placement.actInv(fc.placement)
         joint.set("type", "fixed")
         ET.SubElement(joint, "origin", xyz=" ".join(map(repr, rel.translation.tolist())),

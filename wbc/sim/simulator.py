@@ -324,19 +324,20 @@ class Simulator:
         """The velocity after the joint friction impulses, the contact impulses and the
         differential drive's lateral constraint (eliminated first), as
         :meth:`JointDynamics.friction_impulses` solves them; sets the contacts' forces."""
+        jd = self.joint_dynamics
+        assert jd is not None, "called only with joint dynamics"
         if self.differential_drive:
             Minv, v_free = eliminate_lateral(Minv, v_free, 1)
         if not ids.size:
             self._keep_impulses(None, frames, ids)
-            return self.joint_dynamics.friction_impulses(Minv, v_free, self.h)[0]
+            return jd.friction_impulses(Minv, v_free, self.h)[0]
         g = cr.contact_velocity(J, v_free, depths, self.baumgarte, self.h)
         lam = self._warm[ids].reshape(-1)
-        v_new, lam = self.joint_dynamics.friction_impulses(Minv, v_free, self.h,
-                                                           (J, g, self._pgs_for(mus).solve, lam))
+        v_new, lam = jd.friction_impulses(Minv, v_free, self.h, (J, g, self._pgs_for(mus).solve, lam))
         if not np.all(np.isfinite(lam)):
             self.solver_failures += 1
             self.point_forces[:] = 0.0          # (the warm start stays the last good step's)
-            return self.joint_dynamics.friction_impulses(Minv, v_free, self.h)[0]
+            return jd.friction_impulses(Minv, v_free, self.h)[0]
         self._keep_impulses(lam, frames, ids)
         return v_new
 

@@ -14,6 +14,7 @@ Infinite bounds are passed as ±1e20 (both libraries treat that as unbounded).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -145,7 +146,7 @@ class QPSolvers(Backend):
         up, dn = np.isfinite(hi) & (hi < BIG), np.isfinite(lo) & (lo > -BIG)
         G = np.vstack([C[up], -C[dn]])
         h = np.concatenate([hi[up], -lo[dn]])
-        kw = {"eps_abs": 1e-9, "eps_rel": 1e-9} if self.name == "osqp" else {}
+        kw: dict[str, Any] = {"eps_abs": 1e-9, "eps_rel": 1e-9} if self.name == "osqp" else {}
         problem = self._qps.Problem(H, g, G if len(h) else None, h if len(h) else None)
         sol = self._qps.solve_problem(problem, solver=self.name, **kw)
         if not sol.found or sol.x is None:

@@ -67,27 +67,27 @@ class Step:
     __slots__ = ("z", "Z_next", "rank", "sigma_min", "sigma_max", "damping", "R", "x_next", "ok", "route",
                  "_A", "_b", "_x", "_Z", "_AZ", "_r")
 
-    def __init__(self, z, Z_next, rank, sigma_min, sigma_max, damping, A, b, x, Z, R=None, x_next=None,
-                 ok=True, route=0) -> None:
-        self.z, self.Z_next, self.rank = z, Z_next, rank
-        self.sigma_min, self.sigma_max, self.damping = sigma_min, sigma_max, damping
+    def __init__(self, z, Z_next, factor: tuple, level: tuple, R=None, x_next=None, ok=True, route=0) -> None:
+        """``factor`` = (rank, σ_min, σ_max, λ²) of AZ; ``level`` = (A, b, x̂, Z) the step was
+        taken on (``Z`` None while the basis is the identity)."""
+        self.z, self.Z_next = z, Z_next
+        self.rank, self.sigma_min, self.sigma_max, self.damping = factor
         self.R, self.x_next, self.ok, self.route = R, x_next, ok, route
-        self._A, self._b, self._x, self._Z = A, b, x, Z
+        self._A, self._b, self._x, self._Z = level
         self._AZ = self._r = None
 
     @classmethod
-    def unpacked(cls, packed: np.ndarray, Z_next, rank: int, sigma_min: float, sigma_max: float, damping: float,
-                 A, b, x, Z, dof: int, ok: bool = True, route: int = 0) -> Step:
+    def unpacked(cls, packed: np.ndarray, Z_next, factor: tuple, level: tuple, dof: int, ok: bool = True,
+                 route: int = 0) -> Step:
         """The step from :func:`~wbc.solvers.kernels.factorizations.level_step`'s ``packed`` array
-        (z over ``dof`` free directions, x̂ + Z z, then R row by row if any); ``Z`` None
-        while the basis is the identity."""
-        n = len(x)
+        (z over ``dof`` free directions, x̂ + Z z, then R row by row if any); ``factor`` and
+        ``level`` as in the constructor."""
+        n = len(level[2])
         R = None
         if len(packed) > dof + n:
             mr = round((len(packed) - dof - n) ** 0.5)
             R = packed[dof + n:].reshape(mr, mr)
-        return cls(packed[:dof], Z_next, rank, sigma_min, sigma_max, damping, A, b, x, Z, R, packed[dof:dof + n],
-                   ok, route)
+        return cls(packed[:dof], Z_next, factor, level, R, packed[dof:dof + n], ok, route)
 
     @property
     def AZ(self) -> np.ndarray:
@@ -152,8 +152,8 @@ class Cascade:
         """Least-squares step of ``A x = b`` inside the current null space (not applied)."""
         m, r_dim = A.shape[0], self.Z.shape[1]
         if m == 0 or r_dim == 0:
-            return Step(np.zeros(r_dim), self.Z, 0, np.inf, 0.0, 0.0, A, b, self.x,
-                        None if self._identity else self.Z, x_next=self.x)
+            return Step(np.zeros(r_dim), self.Z, (0, np.inf, 0.0, 0.0), (A, b, self.x, None if self._identity else self.Z),
+                        x_next=self.x)
         call = self._calls
         self._calls += 1
         hints = self._hints
@@ -171,7 +171,7 @@ class Cascade:
         ok, route, rank, smin, smax, lam2, packed, Z_next = level_step(
             A, b, self.x, _NO_BASIS if identity else self.Z, identity, path, strict, damping.rank_tol,
             damping.threshold, damping.max_damping, GRAM_MIN_RATIO)
-        return Step.unpacked(packed, Z_next, rank, smin, smax, lam2, A, b, self.x, None if identity else self.Z,
+        return Step.unpacked(packed, Z_next, (rank, smin, smax, lam2), (A, b, self.x, None if identity else self.Z),
                              self.n if identity else self.Z.shape[1], ok, route)
 
     def route_step(self, A: np.ndarray, b: np.ndarray, damping: Damping, route: int) -> Step | None:
@@ -211,18 +211,19 @@ def _eye(n: int) -> np.ndarray:
 GRAM_MIN_RATIO = 1e-8
 
 
-def adopt_run(levels: list, cas: Cascade, infos: list, start: int, stop: int, x, Z, identity: bool,
-              ints: np.ndarray, floats: np.ndarray, packed: np.ndarray, Z_next: np.ndarray) -> tuple:
+def adopt_run(levels: list, cas: Cascade, infos: list, start: int, run: tuple) -> tuple:
     """Take over what a compiled run from level ``start`` did
     (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix` or
-    :func:`~wbc.solvers.kernels.sns_run.projection_prefix`): a LevelInfo per level it solved
+    :func:`~wbc.solvers.kernels.sns_run.projection_prefix`; ``run`` its output, (stop, x, Z,
+    identity, ints, floats, packed, Z_next)): a LevelInfo per level it solved
     appended to ``infos``, its point and basis into ``cas``. Returns (the first level
     left, the step the kernel took there or None, the QPs it solved by certificate)."""
+    stop, x, Z, identity, ints, floats, packed, Z_next = run
     decoded, at, calls, qps = decode(ints, floats, levels, start, stop)
     infos += decoded
     step = None
     if len(packed):
-        step = Step.unpacked(packed, Z_next, at.rank, at.sigma_min, at.sigma_max, at.lambda2, levels[stop].A,
-                             levels[stop].b, x, None if identity else Z, at.dof, True, at.route)
+        step = Step.unpacked(packed, Z_next, (at.rank, at.sigma_min, at.sigma_max, at.lambda2),
+                             (levels[stop].A, levels[stop].b, x, None if identity else Z), at.dof, True, at.route)
     cas.adopt(x, Z, identity, calls)
     return stop, step, qps

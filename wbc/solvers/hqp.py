@@ -149,7 +149,7 @@ class HierarchicalQP:
                                  identity, k, cas.calls, self._hints, rows.rank_tol, rows.threshold,
                                  rows.max_damping, GRAM_MIN_RATIO, self.tol, self.certify, self.regularization,
                                  margin)
-            stop, pending, certified = adopt_run(levels, cas, infos, k, *out)
+            stop, pending, certified = adopt_run(levels, cas, infos, k, out)
             qp_count += certified
             if stop == n_levels:
                 break
@@ -183,8 +183,8 @@ class HierarchicalQP:
         tols = got[1]
         if stacked is None or own < n:
             return self._stacked_rows(levels, nx, key, tols, stacked, 0 if stacked is None else own)
-        return _LevelRows(stacked.A, stacked.b, stacked.eq_end[:n], stacked.C, stacked.lo, stacked.hi,
-                          stacked.ineq_end[:n], tols, True)
+        return _LevelRows((stacked.A, stacked.b, stacked.eq_end[:n]),
+                          (stacked.C, stacked.lo, stacked.hi, stacked.ineq_end[:n]), tols, True)
 
     def _stacked_rows(self, levels: list[Level], nx: int, key: tuple, tols: np.ndarray,
                       stacked: StackedRows | None, own: int) -> _LevelRows:
@@ -211,8 +211,8 @@ class HierarchicalQP:
             if i1 > i0 and not from_stacked:
                 C[i0:i1], lo[i0:i1], hi[i0:i1] = lvl.inequalities(nx)
         if stacked is not None and from_stacked:     # the problem's own levels' rows, where the rest add none
-            return _LevelRows(A, b, e_end[1:], stacked.C, stacked.lo, stacked.hi, i_end[1:], tols, True)
-        return _LevelRows(A, b, e_end[1:], C, lo, hi, i_end[1:], tols, False)
+            return _LevelRows((A, b, e_end[1:]), (stacked.C, stacked.lo, stacked.hi, i_end[1:]), tols, True)
+        return _LevelRows((A, b, e_end[1:]), (C, lo, hi, i_end[1:]), tols, False)
 
     def _backend_level(self, lvl: Level, step, rows: _LevelRows, k: int, cas: Cascade, key: str,
                        degraded: list, margin: float) -> tuple:
@@ -233,7 +233,7 @@ class HierarchicalQP:
         if i0 and step.rank and max_violation(Ca, la, ha, cas.candidate(step)) > tol:
             info.used_qp = True
             used += 1
-            z, _, status = self._qp(cas, step.AZ, step.r, None, None, None, Ca, la, ha, f"{key}{lvl.index}e", margin)
+            z, _, status = self._qp(cas, (step.AZ, step.r), None, (Ca, la, ha), f"{key}{lvl.index}e", margin)
             info.qp_status = status
             if z is None:
                 # z = 0 is feasible and keeps every higher level: hold there
@@ -250,11 +250,11 @@ class HierarchicalQP:
             if max_violation(rows.C[:i1], rows.lo[:i1], rows.hi[:i1], cas.x) > tol:
                 info.used_qp = True
                 used += 1
-                z, status = self._nearest_feasible(cas, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}h", margin)
+                z, status = self._nearest_feasible(cas, (C, lo, hi), (Ca, la, ha), f"{key}{lvl.index}h", margin)
                 w = np.zeros(len(lo))
                 if z is None:
                     used += 1
-                    z, w, status = self._qp(cas, None, None, C, lo, hi, Ca, la, ha, f"{key}{lvl.index}i", margin)
+                    z, w, status = self._qp(cas, None, (C, lo, hi), (Ca, la, ha), f"{key}{lvl.index}i", margin)
                 info.qp_status = status
                 if z is None:
                     failed = f"level {lvl.index}: QP failed ({status})"
@@ -265,14 +265,16 @@ class HierarchicalQP:
                 info.relaxed = bool(np.any(w != 0.0))
         return info, used, failed, w
 
-    def _nearest_feasible(self, cas: Cascade, C, lo, hi, Ca, la, ha, key, margin: float | None = None):
-        """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u and the higher rows: the point of the level's
-        feasible set nearest its least-squares point (H = I, well conditioned).
+    def _nearest_feasible(self, cas: Cascade, rows: tuple, higher: tuple, key, margin: float | None = None):
+        """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u (``rows`` = (C, l, u)) and the ``higher`` rows
+        (Ca, la, ha): the point of the level's feasible set nearest its least-squares point
+        (H = I, well conditioned).
 
         The level's rows are first tightened by ``margin`` (where their range allows):
         the point then sits inside its limits rather than on them, so the small steps
         of lower levels rarely need a QP (``margin``: default the solver's). Returns (None,
         status) when the rows cannot all hold even untightened."""
+        (C, lo, hi), (Ca, la, ha) = rows, higher
         margin = self.margin if margin is None else margin
         r = cas.dof
         H, g = np.eye(r), np.zeros(r)
@@ -315,14 +317,18 @@ class HierarchicalQP:
         y = C @ x
         return np.where(y < lo, lo - y, np.where(y > hi, hi - y, 0.0))
 
-    def _qp(self, cas: Cascade, AZ, r_eq, C, lo, hi, Ca, la, ha, key, margin: float | None = None):
-        """QP in the free directions z of x = x̂ + Z z.
+    def _qp(self, cas: Cascade, eq: tuple | None, rows: tuple | None, higher: tuple, key,
+            margin: float | None = None):
+        """QP in the free directions z of x = x̂ + Z z, under the ``higher`` rows (Ca, la, ha).
 
-        Equality sub-level (``AZ`` given): min ‖AZ z − r‖² + ε‖z‖² s.t. higher rows.
-        Inequality sub-level (``C`` given): min ‖w‖² + ε‖z‖² s.t. l ≤ C(x̂ + Zz) + w ≤ u
-        and higher rows; ε (``regularization``, relative) picks, among the optima,
-        the point nearest the least-squares one.
+        Equality sub-level (``eq`` = (AZ, r) given): min ‖AZ z − r‖² + ε‖z‖² s.t. higher rows.
+        Inequality sub-level (``rows`` = (C, l, u) given): min ‖w‖² + ε‖z‖² s.t.
+        l ≤ C(x̂ + Zz) + w ≤ u and higher rows; ε (``regularization``, relative) picks, among
+        the optima, the point nearest the least-squares one.
         """
+        AZ, r_eq = eq if eq is not None else (None, None)
+        C, lo, hi = rows if rows is not None else (None, None, None)
+        Ca, la, ha = higher
         r = cas.dof
         if AZ is not None and C is None:
             # equality sub-level (the common case): no slack, the higher rows as they are
@@ -338,7 +344,7 @@ class HierarchicalQP:
                 Cq, lq, hq = self._higher_rows(cas, Ca, la, ha, margin)
             else:
                 Cq, lq, hq = np.zeros((0, r)), np.zeros(0), np.zeros(0)
-            return self._solve_qp(H, g, Cq, lq, hq, r, 0, eps, key)
+            return self._solve_qp(H, g, (Cq, lq, hq), (r, 0, eps), key)
         m = 0 if lo is None else len(lo)
         n = r + m
         H = np.zeros((n, n))
@@ -371,7 +377,7 @@ class HierarchicalQP:
         Cq = np.vstack(rows) if rows else np.zeros((0, n))
         lq = np.concatenate(los) if los else np.zeros(0)
         hq = np.concatenate(his) if his else np.zeros(0)
-        return self._solve_qp(H, g, Cq, lq, hq, r, m, eps, key)
+        return self._solve_qp(H, g, (Cq, lq, hq), (r, m, eps), key)
 
     def _attempt(self, backend: Backend, H, g, Cq, lq, hq, key) -> QPResult:
         """One back-end's answer, accepted only if it meets its rows to ``qp_tol``: on an
@@ -395,8 +401,11 @@ class HierarchicalQP:
                     res = QPResult(z, True, res.status, res.iterations)
         return res
 
-    def _solve_qp(self, H, g, Cq, lq, hq, r, m, eps, key):
-        """Solve the QP of :meth:`_qp` (z = 0 feasible), with the fallbacks; (z, slack, status)."""
+    def _solve_qp(self, H, g, rows: tuple, sizes: tuple[int, int, float], key):
+        """Solve the QP of :meth:`_qp` (z = 0 feasible; ``rows`` = (C, l, u); ``sizes`` = (the
+        free directions r, the slacks m, the regularisation ε)), with the fallbacks; (z, slack,
+        status)."""
+        (Cq, lq, hq), (r, m, eps) = rows, sizes
         if self.certify:
             ok, z = certified_active_set(H, g, Cq, lq, hq, self.tol)
             if ok:
@@ -449,8 +458,10 @@ class _LevelRows:
 
     __slots__ = ("A", "b", "e_end", "C", "lo", "hi", "i_end", "rank_tol", "threshold", "max_damping", "shared")
 
-    def __init__(self, A, b, e_end, C, lo, hi, i_end, tols, shared: bool) -> None:
-        self.A, self.b, self.e_end, self.C, self.lo, self.hi, self.i_end = A, b, e_end, C, lo, hi, i_end
+    def __init__(self, eq: tuple, ineq: tuple, tols: np.ndarray, shared: bool) -> None:
+        """``eq`` = (A, b, e_end), ``ineq`` = (C, lo, hi, i_end), ``tols`` the 3 × levels
+        damping tolerances."""
+        (self.A, self.b, self.e_end), (self.C, self.lo, self.hi, self.i_end) = eq, ineq
         self.rank_tol, self.threshold, self.max_damping = tols[0], tols[1], tols[2]
         self.shared = shared
 

@@ -147,7 +147,7 @@ class RecursiveProjection:
                                 self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.box_tol,
                                 NO_DAMPING.rank_tol)
         infos: list = []
-        adopt_run(levels, cas, infos, 0, *out)
+        adopt_run(levels, cas, infos, 0, out)
         return SolveResult(cas.x if T is None else T @ cas.x, infos)
 
     def _start(self, levels: list[Level], problem: Problem, nv: int) -> tuple:
@@ -200,7 +200,7 @@ class RecursiveProjection:
             rows = np.empty((n, 2), dtype=np.int64)
             for k, sel in enumerate(sels):
                 e0 = stacked.spans[k][0]
-                rows[k] = (-1, -1) if sel is None else (e0 + sel.start, e0 + sel.stop)
+                rows[k] = (-1, -1) if not isinstance(sel, slice) else (e0 + sel.start, e0 + sel.stop)
             self._prefix = _MotionPlan(stacked.structure, key, rows, tols)
             return stacked.A, stacked.b, rows, tols
         rows = np.full((n, 2), -1, dtype=np.int64)
@@ -226,14 +226,14 @@ class RecursiveProjection:
         got = self._rows_cache.get(lvl.index)
         if got is not None and got[0] == key and got[1] is lvl.eq_slices:
             return got[2]
-        idx = []
+        idx: list[int] = []
         for blk in lvl.blocks:
             if not blk.on_forces and not (forces_after and blk.equation_of_motion):
                 idx.extend(range(blk.rows.start, blk.rows.stop))
         if not idx:
             rows = None
         else:
-            rows = slice(idx[0], idx[-1] + 1) if idx == list(range(idx[0], idx[-1] + 1)) else np.array(idx, dtype=int)
+            rows = slice(idx[0], idx[-1] + 1) if idx == list(range(idx[0], idx[-1] + 1)) else np.asarray(idx)
         self._rows_cache[lvl.index] = (key, lvl.eq_slices, rows)
         return rows
 

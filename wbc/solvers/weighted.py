@@ -30,7 +30,7 @@ class WeightedQP(HierarchicalQP):
     options: tuple[str, ...] = ("level_weight",)
 
     @classmethod
-    def create(cls, backend: str = "daqp", damping: Damping | None = None,   # type: ignore[override]
+    def create(cls, backend: str = "daqp", damping: Damping | None = None,
                level_weight: float = 1e-3) -> WeightedQP:
         """The solver from the controller's options (:func:`wbc.solvers.create_solver` checks them)."""
         return cls(backend=backend, damping=damping, level_weight=level_weight)
@@ -88,6 +88,10 @@ class WeightedQP(HierarchicalQP):
                     np.copyto(hi, l.hi)
             return merged
         boxes = [l.box for l in rest if l.box is not None]
+        box = None
+        if boxes:
+            b_idx, b_lo, b_hi = (np.concatenate(p) for p in zip(*boxes))
+            box = (b_idx, b_lo, b_hi)
         merged = Level(
             index=1,
             names=[n for l in rest for n in l.names],
@@ -98,7 +102,7 @@ class WeightedQP(HierarchicalQP):
             C=np.vstack([l.C for l in rest]),
             lo=np.concatenate([l.lo for l in rest]),
             hi=np.concatenate([l.hi for l in rest]),
-            box=(tuple(np.concatenate(p) for p in zip(*boxes)) if boxes else None),
+            box=box,
             eq_slices={}, in_slices={},
         )
         if boxes:                       # box bounds are refilled by the levels only: no plan

@@ -106,7 +106,7 @@ class ContactRegularization(Task):
         self.normal_weight = number(normal_weight, "normal_weight", ge=1e-6, le=1e6, unit="unitless",
                                     error=TaskDefinitionError,
                                     owner=f"task '{self.name}'")
-        self._w = None
+        self._w: tuple | None = None
 
     def force_weights(self, layout: Layout) -> np.ndarray:
         """The diagonal of W over the layout's force variables (nf; 1, 1/m), in layout order;

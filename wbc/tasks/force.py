@@ -55,6 +55,8 @@ S_fᵀ S_v = 0 (5.33) between them.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from wbc.validation.schema import found, is_number, number, show, text, vector
@@ -207,7 +209,8 @@ class Force(Task):
         directions have another size."""
         got = self._bases.get(dim)
         if got is None:
-            raise StackError(f"task '{self.name}': its directions have {self._directions.shape[0]} components, but "
+            given = "?" if self._directions is None else self._directions.shape[0]
+            raise StackError(f"task '{self.name}': its directions have {given} components, but "
                              f"contact task '{self.contact}' has {dim} force components (3: a point, 6: a surface)")
         return got
 
@@ -298,7 +301,7 @@ class Force(Task):
         return self.reference() - self.selection(len(self.measured))[0].T @ self.measured
 
     def params(self) -> dict:
-        p = {"contact": self.contact}
+        p: dict[str, Any] = {"contact": self.contact}
         p.update(super().params())
         if p["name"] == f"{self.contact}_force":
             del p["name"]

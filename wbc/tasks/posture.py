@@ -50,7 +50,7 @@ class Posture(MotionTask):
                 if j in joints[:i]:
                     raise TaskDefinitionError(f"joint '{j}' is listed twice", key=f"joints[{i}]", owner=owner)
         self.joints = joints
-        self._idx = None
+        self._idx: np.ndarray | None = None
 
     @property
     def target(self) -> np.ndarray | None:
@@ -71,9 +71,9 @@ class Posture(MotionTask):
     def _indices(self, robot) -> np.ndarray:
         if self._idx is None:
             if self.joints is None:
-                self._idx = robot.joint_idx
+                self._idx = np.asarray(robot.joint_idx)
             else:
-                idx = []
+                idx: list[int] = []
                 names = list(robot.model.names)[1 + (robot.n_root > 0):]     # not the universe, not the root
                 for i, j in enumerate(self.joints):
                     if j not in names:
@@ -83,7 +83,7 @@ class Posture(MotionTask):
                                                   key=f"joints[{i}]", owner=f"task '{self.name}'")
                     jid = robot.model.getJointId(j)
                     idx.extend(range(robot.model.idx_vs[jid], robot.model.idx_vs[jid] + robot.model.joints[jid].nv))
-                self._idx = np.array(idx, dtype=int)
+                self._idx = np.asarray(idx, dtype=np.int64)
         return self._idx
 
     def _q_ref(self, robot) -> np.ndarray:

@@ -339,7 +339,7 @@ class Scene:
         for part, f in (("desired", desired), ("measured", measured)):
             path = f"task_forces/{task.name}/{part}"
             n = 0.0 if f is None else float(np.linalg.norm(f))
-            if n < 1e-3:
+            if f is None or n < 1e-3:
                 self._hide(path)
             else:
                 self._place(path, *_arrow_pose(point, f, n / self.task_force_scale * 1e-3), hideable=True)

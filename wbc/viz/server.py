@@ -31,6 +31,7 @@ def start(host: str = DEFAULT_HOST) -> tuple[subprocess.Popen, str, str]:
     log = tempfile.TemporaryFile()      # its stderr (tornado's log): a pipe nobody reads would fill
     proc = subprocess.Popen([sys.executable, "-u", __file__, "--host", host], stdout=subprocess.PIPE,
                             stderr=log, start_new_session=True)
+    assert proc.stdout is not None, "stdout=PIPE"
     urls: dict[str, str] = {}
     while len(urls) < 2:
         line = proc.stdout.readline().decode("utf-8", "replace").strip()
