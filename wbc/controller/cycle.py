@@ -82,7 +82,7 @@ class Controller:
             inverse (with W = M light distal joints such as grippers are the cheapest to
             accelerate and saturate first).
         damping: singularity-robust inverse, :class:`~wbc.solvers.cascade.Damping` (threshold ε
-            and λ_max in the units of the rows); None: ``Damping()`` (ε = 1e-3, λ_max = 1e-2).
+            and λ_max in the units of the rows); None: ``Damping()`` (ε = λ_max = 1e-2: a level's step at most 100 × its residual).
         sacrifice_tol: absolute part of the sacrifice threshold, in the units of each task's
             rows (m/s², rad/s², N); default 1e-6.
         level_weight: (weighted only) weight ratio between consecutive folded levels,
