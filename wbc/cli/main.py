@@ -83,6 +83,13 @@ def _cmd_run(args) -> int:
     if metrics.get("saturated_cycles"):
         print(f"wbc: torques saturated at the actuator limits in {metrics['saturated_cycles']} control cycles "
               f"(the solver asked up to {metrics['tau_ratio_requested_max']:.2f} × τ_max)", file=sys.stderr)
+    for sg in metrics.get("singularities", []):      # once per level: its first near-singular cycle
+        where = f" in {', '.join(sg['directions'])}" if sg["directions"] else ""
+        joints = f" (joints {', '.join(sg['joints'])})" if sg["joints"] else ""
+        count = metrics["singular_cycles"][sg["level"]]
+        print(f"wbc: warning: level {sg['level']} ({', '.join(sg['tasks'])}) near-singular{where}{joints} "
+              f"from t = {sg['time']:.3f} s: σ_min {sg['sigma_min']:.3g} below the damping threshold, "
+              f"its step damped in {count} control cycles", file=sys.stderr)
     stopped = metrics.get("stopped")
     if stopped:
         print(f"wbc: run stopped at t = {stopped['time']:.3f} s by the {stopped['by']}: {stopped['reason']} "

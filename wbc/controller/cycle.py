@@ -82,7 +82,8 @@ class Controller:
             inverse (with W = M light distal joints such as grippers are the cheapest to
             accelerate and saturate first).
         damping: singularity-robust inverse, :class:`~wbc.solvers.cascade.Damping` (threshold ε
-            and λ_max in the units of the rows); None: ``Damping()`` (ε = λ_max = 1e-2: a level's step at most 100 × its residual).
+            and λ_max in the units of the rows); None: ``Damping()`` (ε = λ_max = 1e-2: a level's
+            step at most 100 × its residual).
         sacrifice_tol: absolute part of the sacrifice threshold, in the units of each task's
             rows (m/s², rad/s², N); default 1e-6.
         level_weight: (weighted only) weight ratio between consecutive folded levels,
@@ -125,6 +126,8 @@ class Controller:
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol = sacrifice_tol
         self.sacrifice_rel = sacrifice_rel
+        #: a name per velocity index (a joint of several: name[i]), for the diagnostics
+        self._joint_names = velocity_names(robot.model)
         options = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
         self.solver = create_solver(solver, backend=backend, damping=damping, **options)
         self._dynamics = FloatingBaseDynamics()
@@ -326,6 +329,7 @@ class Controller:
             status = "relaxed"
         elif ok and res.degraded:
             status = "degraded"
+        degraded = ok and bool(res.degraded)
         if not finite:
             status, message = "failed", "non-finite solution"
         if status == "failed":
@@ -349,10 +353,24 @@ class Controller:
             at_limit = []
         evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            not self.solver.enforces_inequality_rows, self.sacrifice_tol, self.sacrifice_rel,
-                           saturated_torques=at_limit)
+                           saturated_torques=at_limit, joint_names=self._joint_names,
+                           threshold_of=self._below_threshold)
+        if status == "failed":
+            conditions: tuple[str, ...] = ("failed",)
+        else:
+            conditions = tuple(c for c, on in (("relaxed", relaxed), ("degraded", degraded), ("saturated", saturated))
+                               if on)
+        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0]
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
-                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit)
+                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit,
+                        conditions=conditions, singular_levels=singular)
+
+    def _below_threshold(self, sigma: float) -> bool:
+        """Whether a singular value of a level's projected Jacobian is below the solver's
+        damping threshold ε (a damped direction)."""
+        d = getattr(self.solver, "damping", None)
+        return d is not None and sigma < d.threshold
 
     def _fallback_torque(self, v: np.ndarray) -> np.ndarray:
         """The hold torque of :mod:`wbc.controller.faults` (before saturation): the last accepted τ, or
@@ -386,8 +404,78 @@ _NO_BOUNDS = np.zeros(0)
 SATURATION_TOL = 1e-6
 
 
+def velocity_names(model) -> list[str]:
+    """A name per velocity index of a pinocchio model: the joint's, with ``[i]`` for a joint
+    of several (the free flyer's six: ``root_joint[0]`` … ``root_joint[5]``)."""
+    names = [""] * model.nv
+    for j in range(1, model.njoints):
+        nvj, iv = model.joints[j].nv, model.joints[j].idx_v
+        for i in range(nvj):
+            names[iv + i] = model.names[j] if nvj == 1 else f"{model.names[j]}[{i}]"
+    return names
+
+
+#: a direction's component (a task row, a joint) is named when its part is at least this
+#: fraction of the largest part (unitless)
+DIRECTION_SHARE = 0.3
+
+
+def singular_directions(levels, k: int, nv: int, threshold_of, joint_names: list[str],
+                        saturated: tuple = ()) -> tuple[list, list]:
+    """(task components, joints) of level k's near-singular directions: J̄_k = A_k N with N
+    an orthonormal basis of the higher levels' equality rows' null space, its singular
+    directions with σ < ε (``threshold_of(σ)`` true), the left ones' task rows and the right
+    ones' q̈ part, each component named when its share is at least :data:`DIRECTION_SHARE` of
+    the largest. ``saturated``: joints (velocity indices) a joint-limit saturation fixed at
+    this level or above (the projection solver's SNS), whose unit rows join the higher ones.
+    None below ε (the solver's σ_min came from another route's rounding): the smallest
+    direction. Worked out only for a level that was damped (an SVD of the level's rows)."""
+    lvl = levels[k]
+    A = lvl.A
+    if A.shape[0] == 0:
+        return [], []
+    higher = [levels[i].A for i in range(k) if levels[i].A.shape[0]]
+    if saturated:
+        E = np.zeros((len(saturated), A.shape[1]))
+        E[np.arange(len(saturated)), list(saturated)] = 1.0
+        higher.append(E)
+    if higher:
+        H = np.vstack(higher)
+        _, sh, Vt = np.linalg.svd(H)
+        rank = int(np.sum(sh > 1e-9 * max(1.0, sh[0] if len(sh) else 0.0)))
+        N = Vt[rank:].T
+    else:
+        N = np.eye(A.shape[1])
+    if N.shape[1] == 0:
+        return [], []
+    U, s, Vt = np.linalg.svd(A @ N)
+    rows: dict[int, float] = {}
+    cols: dict[int, float] = {}
+    tol = 1e-9 * max(1.0, s[0] if len(s) else 0.0)
+    kept = [i for i, si in enumerate(s) if tol < si and threshold_of(si)]
+    if not kept:
+        kept = [i for i, si in enumerate(s) if si > tol][-1:]
+    for i in kept:
+        u = np.abs(U[:, i])
+        v = np.abs((N @ Vt[i])[:nv])
+        for r in np.flatnonzero(u >= DIRECTION_SHARE * u.max()):
+            rows[int(r)] = max(rows.get(int(r), 0.0), float(u[r]))
+        for c in np.flatnonzero(v >= DIRECTION_SHARE * max(v.max(), 1e-300)):
+            cols[int(c)] = max(cols.get(int(c), 0.0), float(v[c]))
+    names = []
+    for r in sorted(rows, key=lambda r: -rows[r]):
+        for t in lvl.tasks:
+            sl = lvl.eq_slices.get(t.name)
+            if sl is not None and sl.start <= r < sl.stop:
+                names.append(f"{t.name}[{r - sl.start}]")
+                break
+    joints = [joint_names[c] for c in sorted(cols, key=lambda c: -cols[c])]
+    return names, joints
+
+
 def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: float,
-                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7, saturated_torques: list | None = None):
+                 sacrifice_rel: float = 0.0, tol_act: float = 1e-7, saturated_torques: list | None = None,
+                 joint_names: list[str] | None = None, threshold_of=None):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
     of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
     inequality rows): A x − b, C x, l, u and b over every level, level k's part
@@ -446,7 +534,16 @@ def _diagnostics(levels, spans, infos, values, projection: bool, sacrifice_tol: 
         sat = list(saturated_torques) if len(diags) == sat_level else []
         if sat:
             active["torque_saturation"] = len(sat)
+        singular = info.damping > 0.0
+        sdirs: list[str] = []
+        sjoints: list[str] = []
+        if singular and joint_names is not None:
+            sat_above = tuple(j for inf in infos[:len(diags) + 1] for j in inf.saturated)
+            smin = info.sigma()
+            below = threshold_of or partial(_at_most, smin * (1 + 1e-9))
+            sdirs, sjoints = singular_directions(levels, len(diags), len(joint_names), below, joint_names, sat_above)
         diags.append(LevelDiagnostics(
+            singular=singular, singular_directions=sdirs, singular_joints=sjoints,
             index=index, tasks=[t.name for t in tasks], residual=residuals[-1],
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
@@ -462,3 +559,7 @@ def _violated_rows(out: dict, name: str, viol: np.ndarray, rows: np.ndarray, tol
     if len(bad):
         bad = bad[np.argsort(-viol[bad], kind="stable")][:keep]
         out[name] = [(int(rows[i]), float(viol[i])) for i in bad]
+
+
+def _at_most(bound: float, s: float) -> bool:
+    return s <= bound
