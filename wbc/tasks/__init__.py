@@ -27,6 +27,7 @@ TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM,
 __all__ = [
     "Task", "MotionTask", "CoM", "CollisionAvoidance",
     "Contact", "ContactRegularization", "ContactWrench", "Force", "Frame", "JointLimits",
-    "NullSpaceImpedance", "Posture", "SingularityAvoidance", "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
+    "NullSpaceImpedance", "Posture", "SingularityAvoidance",
+    "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
     "friction_pyramid", "wrench_cone_generators",
 ]

@@ -22,6 +22,21 @@ and ∂J_a/∂q_i is pinocchio's Jacobian time variation at q̇ = e_i
 (``computeJointJacobiansTimeVariation``; only the joints that move the frame, others give 0).
 The product form stays finite at w = 0, where w⁻¹-based forms of ∇w do not.
 
+Joint limits (``limit_penalty`` k ≥ 0, unitless): at a singularity w is often symmetric (a
+straight knee bends either way) and the gradient's sign is left to rounding, or points into
+a joint limit (a knee's hyperextension stop). The task therefore drives the penalised
+manipulability (Tsai's form, as used for grasp planning by Vahrenkamp et al.)
+
+    w_p = (w + w_min) · P − w_min,   P = Π_i (1 − exp(−k s_i)),
+    s_i = (q_i − q_min,i)(q_max,i − q_i)/(q_max,i − q_min,i)²,
+
+over the frame's joints with finite limits (s_i clipped at 0 outside them): w_p = w in the
+middle of the ranges (P = 1), −w_min at a limit, its gradient P ∇w + (w + w_min) ∇P pointing
+away from the nearer limit even where ∇w vanishes (a chain exactly at its singularity: a
+straight-legged G1 bends its knees forwards, not into their hyperextension stops);
+∂/∂q_i of each factor: k e^{−k s_i} (q_max,i + q_min,i − 2q_i)/(q_max,i − q_min,i)².
+k = 0 is Yoshikawa's w alone. ``threshold`` applies to w_p.
+
 Row (active while w < ``threshold`` w_min; otherwise the row is 0 = 0, no constraint):
 
     ∇wᵀ q̈ = K_p (w_min − w) − K_d ẇ − q̇ᵀ ∇²w q̇,     ẇ = ∇wᵀ q̇,
@@ -65,12 +80,14 @@ class SingularityAvoidance(MotionTask):
         kd: derivative gain K_d (1/s, ≥ 0); None (default): critical damping 2√kp.
         weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
         name: the task's name, unique in a stack; default ``"<frame>_manipulability"``.
+        limit_penalty: k of the joint-limit penalty (unitless, ≥ 0; module doc); default 100,
+            0: the plain manipulability.
     """
 
     kind = "singularity_avoidance"
 
     def __init__(self, frame: str, threshold: float, mask: str = "position", kp: float = 100.0, kd=None,
-                 weight: float = 1.0, name: str | None = None) -> None:
+                 weight: float = 1.0, name: str | None = None, limit_penalty: float = 100.0) -> None:
         frame = text(frame, "frame", what="a frame name", error=TaskDefinitionError,
                      owner=f"task '{name or 'singularity_avoidance'}'")
         super().__init__(name or f"{frame}_manipulability", kp, kd, weight, dim=1)
@@ -85,7 +102,10 @@ class SingularityAvoidance(MotionTask):
                                       f"{suggest(mask, _MASKS) if isinstance(mask, str) else ''}",
                                       key="mask", owner=owner)
         self.mask = mask
+        self.limit_penalty = number(limit_penalty, "limit_penalty", ge=0, le=1e6, error=TaskDefinitionError,
+                                    owner=owner)
         self._sel = np.array(_MASKS[mask])
+        self._lim: tuple | None = None
         self._fid: int | None = None
         self._data = None
         self._cols: np.ndarray | None = None
@@ -105,14 +125,25 @@ class SingularityAvoidance(MotionTask):
                 cols.extend(range(j.idx_v, j.idx_v + j.nv))
             jid = m.parents[jid]
         self._cols = np.array(sorted(cols), dtype=int)
+        # the chain's one-coordinate joints with finite limits: (velocity index, q index, lo, hi)
+        lim = []
+        for c in self._cols:
+            jid = next(j for j in range(1, m.njoints) if m.joints[j].idx_v <= c < m.joints[j].idx_v + m.joints[j].nv)
+            j = m.joints[jid]
+            if j.nq == 1 and j.nv == 1:
+                lo, hi = robot.q_min[j.idx_q], robot.q_max[j.idx_q]
+                if np.isfinite(lo) and np.isfinite(hi) and hi > lo:
+                    lim.append((c, j.idx_q, lo, hi))
+        self._lim = tuple(lim)
 
     def _ready(self, robot) -> None:
         if self._fid is None or self._data is None:
             self.bind(robot)
 
     def manipulability(self, robot, q: np.ndarray | None = None) -> tuple[float, np.ndarray]:
-        """(w, ∇w) at ``q`` (default the robot's state); ∇w over the velocity coordinates
-        (nv; units of w per rad), zero off the joints that move the frame."""
+        """(w_p, ∇w_p) at ``q`` (default the robot's state; w itself with ``limit_penalty``
+        0); the gradient over the velocity coordinates (nv; units of w per rad), zero off the
+        joints that move the frame."""
         self._ready(robot)
         m, d, fid, cols, sel = robot.model, self._data, self._fid, self._cols, self._sel
         q = robot.q if q is None else q
@@ -134,6 +165,25 @@ class SingularityAvoidance(MotionTask):
             dJ = pin.getFrameJacobianTimeVariation(m, d, fid, pin.LOCAL)[sel][:, cols]
             e[c] = 0.0
             grad[c] = float(np.sum(others * np.einsum("ik,ij,jk->k", U, dJ, Vt.T)))
+        k = self.limit_penalty
+        if k > 0.0 and self._lim:
+            # w_p = w P, ∇w_p = P ∇w + w ∇P, ∂P/∂q_i = P/f_i ∂f_i/∂q_i (products without a division by f_i)
+            f = np.empty(len(self._lim))
+            df = np.empty(len(self._lim))
+            for i, (_, iq, lo, hi) in enumerate(self._lim):
+                r2 = (hi - lo) ** 2
+                si = (q[iq] - lo) * (hi - q[iq]) / r2
+                if si > 0.0:
+                    e = np.exp(-k * si)
+                    f[i], df[i] = 1.0 - e, k * e * (hi + lo - 2.0 * q[iq]) / r2
+                else:
+                    f[i], df[i] = 0.0, 0.0
+            P = float(np.prod(f))
+            grad *= P
+            floor = w + self.threshold
+            for i, (c, _, _, _) in enumerate(self._lim):
+                grad[c] += floor * float(np.prod(np.delete(f, i))) * df[i]
+            w = floor * P - self.threshold
         return w, grad
 
     def error(self, robot) -> np.ndarray:
@@ -172,5 +222,5 @@ class SingularityAvoidance(MotionTask):
 
     def params(self) -> dict:
         p = super().params()
-        p.update(frame=self.frame, threshold=self.threshold, mask=self.mask)
+        p.update(frame=self.frame, threshold=self.threshold, mask=self.mask, limit_penalty=self.limit_penalty)
         return p
