@@ -1,6 +1,9 @@
 """Singularities: the issue-27 figures, both simulators, the three solvers.
 
-    PYTHONPATH=. python benchmarks/singularities.py [OUT.md]
+    PYTHONPATH=. python benchmarks/singularities.py [OUT.md [CASE ...]]
+
+(CASE: panda, g1, go2; default all. Durations: the Panda's 4.5 s, 1.5 s for the G1 and the
+go2, the standing and the bending being over by then.)
 
 Cases: panda_reach_boundary (the hand out to 20 cm beyond its reach and back), g1_straight_legs
 (the G1 at its zero configuration, straight legs, the singularity_avoidance task above the
@@ -51,12 +54,12 @@ def _outside_cone(sol, mu: dict) -> bool:
     return False
 
 
-def one(path, solver: str, sim: str) -> dict:
+def one(path, solver: str, sim: str, duration: float | None = None) -> dict:
     from wbc.runner.loop import ScenarioRun
     from wbc.scenario.loader import load_config
 
     sc = load_config(path)
-    r = ScenarioRun(sc, solver=solver, simulator=sim, progress=False)
+    r = ScenarioRun(sc, solver=solver, simulator=sim, progress=False, duration=duration)
     mu = {t.name: (getattr(t.contact_data(), "mu", None) or 0.7)
           for t in r.stack if t.kind == "contact"}
     qdd_max, bad_cone = 0.0, 0
@@ -77,7 +80,7 @@ def one(path, solver: str, sim: str) -> dict:
             "singular": m["singular_cycles"], "t": m["duration"]}
 
 
-def main(out: str | None) -> None:
+def main(out: str | None, which: list[str]) -> None:
     warnings.simplefilter("ignore")
     tmp = Path(tempfile.mkdtemp())
     from wbc.robot.loader import load_robot
@@ -89,16 +92,20 @@ def main(out: str | None) -> None:
     (tmp / "go2_bent.yaml").write_text(STANDING.format(name="go2_bent", robot="go2"))
     bent_g1 = Path("wbc/data/scenarios/g1_straight_legs.yaml").read_text().replace("robot: g1_straight", "robot: g1")
     (tmp / "g1_bent.yaml").write_text(bent_g1.replace("name: g1_straight_legs", "name: g1_bent"))
-    cases = [("panda_reach_boundary", "panda_reach_boundary"), ("g1_straight_legs", "g1_straight_legs"),
-             ("g1 bent (same stack)", tmp / "g1_bent.yaml"), ("go2 init, zero posture", tmp / "go2_zero.yaml"),
-             ("go2 bundled, bent", tmp / "go2_bent.yaml")]
+    cases = [("panda", "panda_reach_boundary", "panda_reach_boundary", None),
+             ("g1", "g1_straight_legs", "g1_straight_legs", 1.5),
+             ("g1", "g1 bent (same stack)", tmp / "g1_bent.yaml", 1.5),
+             ("go2", "go2 init, zero posture", tmp / "go2_zero.yaml", 1.5),
+             ("go2", "go2 bundled, bent", tmp / "go2_bent.yaml", 1.5)]
     lines = ["| case | sim | solver | fell | over q / q̇ / τ limit (cycles) | saturated | relaxed | τ asked / τ_max "
              "| max abs q̈ | planned force outside cone (ok/saturated cycles) | near-singular cycles per level |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for label, path in cases:
+    for group, label, path, duration in cases:
+        if which and group not in which:
+            continue
         for sim in ("pinocchio", "mujoco"):
             for solver in ("hqp", "projection", "weighted"):
-                r = one(path, solver, sim)
+                r = one(path, solver, sim, duration)
                 fell = f"yes ({r['t']:.2f} s)" if r["fell"] else "no"
                 lines.append(f"| {label} | {sim} | {solver} | {fell} | {r['q']} / {r['v']} / {r['tau']} | {r['sat']} "
                              f"| {r['rel']} | {r['ask']:.3g} | {r['qdd']:.3g} | {r['cone']} | {r['singular']} |")
@@ -108,4 +115,4 @@ def main(out: str | None) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else None)
+    main(sys.argv[1] if len(sys.argv) > 1 else None, sys.argv[2:])

@@ -195,6 +195,11 @@ PARAM_HELP: dict = {
                                          "are always protected",
     ("null_space_impedance", "zeta"): "damping ratio of every null-space mode (instead of B_nu)",
     ("null_space_impedance", "target"): "posture q_d (nq,) of the null-space spring, rad (None: the start)",
+    ("singularity_avoidance", "frame"): "frame whose manipulability √det(J Jᵀ) over its joints is kept (see `wbc robots`)",
+    ("singularity_avoidance", "threshold"): "w_min: the task acts below it, m^p (p the mask's position rows: m³ "
+                                            "for 'position'), > 0",
+    ("singularity_avoidance", "mask"): "'position', 'orientation' or 'pose': the Jacobian rows measured",
+    ("singularity_avoidance", "limit_penalty"): "k of the joint-limit penalty, unitless (0: Yoshikawa's w alone)",
     "k_q": "null-space joint stiffness, N·m/rad (scalar or one per joint)",
     "B_nu": "null-space damping, N·m·s/rad (scalar or matrix)",
 }
