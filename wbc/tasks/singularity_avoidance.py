@@ -108,7 +108,7 @@ class SingularityAvoidance(MotionTask):
         self._lim: tuple | None = None
         self._fid: int | None = None
         self._data = None
-        self._cols: np.ndarray | None = None
+        self._cols: np.ndarray = np.zeros(0, dtype=int)
         #: (w, ∇w) at the last state computed, keyed by the state
         self._last: tuple | None = None
 
@@ -118,7 +118,7 @@ class SingularityAvoidance(MotionTask):
         self._data = m.createData()
         # the joints that move the frame, without the root's coordinates
         jid = m.frames[self._fid].parentJoint
-        cols = []
+        cols: list[int] = []
         while jid > 0:
             j = m.joints[jid]
             if j.idx_v >= robot.n_root:
