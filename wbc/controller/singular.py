@@ -65,12 +65,12 @@ def singular_directions(levels, k: int, nv: int, threshold_of, joint_names: list
     for i in kept:
         u = np.abs(U[:, i])
         v = np.abs((N @ Vt[i])[:nv])
-        for r in np.flatnonzero(u >= DIRECTION_SHARE * u.max()):
-            rows[int(r)] = max(rows.get(int(r), 0.0), float(u[r]))
-        for c in np.flatnonzero(v >= DIRECTION_SHARE * max(v.max(), 1e-300)):
-            cols[int(c)] = max(cols.get(int(c), 0.0), float(v[c]))
+        for ri in np.flatnonzero(u >= DIRECTION_SHARE * u.max()).tolist():
+            rows[ri] = max(rows.get(ri, 0.0), float(u[ri]))
+        for ci in np.flatnonzero(v >= DIRECTION_SHARE * max(v.max(), 1e-300)).tolist():
+            cols[ci] = max(cols.get(ci, 0.0), float(v[ci]))
     names = []
-    for r in sorted(rows, key=lambda r: -rows[r]):
+    for r in sorted(rows, key=lambda k: -rows[k]):
         for t in lvl.tasks:
             sl = lvl.eq_slices.get(t.name)
             if sl is not None and sl.start <= r < sl.stop:
