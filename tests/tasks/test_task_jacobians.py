@@ -60,6 +60,7 @@ from wbc.tasks import (
     JointLimits,
     NullSpaceImpedance,
     Posture,
+    SingularityAvoidance,
     Task,
     TorqueLimits,
 )
@@ -176,6 +177,11 @@ CASES: dict[str, tuple[type, Case]] = {
                                             robots=("talos", "g1"))),
     "torque_limits": (TorqueLimits, Case(lambda r, c, g: TorqueLimits(scale=0.8), "dynamics")),
     "joint_limits": (JointLimits, Case(lambda r, c, g: JointLimits(), "box")),
+    # threshold far above any w: the row is active (w < w_min) at every random state
+    "singularity_avoidance": (SingularityAvoidance, Case(
+        lambda r, c, g: SingularityAvoidance(HAND[r.name], threshold=1e3, kp=0.0, kd=0.0), "motion")),
+    "singularity_avoidance_pose": (SingularityAvoidance, Case(
+        lambda r, c, g: SingularityAvoidance(HAND[r.name], threshold=1e3, mask="pose", kp=0.0, kd=0.0), "motion")),
     "collision_avoidance": (CollisionAvoidance, Case(lambda r, c, g: CollisionAvoidance(influence=0.08, safety=0.01),
                                                      "collision", robots=("talos", "tiago"))),
 }

@@ -83,6 +83,13 @@ def _cmd_run(args) -> int:
     if metrics.get("saturated_cycles"):
         print(f"wbc: torques saturated at the actuator limits in {metrics['saturated_cycles']} control cycles "
               f"(the solver asked up to {metrics['tau_ratio_requested_max']:.2f} × τ_max)", file=sys.stderr)
+    for sg in metrics.get("singularities", []):      # once per level: its first near-singular cycle
+        where = f" in {', '.join(sg['directions'])}" if sg["directions"] else ""
+        joints = f" (joints {', '.join(sg['joints'])})" if sg["joints"] else ""
+        count = metrics["singular_cycles"][sg["level"]]
+        print(f"wbc: warning: level {sg['level']} ({', '.join(sg['tasks'])}) near-singular{where}{joints} "
+              f"from t = {sg['time']:.3f} s: σ_min {sg['sigma_min']:.3g} below the damping threshold, "
+              f"its step damped in {count} control cycles", file=sys.stderr)
     stopped = metrics.get("stopped")
     if stopped:
         print(f"wbc: run stopped at t = {stopped['time']:.3f} s by the {stopped['by']}: {stopped['reason']} "
@@ -188,6 +195,11 @@ PARAM_HELP: dict = {
                                          "are always protected",
     ("null_space_impedance", "zeta"): "damping ratio of every null-space mode (instead of B_nu)",
     ("null_space_impedance", "target"): "posture q_d (nq,) of the null-space spring, rad (None: the start)",
+    ("singularity_avoidance", "frame"): "frame whose manipulability √det(J Jᵀ) over its joints is kept (see `wbc robots`)",
+    ("singularity_avoidance", "threshold"): "w_min: the task acts below it, m^p (p the mask's position rows: m³ "
+                                            "for 'position'), > 0",
+    ("singularity_avoidance", "mask"): "'position', 'orientation' or 'pose': the Jacobian rows measured",
+    ("singularity_avoidance", "limit_penalty"): "k of the joint-limit penalty, unitless (0: Yoshikawa's w alone)",
     "k_q": "null-space joint stiffness, N·m/rad (scalar or one per joint)",
     "B_nu": "null-space damping, N·m·s/rad (scalar or matrix)",
 }

@@ -39,6 +39,7 @@ import pinocchio as pin
 
 from wbc.controller.faults import FaultMonitor, FaultPolicy, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
+from wbc.controller.singular import at_most, singular_directions, velocity_names
 from wbc.controller.solution import LevelDiagnostics, Solution
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
@@ -82,7 +83,8 @@ class Controller:
             inverse (with W = M light distal joints such as grippers are the cheapest to
             accelerate and saturate first).
         damping: singularity-robust inverse, :class:`~wbc.solvers.cascade.Damping` (threshold ε
-            and λ_max in the units of the rows); None: ``Damping()`` (ε = 1e-3, λ_max = 1e-2).
+            and λ_max in the units of the rows); None: ``Damping()`` (ε = λ_max = 1e-2: a level's
+            step at most 100 × its residual).
         sacrifice_tol: absolute part of the sacrifice threshold, in the units of each task's
             rows (m/s², rad/s², N); default 1e-6.
         level_weight: (weighted only) weight ratio between consecutive folded levels,
@@ -125,6 +127,8 @@ class Controller:
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol = sacrifice_tol
         self.sacrifice_rel = sacrifice_rel
+        #: a name per velocity index (a joint of several: name[i]), for the diagnostics
+        self._joint_names = velocity_names(robot.model)
         options = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
         self.solver = create_solver(solver, backend=backend, damping=damping, **options)
         self._dynamics = FloatingBaseDynamics()
@@ -326,6 +330,7 @@ class Controller:
             status = "relaxed"
         elif ok and res.degraded:
             status = "degraded"
+        degraded = ok and bool(res.degraded)
         if not finite:
             status, message = "failed", "non-finite solution"
         if status == "failed":
@@ -350,10 +355,23 @@ class Controller:
         evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel),
-                           saturated_torques=at_limit)
+                           saturated_torques=at_limit, singular=(self._joint_names, self._below_threshold))
+        if status == "failed":
+            conditions: tuple[str, ...] = ("failed",)
+        else:
+            conditions = tuple(c for c, on in (("relaxed", relaxed), ("degraded", degraded), ("saturated", saturated))
+                               if on)
+        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0]
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
-                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit)
+                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit,
+                        conditions=conditions, singular_levels=singular)
+
+    def _below_threshold(self, sigma: float) -> bool:
+        """Whether a singular value of a level's projected Jacobian is below the solver's
+        damping threshold ε (a damped direction)."""
+        d = getattr(self.solver, "damping", None)
+        return d is not None and sigma < d.threshold
 
     def _fallback_torque(self, v: np.ndarray) -> np.ndarray:
         """The hold torque of :mod:`wbc.controller.faults` (before saturation): the last accepted τ, or
@@ -388,7 +406,8 @@ SATURATION_TOL = 1e-6
 
 
 def _diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tuple[str, ...]],
-                 sacrifice: tuple[float, float], tol_act: float = 1e-7, saturated_torques: list | None = None):
+                 sacrifice: tuple[float, float], tol_act: float = 1e-7, saturated_torques: list | None = None,
+                 singular: tuple | None = None):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
     of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
     inequality rows): A x − b, C x, l, u and b over every level, level k's part
@@ -403,9 +422,12 @@ def _diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tuple[str
     ``saturated_torques``: the joints the controller clipped at ±τ_max, reported by the
     level holding the torque limits (level 0 if the stack has none) as
     ``saturated_torques`` and ``active["torque_saturation"]``. A regularisation task
-    (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met."""
+    (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met.
+    ``singular``: (the velocity names, a test σ → σ < ε) naming a damped level's singular
+    directions and joints (:func:`~wbc.controller.singular.singular_directions`)."""
     residuals, task_res, diags = [], {}, []
     projection, outside = unenforced
+    joint_names, threshold_of = singular if singular is not None else (None, None)
     sacrifice_tol, sacrifice_rel = sacrifice
     E, Y, LO, HI, B = split_values(*values)
     sat_level = -1
@@ -459,7 +481,16 @@ def _diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tuple[str
         sat = list(saturated_torques) if len(diags) == sat_level else []
         if sat:
             active["torque_saturation"] = len(sat)
+        is_singular = info.damping > 0.0
+        sdirs: list[str] = []
+        sjoints: list[str] = []
+        if is_singular and joint_names is not None:
+            sat_above = tuple(j for inf in infos[:len(diags) + 1] for j in inf.saturated)
+            smin = info.sigma()
+            below = threshold_of or partial(at_most, smin * (1 + 1e-9))
+            sdirs, sjoints = singular_directions(levels, len(diags), len(joint_names), below, joint_names, sat_above)
         diags.append(LevelDiagnostics(
+            singular=is_singular, singular_directions=sdirs, singular_joints=sjoints,
             index=index, tasks=list(names), residual=residuals[-1],
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
@@ -475,3 +506,4 @@ def _violated_rows(out: dict, name: str, viol: np.ndarray, rows: np.ndarray, tol
     if len(bad):
         bad = bad[np.argsort(-viol[bad], kind="stable")][:keep]
         out[name] = [(int(rows[i]), float(viol[i])) for i in bad]
+

@@ -37,6 +37,16 @@ class LevelDiagnostics:
     #: velocity indices of the joints whose torque the controller clipped at ±τ_max this
     #: cycle (reported by the level holding the torque limits, else level 0)
     saturated_torques: list[int] = field(default_factory=list)
+    #: σ_min fell below the damping threshold ε (λ² > 0: the level's step is damped,
+    #: :class:`~wbc.solvers.cascade.Damping`)
+    singular: bool = False
+    #: the task components that lose rank, as ``"task[row]"`` (``row`` counts the task's
+    #: equality rows: a position task's x, y, z are rows 0, 1, 2), largest part first: the
+    #: level's left singular directions with σ < ε
+    singular_directions: list[str] = field(default_factory=list)
+    #: the joints those directions need (names, largest part first): the q̈ part of the
+    #: matching right singular directions of J̄_k
+    singular_joints: list[str] = field(default_factory=list)
     #: the level's inequality rows left violated (a relaxed level, an infeasible one):
     #: task name -> [(row, violation)], worst first, at most 8 per task; ``row`` counts the
     #: task's inequality rows (TorqueLimits: its k-th actuated joint with a finite limit;
@@ -51,7 +61,12 @@ class LevelDiagnostics:
         the higher levels, inequality rows left violated, joint limits or torque saturation)."""
         causes = []
         if self.damping > 0.0:
-            causes.append(f"J̄ near-singular (σ_min {self.sigma_min:.3g} below the damping threshold): "
+            where = ""
+            if self.singular_directions:
+                where = f" in {', '.join(self.singular_directions)}"
+                if self.singular_joints:
+                    where += f" (joints {', '.join(self.singular_joints)})"
+            causes.append(f"J̄ near-singular{where} (σ_min {self.sigma_min:.3g} below the damping threshold): "
                           f"damped least squares, λ² = {self.damping:.3g}")
         if self.dof_before == 0:
             causes.append("the higher levels left no free direction")
@@ -83,7 +98,12 @@ class Solution:
     that level was held at the feasible point the higher levels left: priorities and
     limits intact, the level under-served) or ``"ok"``.
 
-    ``relaxed`` and ``saturated`` (bool) say the same whatever the status;
+    ``conditions`` names every one of ``"relaxed"``, ``"degraded"``, ``"saturated"`` that
+    holds (in that order; ``("failed",)`` or ``("stopped",)`` for such a cycle, ``()`` for an ok
+    one): a relaxed cycle whose torque was also clipped has status ``"saturated"`` and
+    conditions ``("relaxed", "saturated")``; ``singular_levels``: the levels whose σ_min fell
+    below the damping threshold (their steps damped; the diagnostics name the directions
+    and joints). ``relaxed`` and ``saturated`` (bool) say the same whatever the status;
     ``tau_ratio``: the worst |τ_i|/τ_max,i the solver asked for, before saturation (≤ 1
     when nothing was clipped); ``saturated_torques``: velocity indices of the joints held
     at ±τ_max by the saturation. ``tau`` is always finite and within ±τ_max. ``fault``: the
@@ -114,16 +134,29 @@ class Solution:
         tau_ratio: the worst |τ_i|/τ_max,i the solver asked for, before saturation (unitless);
             default 0.
         saturated_torques: velocity indices of the joints held at ±τ_max; None: none.
+        conditions: every condition that holds (above); None: worked out from ``status``,
+            ``relaxed`` and ``saturated``.
+        singular_levels: indices of the levels whose σ_min fell below the damping threshold;
+            None: none.
     """
 
     def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
                  x: np.ndarray, status: str, message: str, qp_count: int = 0, residuals=None,
                  task_residuals=None, diagnostics=None, evaluate=None, relaxed: bool = False,
-                 saturated: bool = False, tau_ratio: float = 0.0, saturated_torques: list | None = None) -> None:
+                 saturated: bool = False, tau_ratio: float = 0.0, saturated_torques: list | None = None,
+                 conditions: tuple[str, ...] | None = None, singular_levels: list[int] | None = None) -> None:
         self.qdd, self.tau, self.tau_full, self.forces, self.x = qdd, tau, tau_full, forces, x
         self.status, self.message, self.qp_count = status, message, qp_count
         self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(tau_ratio)
         self.saturated_torques = list(saturated_torques or [])
+        if conditions is None:
+            if status in ("failed", "stopped"):
+                conditions = (status,)
+            else:
+                conditions = tuple(c for c, on in (("relaxed", self.relaxed), ("degraded", status == "degraded"),
+                                                  ("saturated", self.saturated)) if on)
+        self.conditions = tuple(conditions)
+        self.singular_levels = list(singular_levels or [])
         self.fault = ""
         self._residuals, self._task_residuals, self._diagnostics = residuals, task_residuals, diagnostics
         self._evaluate = evaluate

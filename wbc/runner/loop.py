@@ -286,7 +286,8 @@ class ScenarioRun:
             "faults": self.ctrl.fault_counts(),
             "stopped": self.stopped,
         }
-        for key in ("relaxed_cycles", "saturated_cycles", "tau_ratio_max", "tau_ratio_requested_max"):
+        for key in ("relaxed_cycles", "saturated_cycles", "tau_ratio_max", "tau_ratio_requested_max",
+                    "singular_cycles", "singularities"):
             out[key] = measured.pop(key)
         out["real_time_factor"] = float((len(ct) - self.k_wall) * sc.dt / max(time.perf_counter() - self.t_wall, 1e-9))
         out.update(measured)

@@ -325,6 +325,10 @@ class RunMetrics:
         self.hull = SupportPolygon()
         self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
         self.relaxed_cycles = self.saturated_cycles = 0
+        #: per level, cycles whose σ_min fell below the damping threshold (index: level)
+        self.singular_cycles: list[int] = []
+        #: the first such cycle of each level: time (s), level, tasks, directions, joints
+        self.singularities: list[dict] = []
         self.tau_ratio_max = self.tau_ratio_asked = 0.0
         self.rec = Series(n, dt, robot, stack, [c.name for c in contacts], mu_max, lowest=lowest) if series else None
         if self.rec is not None:
@@ -361,6 +365,24 @@ class RunMetrics:
                 errs[name].add(errs[name].last)
                 for r in parts.get(name, {}).values():
                     r.add(r.last)
+
+    def record_singular(self, t: float, sol) -> None:
+        """Count the cycle's near-singular levels (``sol.singular_levels``); at a level's
+        first, read the diagnostics once for its tasks, directions and joints."""
+        levels = sol.singular_levels
+        if not levels:
+            return
+        counts = self.singular_cycles
+        for k in levels:
+            if k >= len(counts):
+                counts.extend([0] * (k + 1 - len(counts)))
+            if counts[k] == 0 and sol.diagnostics and k < len(sol.diagnostics):
+                d = sol.diagnostics[k]
+                self.singularities.append({"time": t, "level": k, "tasks": list(d.tasks),
+                                           "sigma_min": float(d.sigma_min),
+                                           "directions": list(d.singular_directions),
+                                           "joints": list(d.singular_joints)})
+            counts[k] += 1
 
     def record_state(self, t: float, sim, sol, stack) -> None:
         """The true (simulated) state after the step."""
@@ -427,6 +449,10 @@ class RunMetrics:
             "saturated_cycles": int(self.saturated_cycles),
             "tau_ratio_max": self.tau_ratio_max,
             "tau_ratio_requested_max": self.tau_ratio_asked,
+            # per level (index), cycles whose σ_min fell below the damping threshold (the
+            # step damped), and the first such cycle of each level, named
+            "singular_cycles": list(self.singular_cycles),
+            "singularities": list(self.singularities),
         }
         if self.margins:
             out["support_margin_min"] = float(self.margins.min)

@@ -122,6 +122,7 @@ class MetricsObserver(RunObserver):
 
     def after_solve(self, c: Cycle) -> None:
         self.metrics.record_command(c.sol)
+        self.metrics.record_singular(c.t, c.sol)
 
     def after_step(self, c: Cycle) -> None:
         self.metrics.record_state(c.t, c.sim, c.sol, c.stack)

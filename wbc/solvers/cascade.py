@@ -11,11 +11,16 @@ J̄_k = J_k N_{k−1}, b_k = J_k Σ_{i<k} q̈_i, N_k = N_{k−1} − J̄_k^† J
 a basis instead of an n × n projector (same result, fewer flops, and the rank and
 smallest singular value of J̄_k are those of A Z, which diagnostics report).
 
-Damping (only near singularities, Chiaverini/Maciejewski rule): with σ_min the
-smallest singular value of A Z kept in its rank,
-    λ² = 0                                   if σ_min ≥ ε,
-    λ² = (1 − (σ_min/ε)²) λ_max²             otherwise,
-and the step uses σ/(σ² + λ²) in place of 1/σ. Rank counts σ > ``rank_tol``·max(1, σ_max).
+Damping (only near singularities, Nakamura/Chiaverini variable damping, applied to each
+singular direction of A Z by its own singular value σ_i, Chiaverini's selective form):
+    λ_i² = 0                                 if σ_i ≥ ε,
+    λ_i² = (1 − (σ_i/ε)²) λ_max²             otherwise,
+and the step uses σ_i/(σ_i² + λ_i²) in place of 1/σ_i. A level whose σ_min ≥ ε is solved
+exactly, as without damping. Rank counts σ > ``rank_tol``·max(1, σ_max). The gain of the
+damped inverse is bounded (:meth:`Damping.gain_bound`): with λ_max ≥ ε/√2 (the default
+λ_max = ε) every direction's gain σ/(σ² + λ²(σ)) ≤ 1/ε, so a level's step
+‖z‖ ≤ ‖b − A x̂‖/ε however close to singular it is; with λ_max = ε exactly, the gain is
+σ/ε², falling to 0 with σ (the singular direction gets nothing).
 
 One level is one call of a compiled kernel (:func:`wbc.solvers.kernels.factorizations.level_step`):
 the products, the factorisation and the new basis without the interpreter in between
@@ -39,15 +44,38 @@ from .kernels.records import decode, hint_record, hint_route
 
 @dataclass
 class Damping:
-    """Singularity-robust inverse: ``threshold`` ε and ``max_damping`` λ_max (units of A)."""
+    """Singularity-robust inverse (module doc): ``threshold`` ε and ``max_damping`` λ_max, in
+    the units of the level's projected Jacobian J̄ = A Z (m per rad for a position row over
+    the joints, unitless for an orientation row): 0.01 both by default, i.e. a direction
+    is damped once it takes more than 100 rad/s² per m/s² asked, and no direction is ever
+    given more (:meth:`gain_bound`); ``rank_tol`` the relative rank tolerance (unitless).
 
-    threshold: float = 1e-3
+    Args:
+        threshold: ε, the singular value below which a direction is damped (units of J̄; ≥ 0,
+            0: no damping).
+        max_damping: λ_max, the damping at σ = 0 (units of J̄; ≥ 0).
+        rank_tol: singular values below ``rank_tol``·max(1, σ_max) count as zero.
+    """
+
+    threshold: float = 1e-2
     max_damping: float = 1e-2
     rank_tol: float = 1e-9
 
     def lambda2(self, smin: float) -> float:
-        """λ² for a smallest singular value ``smin`` (the rule of the module docstring)."""
+        """λ² for a singular value ``smin`` (the rule of the module docstring)."""
         return damping_lambda2(smin, self.threshold, self.max_damping)
+
+    def gain_bound(self) -> float:
+        """max over σ > 0 of the damped gain σ/(σ² + λ²(σ)) (units of 1/J̄): 1/ε when
+        λ_max ≥ ε/√2, else 1/(2 λ_max √(1 − λ_max²/ε²)) (the maximum at
+        σ* = λ_max/√(1 − λ_max²/ε²) < ε); ∞ without damping. A level's step is at most
+        this times its residual ‖b − A x̂‖."""
+        eps, lam = self.threshold, self.max_damping
+        if eps <= 0.0 or lam <= 0.0:
+            return float("inf")
+        if lam * lam >= 0.5 * eps * eps:
+            return 1.0 / eps
+        return 1.0 / (2.0 * lam * (1.0 - (lam / eps) ** 2) ** 0.5)
 
 
 NO_DAMPING = Damping(threshold=0.0, max_damping=0.0)

@@ -16,16 +16,18 @@ from .frame import Frame
 from .joint_limits import JointLimits
 from .null_space_impedance import NullSpaceImpedance
 from .posture import Posture
+from .singularity_avoidance import SingularityAvoidance
 from .torque_limits import TorqueLimits
 
 #: task types a YAML stack may name, by their ``type:`` key
 TASK_TYPES = {cls.kind: cls for cls in (JointLimits, TorqueLimits, Posture, CoM, Frame, Contact, ContactWrench,
                                         ContactRegularization, NullSpaceImpedance, Force,
-                                        CollisionAvoidance)}
+                                        CollisionAvoidance, SingularityAvoidance)}
 
 __all__ = [
     "Task", "MotionTask", "CoM", "CollisionAvoidance",
     "Contact", "ContactRegularization", "ContactWrench", "Force", "Frame", "JointLimits",
-    "NullSpaceImpedance", "Posture", "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
+    "NullSpaceImpedance", "Posture", "SingularityAvoidance",
+    "TorqueLimits", "FloatingBaseDynamics", "DifferentialDrive", "TASK_TYPES", "wrench_cone",
     "friction_pyramid", "wrench_cone_generators",
 ]

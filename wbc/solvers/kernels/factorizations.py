@@ -10,10 +10,12 @@ table (:mod:`wbc.solvers.lapack`), ``gesdd`` through numba's own ``np.linalg`` b
 Given A (m × n), b (m), x̂ (n) and the basis Z (n × k, or the identity), with
 AZ = A Z and r = b − A x̂, :func:`level_step` returns the damped least-squares step
 
-    z = Σ σ_i/(σ_i² + λ²) v_i u_iᵀ r      (σ_i > rank_tol · max(1, σ_max)),
+    z = Σ σ_i/(σ_i² + λ_i²) v_i u_iᵀ r      (σ_i > rank_tol · max(1, σ_max)),
 
-λ² = (1 − (σ_min/ε)²) λ_max² when σ_min < ε (``threshold`` ε, ``max_damping``
-λ_max), else 0; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
+λ_i² = (1 − (σ_i/ε)²) λ_max² when σ_i < ε (``threshold`` ε, ``max_damping``
+λ_max), else 0: each direction damped by its own singular value (Chiaverini's
+selective damping), so the directions of the level that are far from singular are
+solved exactly; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
 
 - ``GRAM`` (m ≥ k): normal equations (Cholesky, or eigen-decomposition when the
   Cholesky bounds are inconclusive), accepted only if κ(AZ)² ≤ 1/``gram_min_ratio``
@@ -65,7 +67,8 @@ def apply_reflectors(a, tau, k, v, transpose):
 
 @nb.njit(cache=True)
 def damping_lambda2(smin: float, threshold: float, max_damping: float) -> float:
-    """λ² of the Chiaverini/Maciejewski rule (see :class:`~wbc.solvers.cascade.Damping`)."""
+    """λ² of the Chiaverini/Maciejewski rule for a singular value ``smin`` (see
+    :class:`~wbc.solvers.cascade.Damping`)."""
     if threshold <= 0.0 or smin >= threshold:
         return 0.0
     t = smin / threshold
@@ -106,7 +109,10 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
         return False, np.empty(0), np.empty((0, 0)), 0.0, 0.0, 0.0
     smin, smax = np.sqrt(w[0]), np.sqrt(w[k - 1])
     lam2 = damping_lambda2(smin, threshold, max_damping)
-    z = V @ ((V.T @ (AZ.T @ r)) / (w + lam2))
+    d = w.copy()
+    for i in range(k):                           # each direction its own λ_i² (module doc)
+        d[i] += damping_lambda2(np.sqrt(w[i]), threshold, max_damping)
+    z = V @ ((V.T @ (AZ.T @ r)) / d)
     return True, z, np.empty((0, 0)), smin, smax, lam2
 
 
@@ -276,8 +282,9 @@ def _svd(AZ, r, rank_tol, threshold, max_damping):
     smin = s[rank - 1] if rank else 0.0
     lam2 = damping_lambda2(smin, threshold, max_damping) if rank else 0.0
     z = np.zeros(k)
-    for j in range(rank):                         # Σ σ_j/(σ_j² + λ²) v_j u_jᵀ r
-        z += (s[j] / (s[j] * s[j] + lam2) * np.sum(U[:, j] * r)) * Vt[j, :]
+    for j in range(rank):                         # Σ σ_j/(σ_j² + λ_j²) v_j u_jᵀ r
+        lj = damping_lambda2(s[j], threshold, max_damping)
+        z += (s[j] / (s[j] * s[j] + lj) * np.sum(U[:, j] * r)) * Vt[j, :]
     return z, np.ascontiguousarray(Vt[rank:].T), rank, smin, smax, lam2
 
 

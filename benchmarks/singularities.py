@@ -1,0 +1,118 @@
+"""Singularities: the issue-27 figures, both simulators, the three solvers.
+
+    PYTHONPATH=. python benchmarks/singularities.py [OUT.md [CASE ...]]
+
+(CASE: panda, g1, go2; default all. Durations: the Panda's 4.5 s, 1.5 s for the G1 and the
+go2, the standing and the bending being over by then.)
+
+Cases: panda_reach_boundary (the hand out to 20 cm beyond its reach and back), g1_straight_legs
+(the G1 at its zero configuration, straight legs, the singularity_avoidance task above the
+posture) and the same stack on the G1 with bent knees (g1.yaml's default posture: the bent
+run of the 10× criterion), go2 from `wbc robot init` at its zero posture (written to a temporary
+directory from the bundled URDF) and the bundled go2 (bent legs). Per run: fell, cycles over a
+joint position/velocity limit or the torque limit, saturated and relaxed cycles, the worst
+|τ|/τ_max asked, max |q̈| (rad/s², m/s²), the cycles whose solution (status ok or saturated)
+planned a contact force outside its friction cone or with a negative normal force, and the
+near-singular cycles per level.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+STANDING = """name: {name}
+robot: {robot}
+solver: {{type: hqp, backend: daqp}}
+control: {{dt: 0.001}}
+duration: 2.0
+environment:
+  - {{type: ground, mu: 0.8}}
+stack:
+  - - {{type: joint_limits}}
+    - {{type: torque_limits}}
+    - {{type: contact, contact: fl_foot}}
+    - {{type: contact, contact: fr_foot}}
+    - {{type: contact, contact: rl_foot}}
+    - {{type: contact, contact: rr_foot}}
+  - - {{type: com}}
+  - - {{type: frame, frame: base, mask: orientation}}
+  - - {{type: posture}}
+"""
+
+
+def _outside_cone(sol, mu: dict) -> bool:
+    for name, f in sol.forces.items():
+        fz = f[2]
+        if fz < -1e-6 or np.hypot(f[0], f[1]) > mu[name] * max(fz, 0.0) + 1e-6:
+            return True
+    return False
+
+
+def one(path, solver: str, sim: str, duration: float | None = None) -> dict:
+    from wbc.runner.loop import ScenarioRun
+    from wbc.scenario.loader import load_config
+
+    sc = load_config(path)
+    r = ScenarioRun(sc, solver=solver, simulator=sim, progress=False, duration=duration)
+    mu = {t.name: (getattr(t.contact_data(), "mu", None) or 0.7)
+          for t in r.stack if t.kind == "contact"}
+    qdd_max, bad_cone = 0.0, 0
+    for k in range(r.n):
+        ok = r.cycle(k)
+        sol = r.last_sol
+        if sol is not None and sol.ok:
+            qdd_max = max(qdd_max, float(np.abs(sol.qdd).max()))
+            if sol.status in ("ok", "saturated") and mu and _outside_cone(sol, mu):
+                bad_cone += 1
+        if not ok:
+            break
+    m = r.metrics()
+    v = m["violations"]
+    return {"fell": m["fell"] or bool(m["stopped"]), "q": v["joint_position"], "v": v["joint_velocity"],
+            "tau": v["torque"], "sat": m["saturated_cycles"], "rel": m["relaxed_cycles"],
+            "ask": m["tau_ratio_requested_max"], "qdd": qdd_max, "cone": bad_cone,
+            "singular": m["singular_cycles"], "t": m["duration"]}
+
+
+def main(out: str | None, which: list[str]) -> None:
+    warnings.simplefilter("ignore")
+    tmp = Path(tempfile.mkdtemp())
+    from wbc.robot.loader import load_robot
+
+    urdf = load_robot("go2").urdf_path
+    subprocess.run([sys.executable, "-m", "wbc.cli", "robot", "init", str(urdf), "-o", str(tmp / "go2_init.yaml")],
+                   check=True, capture_output=True)
+    (tmp / "go2_zero.yaml").write_text(STANDING.format(name="go2_zero", robot=tmp / "go2_init.yaml"))
+    (tmp / "go2_bent.yaml").write_text(STANDING.format(name="go2_bent", robot="go2"))
+    bent_g1 = Path("wbc/data/scenarios/g1_straight_legs.yaml").read_text().replace("robot: g1_straight", "robot: g1")
+    (tmp / "g1_bent.yaml").write_text(bent_g1.replace("name: g1_straight_legs", "name: g1_bent"))
+    cases = [("panda", "panda_reach_boundary", "panda_reach_boundary", None),
+             ("g1", "g1_straight_legs", "g1_straight_legs", 1.5),
+             ("g1", "g1 bent (same stack)", tmp / "g1_bent.yaml", 1.5),
+             ("go2", "go2 init, zero posture", tmp / "go2_zero.yaml", 1.5),
+             ("go2", "go2 bundled, bent", tmp / "go2_bent.yaml", 1.5)]
+    lines = ["| case | sim | solver | fell | over q / q̇ / τ limit (cycles) | saturated | relaxed | τ asked / τ_max "
+             "| max abs q̈ | planned force outside cone (ok/saturated cycles) | near-singular cycles per level |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for group, label, path, duration in cases:
+        if which and group not in which:
+            continue
+        for sim in ("pinocchio", "mujoco"):
+            for solver in ("hqp", "projection", "weighted"):
+                r = one(path, solver, sim, duration)
+                fell = f"yes ({r['t']:.2f} s)" if r["fell"] else "no"
+                lines.append(f"| {label} | {sim} | {solver} | {fell} | {r['q']} / {r['v']} / {r['tau']} | {r['sat']} "
+                             f"| {r['rel']} | {r['ask']:.3g} | {r['qdd']:.3g} | {r['cone']} | {r['singular']} |")
+                print(lines[-1], flush=True)
+    if out:
+        Path(out).write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else None, sys.argv[2:])
