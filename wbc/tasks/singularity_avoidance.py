@@ -56,8 +56,8 @@ import pinocchio as pin
 from wbc.validation.schema import number, suggest, text
 
 from ..errors import TaskDefinitionError
-from ..problem.rows import Layout, Rows
-from .base import MotionTask, eq_buffer
+from ..problem.rows import Layout, Rows, RowSlot
+from .base import MotionTask, eq_rows
 
 _MASKS = {
     "position": (0, 1, 2),
@@ -204,8 +204,9 @@ class SingularityAvoidance(MotionTask):
         self._last = (q.copy(), w, g)
         return w, g
 
-    def rows(self, robot, layout: Layout) -> Rows:
-        A, b = eq_buffer(self, 1, layout.nx)
+    def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
+        slot = eq_rows(out, 1, layout.nx)
+        A, b = slot.A, slot.b
         A[:] = 0.0
         b[:] = 0.0
         w, g = self._state(robot)
