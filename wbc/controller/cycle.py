@@ -105,6 +105,9 @@ class Controller:
         solve_timeout: the policy's per-cycle budget of the solve's wall time (s), shorthand
             for ``FaultPolicy.solve_timeout`` (over ``faults``'s); None: the policy's (none by
             default).
+        mode: ``"torque"`` (default: this cycle, x = (q̈, f), output τ) or ``"velocity"``
+            (x = q̇, output q̇ and the next q: ``Controller(...)`` then returns a
+            :class:`~wbc.controller.velocity.VelocityController`, :mod:`wbc.controller.velocity`).
 
     Raises:
         SolverError: an unknown ``solver`` or a bad ``contact_regularization``.
@@ -112,12 +115,24 @@ class Controller:
             (:func:`wbc.solvers.create_solver`).
     """
 
+    def __new__(cls, robot=None, stack=None, *args, mode: str = "torque", **kwargs):
+        """``mode="velocity"`` builds a :class:`~wbc.controller.velocity.VelocityController`
+        (the same arguments; x = q̇, output q̇ and q_next); ``"torque"`` (default) this class."""
+        if mode == "velocity":
+            from wbc.controller.velocity import VelocityController
+
+            return VelocityController(robot, stack, *args, **kwargs)
+        if mode != "torque":
+            raise SolverError(f"unknown mode {mode!r}: expected 'torque' or 'velocity'")
+        return super().__new__(cls)
+
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
                  weighting: str | None = None, damping: Damping | None = None,
                  sacrifice_tol: float = 1e-6, level_weight: float | None = None, dt: float = 1e-3,
                  warm_start: bool = True, sacrifice_rel: float = 1e-3,
                  contact_regularization: bool | ContactRegularization = True,
-                 faults: FaultPolicy | None = None, solve_timeout: float | None = None) -> None:
+                 faults: FaultPolicy | None = None, solve_timeout: float | None = None,
+                 mode: str = "torque") -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):

@@ -256,6 +256,26 @@ class RobotModel:
         self._cache.clear()
         self.cycle += 1
 
+    def update_kinematics(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
+        """The velocity-level cycle's pinocchio calls, once (:mod:`wbc.controller.velocity`):
+        ``computeJointJacobians(q)`` (its forward pass gives the placements), the frame
+        placements, and ``jacobianCenterOfMass`` (the CoM and J_com). No M, h, body velocities
+        or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
+        and ``frame_drift`` hold the last :meth:`update`'s values, not this state's.
+
+        Args:
+            q: the configuration (nq; m, rad, unit quaternion), not copied.
+            v: the velocity kept as ``v`` (nv; m/s, rad/s); None: zeros.
+        """
+        m, d = self.model, self.data
+        self.q = q
+        self.v = self._zero_v if v is None else v
+        pin.computeJointJacobians(m, d, q)
+        pin.updateFramePlacements(m, d)
+        pin.jacobianCenterOfMass(m, d, False)
+        self._cache.clear()
+        self.cycle += 1
+
     # ---------------------------------------------------------- cached terms
     @property
     def M(self) -> np.ndarray:
