@@ -117,6 +117,8 @@ class RobotModel:
         source: the robot YAML file it was loaded from; None: built in Python.
         compensation: joint damping and friction D q̇ + F σ(q̇) added to h (robot YAML
             ``compensate:``, :mod:`wbc.robot.joint_compensation`); None: none.
+        position_gains: the position servos' gains (robot YAML ``position_gains:``,
+            :func:`wbc.robot.servo.servo_gains`); default none given (derived from the robot).
     """
 
     name: str
@@ -138,6 +140,9 @@ class RobotModel:
     source: Path | None = None
     #: D q̇ + F σ(q̇) added to h (robot YAML ``compensate:``), None for none
     compensation: JointCompensation | None = None
+    #: the position servos' gains of the robot YAML (``position_gains:``, :mod:`wbc.robot.servo`):
+    #: ``kp``/``kd`` {velocity index: gain} and ``saturation_error`` (rad or m); empty: defaults
+    position_gains: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         m = self.model
