@@ -32,7 +32,7 @@ from functools import partial
 import numpy as np
 import pinocchio as pin
 
-from wbc.controller.cycle import _diagnostics
+from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, FaultPolicy
 from wbc.controller.solution import Solution
 from wbc.controller.solver_names import SOLVERS
@@ -196,7 +196,7 @@ class VelocityController:
         if not ok:
             qd = np.zeros(nv)
         values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
-        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
+        evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            not self.solver.enforces_inequality_rows, self.sacrifice_tol, self.sacrifice_rel)
         return VelocitySolution(qd, pin.integrate(robot.model, q, qd * dt), robot.na, status=status,
                                 message=message, qp_count=res.qp_count, evaluate=evaluate, relaxed=relaxed)

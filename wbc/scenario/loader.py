@@ -104,6 +104,8 @@ class Scenario:
         interaction: the external-force source and glass metrics
             (:mod:`wbc.interaction.external_force`); None: none.
         faults: :class:`~wbc.controller.faults.FaultPolicy` keyword arguments; default none.
+        mode: ``"torque"`` (default) or ``"velocity"`` (x = q̇, position-controlled actuators:
+            :mod:`wbc.controller.velocity`).
     """
 
     name: str
