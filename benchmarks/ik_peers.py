@@ -53,7 +53,7 @@ from wbc.tasks import CollisionAvoidance, CoM, Contact, Frame, JointLimits, Post
 
 HAND = "gripper_right_base_link"
 SOLES = ("left_sole_link", "right_sole_link")
-DT = 0.01
+DT = 1.0           # s: one full Gauss–Newton step per solve (velocity limits × DT do not bind)
 HAND_OFFSET = np.array([0.10, -0.05, 0.10])
 COM_OFFSET = np.array([0.0, 0.0, -0.03])
 MAX_ITER = 200
