@@ -96,7 +96,8 @@ class WbcIK:
         hand = Frame("right_hand", mask="position", target=pb.hand)
         level0 = [*feet, JointLimits(horizon=DT)]       # the peers enforce joint limits by default
         if collisions:
-            level0.append(CollisionAvoidance(influence=0.05, safety=0.01, max_speed=1.0, max_rows=32))
+            # ξ DT = half of d_i − d_s: one full step closes at most half the gap to d_s (first order)
+            level0.append(CollisionAvoidance(influence=0.05, safety=0.01, max_speed=0.5 * 0.04 / DT, max_rows=32))
         self.ctrl = Controller(pb.robot, Stack([level0, [com], [hand], [Posture(target=pb.q0)]]), mode="velocity",
                                dt=DT, gain=1.0 / DT)
         self.q = pb.q0.copy()
@@ -278,7 +279,11 @@ def converge(pb: Problem, s, distances=None) -> tuple[np.ndarray, int, float]:
     """(final q, iterations, smallest monitored distance on the way) from q0."""
     q, dmin = pb.q0.copy(), np.inf
     for k in range(MAX_ITER):
-        dq = s.solve(q)
+        try:
+            dq = s.solve(q)
+        except Exception as exc:  # noqa: BLE001 (a peer's QP that failed: reported, the run stops there)
+            print(f"<!-- {s.name}: {type(exc).__name__} at iteration {k + 1}: {exc} -->")
+            return q, -(k + 1), dmin
         q = pin.integrate(pb.model, q, dq)
         if distances is not None:
             dmin = min(dmin, distances(q))
