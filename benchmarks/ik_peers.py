@@ -23,8 +23,8 @@ Measured per solver, interleaved (each round runs every solver once at the same 
 q ← q ⊕ Δq from q0 until ‖Δq‖ < 1e-9, at most 200), and the converged pose's errors (hand,
 CoM, feet drift in m; posture ‖q0 ⊖ q‖ over the joints in rad).
 
-Unreachable case (``--unreachable``): the right gripper's target 5 cm inside the torso
-(``torso_2_link``'s origin + (0.05, 0, 0)): wbc with ``collision_avoidance`` at level 0 (self
+Unreachable case (``--unreachable``): the right gripper's target at the centre of the torso's
+convex hull (``torso_2_link_0``'s bounding box centre): wbc with ``collision_avoidance`` at level 0 (self
 pairs of wbc/data/robots/talos.collisions.yaml, d_i 5 cm, d_s 1 cm), PlaCo with its
 self-collision constraint, pink with ``SelfCollisionBarrier`` (d_min 1 cm): the smallest
 distance between the right arm's links and the torso each keeps while iterating (wbc's
@@ -57,6 +57,9 @@ DT = 1.0           # s: one full Gauss–Newton step per solve (velocity limits 
 HAND_OFFSET = np.array([0.10, -0.05, 0.10])
 COM_OFFSET = np.array([0.0, 0.0, -0.03])
 MAX_ITER = 200
+#: the unreachable case's step: the fraction of each task's error asked per solve (wbc's gain·DT,
+#: pink's task gains); PlaCo's KinematicsSolver takes full steps (no gain to set)
+STEP = 0.1
 
 
 class Problem:
@@ -70,8 +73,15 @@ class Problem:
         pin.framesForwardKinematics(m, d, self.q0)
         self.feet = {f: d.oMf[m.getFrameId(f)].copy() for f in SOLES}
         self.com = pin.centerOfMass(m, d, self.q0).copy() + COM_OFFSET
-        if unreachable:
-            self.hand = d.oMf[m.getFrameId("torso_2_link")].translation + np.array([0.05, 0.0, 0.0])
+        if unreachable:               # the centre of the torso's convex hull (its box's centre)
+            from wbc.collision.model import CollisionModel, bounding_sphere
+
+            cm = CollisionModel(robot, self_collision=True)
+            gm = cm.geometry_model
+            g = gm.geometryObjects[gm.getGeometryId("torso_2_link_0")]
+            centre = bounding_sphere(g.geometry)[0]
+            pin.framesForwardKinematics(m, d, self.q0)
+            self.hand = (d.oMi[g.parentJoint] * g.placement).act(centre)
         else:
             self.hand = d.oMf[m.getFrameId(HAND)].translation + HAND_OFFSET
 
@@ -98,8 +108,11 @@ class WbcIK:
         if collisions:
             # ξ DT = half of d_i − d_s: one full step closes at most half the gap to d_s (first order)
             level0.append(CollisionAvoidance(influence=0.05, safety=0.01, max_speed=0.5 * 0.04 / DT, max_rows=32))
+        # full Gauss–Newton steps on the reachable problem; a tenth of the error per step on the
+        # unreachable one (full steps towards a target 0.5 m away leave the linearisation: the
+        # first step moved the feet by 0.33 m)
         self.ctrl = Controller(pb.robot, Stack([level0, [com], [hand], [Posture(target=pb.q0)]]), mode="velocity",
-                               dt=DT, gain=1.0 / DT)
+                               dt=DT, gain=(STEP if collisions else 1.0) / DT)
         self.q = pb.q0.copy()
 
     def timed(self) -> None:
@@ -175,12 +188,13 @@ class PinkIK:
             t = tasks.FrameTask(f, position_cost=1.0, orientation_cost=1.0)
             t.set_target(pb.feet[f])
             feet.append(t)
-        com = tasks.ComTask(cost=1.0)
+        gain = STEP if collisions else 1.0
+        com = tasks.ComTask(cost=1.0, gain=gain)
         com.set_target(pb.com)
-        hand = tasks.FrameTask(HAND, position_cost=1.0, orientation_cost=0.0)
+        hand = tasks.FrameTask(HAND, position_cost=1.0, orientation_cost=0.0, gain=gain)
         T = pin.SE3(np.eye(3), pb.hand)
         hand.set_target(T)
-        post = tasks.PostureTask(cost=1e-2)
+        post = tasks.PostureTask(cost=1e-2, gain=gain)
         post.set_target(pb.q0)
         self.tasks, self.constraints = [com, hand, post], feet
         self.q0 = pb.q0.copy()
@@ -278,7 +292,7 @@ def timing(solvers: list, q0: np.ndarray, rounds: int) -> np.ndarray:
 def converge(pb: Problem, s, distances=None) -> tuple[np.ndarray, int, float]:
     """(final q, iterations, smallest monitored distance on the way) from q0."""
     q, dmin = pb.q0.copy(), np.inf
-    for k in range(MAX_ITER):
+    for k in range(MAX_ITER if distances is None else 3 * MAX_ITER):
         try:
             dq = s.solve(q)
         except Exception as exc:  # noqa: BLE001 (a peer's QP that failed: reported, the run stops there)
@@ -289,7 +303,7 @@ def converge(pb: Problem, s, distances=None) -> tuple[np.ndarray, int, float]:
             dmin = min(dmin, distances(q))
         if np.linalg.norm(dq) < 1e-9:
             return q, k + 1, dmin
-    return q, MAX_ITER, dmin
+    return q, k + 1, dmin
 
 
 def main() -> None:
