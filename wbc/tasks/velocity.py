@@ -35,6 +35,7 @@ regularisation, null-space impedance, the floating-base dynamics) have no veloci
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from wbc.robot.model import WORLD_ALIGNED
 
@@ -87,10 +88,20 @@ def _terms(task, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
         J = task.force_jacobian(robot)
         m = J.shape[0]
         axes = np.arange(m) if not task.sliding else (np.array([2]) if m == 3 else np.array([2, 3, 4]))
-        e = np.zeros(m)
-        e[axes] = task.error(robot)
-        return J, e, np.zeros(m), axes, m
+        return J, _contact_error(task, robot, m), np.zeros(m), axes, m
     raise TaskDefinitionError(f"task '{task.name}' (type: {kind}) has no velocity form")   # pragma: no cover
+
+
+def _contact_error(task, robot, m: int) -> np.ndarray:
+    """The contact's drift from its placement, as ``Contact.error`` before its axis selection
+    (log₆(oMc⁻¹ M_ref) in the contact frame for a surface, p_ref − p world for a point), without
+    the frame velocity and drift the acceleration rows also read."""
+    oMc = robot.frame_placement(robot.frame_id(robot.contact(task.contact).frame))
+    if task.reference is None:
+        task.reference = oMc.copy()
+    if m == 6:
+        return pin.log6(oMc.actInv(task.reference)).vector
+    return task.reference.translation - oMc.translation
 
 
 def motion_velocity_rows(task: MotionTask, robot, nv: int, gain: float | None = None) -> Rows:
