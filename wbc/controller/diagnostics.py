@@ -22,7 +22,9 @@ def level_diagnostics(levels, spans, infos, values, projection: bool, sacrifice_
     level holding the torque limits (level 0 if the stack has none) as
     ``saturated_torques`` and ``active["torque_saturation"]``. A regularisation task
     (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met."""
-    residuals, task_res, diags = [], {}, []
+    residuals: list[float] = []
+    task_res: dict[str, float] = {}
+    diags: list[LevelDiagnostics] = []
     E, Y, LO, HI, B = split_values(*values)
     sat_level = -1
     if saturated_torques:
@@ -39,7 +41,9 @@ def level_diagnostics(levels, spans, infos, values, projection: bool, sacrifice_
             unenforced = float(np.linalg.norm(viol[:n_gen]))
             viol[:n_gen] = 0.0
         residuals.append(float(np.sqrt(e @ e + viol @ viol)))
-        sacrificed, active, violations = [], {}, {}
+        sacrificed: list[str] = []
+        active: dict[str, int] = {}
+        violations: dict[str, list[tuple[int, float]]] = {}
         for t in tasks:
             r2 = 0.0
             tol = sacrifice_tol
@@ -66,7 +70,7 @@ def level_diagnostics(levels, spans, infos, values, projection: bool, sacrifice_
             if n_act:
                 active["joint_limits"] = n_act
             _violated_rows(violations, "joint_limits", viol[n_gen:], lvl.box[0], sacrifice_tol)
-        sat = list(saturated_torques) if len(diags) == sat_level else []
+        sat = list(saturated_torques or []) if len(diags) == sat_level else []
         if sat:
             active["torque_saturation"] = len(sat)
         diags.append(LevelDiagnostics(
