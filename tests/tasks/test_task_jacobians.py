@@ -451,3 +451,74 @@ def test_frame_orientation_error_approximation(robots, theta):
     assert rel.max() <= bound * (1 + 1e-4)
     assert rel.max() >= 0.8 * bound
     assert bound == pytest.approx({0.1: 0.050, 0.5: 0.251, 1.0: 0.507}[theta], abs=1e-3)
+
+
+# ----------------------------------------------------------------- the velocity forms (wbc.tasks.velocity)
+VELOCITY_DT = 0.01
+
+
+def _velocity_check(robot, task, q, v):
+    """The task's velocity rows (x = q̇) against finite differences of what they drive: a motion
+    task's A = −∂e/∂q and b = K e (K = 2/s given, zero reference velocity); the collision rows'
+    C = ∂d/∂q and the damper bound −ξ (d − d_s)/(d_i − d_s); the joint-limit box from the limits
+    and q directly; the differential drive's row picks v_y."""
+    from wbc.tasks.velocity import velocity_rows
+
+    nv = robot.nv
+    if task.kind == "collision_avoidance":
+        for req in task.model.geometry_data.distanceRequests:
+            req.gjk_tolerance = 1e-10
+    rows = velocity_rows(task, robot, nv, VELOCITY_DT, gain=2.0)
+    if task.kind in ("frame", "com", "posture", "contact"):
+        A, b = rows.A.copy(), rows.b.copy()
+        J = -jacobian_fd(robot, q, v, lambda: task.error(robot))
+        close(A, J, what="velocity A vs −∂e/∂q")
+        close(b, 2.0 * task.error(robot), what="velocity b vs K e")
+    elif task.kind == "collision_avoidance":
+        r, order = task.last
+        k = len(order)
+        assert k >= 1, "no pair within the influence distance"
+        pairs = r.pairs[order].copy()
+        C = rows.C[:k].copy()
+        d = task.model.all_distances(robot.q)[pairs]
+        fd = jacobian_fd(robot, q, v, lambda: task.model.all_distances(robot.q)[pairs])
+        close(C, fd, tol=1e-4, what="velocity collision rows vs ∂d/∂δ")
+        close(rows.lo[:k], -task.max_speed * (d - task.safety) / (task.influence - task.safety), tol=1e-8,
+              what="velocity damper bound")
+        close(rows.C[k:], np.zeros_like(rows.C[k:]), what="unused rows")
+    elif task.kind == "joint_limits":
+        idx, lo, hi = rows.box
+        D = jacobian_fd(robot, q, v, lambda: robot.q[7:] if robot.root == "free_flyer" else robot.q)
+        assert len(idx) >= 5 and np.all(lo <= hi)
+        k = min(1.0 / task.horizon, 1.0 / VELOCITY_DT)
+        for i, lo_i, hi_i in zip(idx, lo, hi):
+            (col,) = np.flatnonzero(np.abs(D[:, i]) > 0.5)          # the q coordinate of velocity i
+            qq = robot.q[col + (7 if robot.root == "free_flyer" else 0)]
+            qi = col + (7 if robot.root == "free_flyer" else 0)
+            want_hi = min(robot.v_max[i], k * (robot.q_max[qi] - task.margin - qq))
+            want_lo = max(-robot.v_max[i], k * (robot.q_min[qi] + task.margin - qq))
+            if want_lo <= want_hi:
+                assert (lo_i, hi_i) == pytest.approx((want_lo, want_hi), abs=1e-12)
+    elif task.kind == "differential_drive":
+        close(rows.A, np.eye(nv)[1:2], what="lateral velocity row")
+        close(rows.b, np.zeros(1), what="no lateral velocity")
+    else:
+        raise AssertionError(task.kind)
+
+
+@pytest.mark.parametrize("seed", SEEDS[:2])
+@pytest.mark.parametrize("name", ["talos", "tiago"])
+@pytest.mark.parametrize("key", list(CASES))
+def test_velocity_rows_match_finite_differences(robots, key, name, seed):
+    """Every task kind with a velocity form (:data:`wbc.tasks.velocity.VELOCITY_KINDS`) is checked;
+    the others are refused by name (TaskDefinitionError naming ``stack[0][0].type``)."""
+    from wbc.errors import TaskDefinitionError
+    from wbc.tasks.velocity import VELOCITY_KINDS, check_velocity_stack
+
+    robot, task, layout, q, v, _ = setup(robots, name, key, seed)
+    if task.kind not in VELOCITY_KINDS:
+        with pytest.raises(TaskDefinitionError, match=r"stack\[0\]\[0\]\.type"):
+            check_velocity_stack([[task]])
+        return
+    robot.update_kinematics(q, v)
+    _velocity_check(robot, task, q, v)

@@ -30,9 +30,10 @@ what was expected), 3 an internal error (a bug: wbc --debug COMMAND ... prints i
 def _cmd_run(args) -> int:
     from wbc.runner.loop import run
     from wbc.runner.options import RunOptions
-    from wbc.scenario.loader import load_config
+    from wbc.scenario.loader import check_mode, load_config
 
     sc = load_config(args.file)
+    check_mode(sc, args.mode)               # a torque-only task in --mode velocity: file, line, key path
     if args.duration is not None:           # the scenario's own `duration:` rule, keyed by the option
         from wbc.errors import ConfigError
         from wbc.scenario.sections import duration_value
@@ -53,7 +54,7 @@ def _cmd_run(args) -> int:
                                    fps=args.fps, diagnostics_hz=args.diagnostics_rate, frames=shown_frames(sc))
     want_series = bool(args.plot or args.series)
     try:
-        options = RunOptions(solver=args.solver, backend=args.backend, duration=args.duration,
+        options = RunOptions(solver=args.solver, backend=args.backend, duration=args.duration, mode=args.mode,
                              simulator=args.sim, joint_dynamics=True if args.joint_dynamics else None,
                              series=want_series, progress=True, callback=callback)
         metrics = run(sc, options)
@@ -276,6 +277,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated duration in s (default: the scenario's `duration`)")
     r.add_argument("--solver", choices=list(SOLVERS),
                    help="priority solver (default: the scenario's `solver.type`, else hqp)")
+    r.add_argument("--mode", choices=["torque", "velocity"],
+                   help="control mode: torque (x = (q̈, f), torques) or velocity (x = q̇, position-controlled "
+                        "actuators; wbc.controller.velocity); default: the scenario's `mode`, else torque")
     r.add_argument("--sim", choices=list(SIMULATORS),
                    help="physics: pinocchio (wbc's own, rigid contacts) or mujoco (MuJoCo's soft contacts, "
                         "pip install 'wbc[mujoco]'); default: the scenario's `simulator`, else pinocchio")

@@ -32,19 +32,20 @@ Three guarantees, whatever the solver and the state:
 
 from __future__ import annotations
 
+import inspect
 from functools import partial
 
 import numpy as np
 import pinocchio as pin
 
+from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, FaultPolicy, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
-from wbc.controller.singular import at_most, singular_directions, velocity_names
-from wbc.controller.solution import LevelDiagnostics, Solution
+from wbc.controller.singular import velocity_names
+from wbc.controller.solution import Solution
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
 from wbc.errors import SolverError
-from wbc.problem.buffer import split_values
 from wbc.problem.problem import ROW_MARGIN, Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
@@ -107,6 +108,9 @@ class Controller:
         solve_timeout: the policy's per-cycle budget of the solve's wall time (s), shorthand
             for ``FaultPolicy.solve_timeout`` (over ``faults``'s); None: the policy's (none by
             default).
+        mode: ``"torque"`` (default: this cycle, x = (q̈, f), output τ) or ``"velocity"``
+            (x = q̇, output q̇ and the next q: ``Controller(...)`` then returns a
+            :class:`~wbc.controller.velocity.VelocityController`, :mod:`wbc.controller.velocity`).
 
     Raises:
         SolverError: an unknown ``solver`` or a bad ``contact_regularization``.
@@ -114,12 +118,24 @@ class Controller:
             (:func:`wbc.solvers.create_solver`).
     """
 
+    def __new__(cls, robot=None, stack=None, *args, mode: str = "torque", **kwargs):
+        """``mode="velocity"`` builds a :class:`~wbc.controller.velocity.VelocityController`
+        (the same arguments; x = q̇, output q̇ and q_next); ``"torque"`` (default) this class."""
+        if mode == "velocity":
+            from wbc.controller.velocity import VelocityController
+
+            return VelocityController(robot, stack, *args, **kwargs)
+        if mode != "torque":
+            raise SolverError(f"unknown mode {mode!r}: expected 'torque' or 'velocity'")
+        return super().__new__(cls)
+
     def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
                  weighting: str | None = None, damping: Damping | None = None,
                  sacrifice_tol: float = 1e-6, level_weight: float | None = None, dt: float = 1e-3,
                  warm_start: bool = True, sacrifice_rel: float = 1e-3,
                  contact_regularization: bool | ContactRegularization = True,
-                 faults: FaultPolicy | None = None, solve_timeout: float | None = None) -> None:
+                 faults: FaultPolicy | None = None, solve_timeout: float | None = None,
+                 mode: str = "torque") -> None:
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
@@ -352,7 +368,7 @@ class Controller:
                 status = "saturated"
         else:
             at_limit = []
-        evaluate = partial(_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
+        evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel),
                            saturated_torques=at_limit, singular=(self._joint_names, self._below_threshold))
@@ -405,105 +421,6 @@ _NO_BOUNDS = np.zeros(0)
 SATURATION_TOL = 1e-6
 
 
-def _diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tuple[str, ...]],
-                 sacrifice: tuple[float, float], tol_act: float = 1e-7, saturated_torques: list | None = None,
-                 singular: tuple | None = None):
-    """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
-    of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
-    inequality rows): A x − b, C x, l, u and b over every level, level k's part
-    given by ``spans[k]``; see :meth:`Controller._finish`). ``unenforced``: (the solver did
-    not enforce the general inequality rows, the tasks whose rows it met outside its
-    cascade), from its SolveResult. The projection solver enforces
-    equalities and joint-limit boxes in q̈; its friction cones are met (or relaxed) in
-    force distribution and its torque limits are not enforced (the controller saturates
-    τ): those rows are reported apart (``unenforced_violation``), not as residuals; the
-    floating-base dynamics its forces meet are left out (its ``dynamics_gap`` and level 0's
-    relaxation report them). ``sacrifice``: (absolute, relative) parts of the threshold.
-    ``saturated_torques``: the joints the controller clipped at ±τ_max, reported by the
-    level holding the torque limits (level 0 if the stack has none) as
-    ``saturated_torques`` and ``active["torque_saturation"]``. A regularisation task
-    (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met.
-    ``singular``: (the velocity names, a test σ → σ < ε) naming a damped level's singular
-    directions and joints (:func:`~wbc.controller.singular.singular_directions`)."""
-    residuals, task_res, diags = [], {}, []
-    projection, outside = unenforced
-    joint_names, threshold_of = singular if singular is not None else (None, None)
-    sacrifice_tol, sacrifice_rel = sacrifice
-    E, Y, LO, HI, B = split_values(*values)
-    sat_level = -1
-    if saturated_torques:
-        sat_level = next((k for k, lvl in enumerate(levels) if "torque_limits" in lvl.kinds), 0)
-    for lvl, (e0, e1, i0, n_gen, i1), info in zip(levels, spans, infos):
-        index, names, eq_slices, in_slices, has_box = lvl.index, lvl.names, lvl.eq_slices, lvl.in_slices, lvl.box is not None
-        e, b = E[e0:e1], B[e0:e1]
-        if outside and any(n in outside for n in names):
-            names = [n for n in names if n not in outside]
-            e = e.copy()
-            for n in outside:
-                if n in eq_slices:
-                    e[eq_slices[n]] = 0.0
-        y, lo, hi = Y[i0:i1], LO[i0:i1], HI[i0:i1]
-        with np.errstate(invalid="ignore"):          # a failed cycle's values are inf
-            viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
-            act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
-        unenforced = 0.0
-        if projection and n_gen:
-            unenforced = float(np.linalg.norm(viol[:n_gen]))
-            viol[:n_gen] = 0.0
-        residuals.append(float(np.sqrt(e @ e + viol @ viol)))
-        sacrificed, active, violations = [], {}, {}
-        for name in names:
-            r2 = 0.0
-            tol = sacrifice_tol
-            sl = eq_slices.get(name)
-            if sl is not None:
-                es = e[sl]
-                r2 += float(es @ es)
-                if sacrifice_rel:
-                    tol += sacrifice_rel * float(np.linalg.norm(b[sl]))
-            isl = in_slices.get(name)
-            if isl is not None:
-                vs = viol[isl]
-                r2 += float(vs @ vs)
-                n_act = int(np.count_nonzero(act[isl]))
-                if n_act:
-                    active[name] = n_act
-                _violated_rows(violations, name, vs, np.arange(len(vs)), sacrifice_tol)
-            r = r2**0.5
-            task_res[name] = r
-            if r > tol and name not in lvl.regularizers:
-                sacrificed.append(name)
-        if has_box:
-            n_act = int(np.count_nonzero(act[n_gen:]))
-            if n_act:
-                active["joint_limits"] = n_act
-            _violated_rows(violations, "joint_limits", viol[n_gen:], lvl.box[0], sacrifice_tol)
-        sat = list(saturated_torques) if len(diags) == sat_level else []
-        if sat:
-            active["torque_saturation"] = len(sat)
-        is_singular = info.damping > 0.0
-        sdirs: list[str] = []
-        sjoints: list[str] = []
-        if is_singular and joint_names is not None:
-            sat_above = tuple(j for inf in infos[:len(diags) + 1] for j in inf.saturated)
-            smin = info.sigma()
-            below = threshold_of or partial(at_most, smin * (1 + 1e-9))
-            sdirs, sjoints = singular_directions(levels, len(diags), len(joint_names), below, joint_names, sat_above)
-        diags.append(LevelDiagnostics(
-            singular=is_singular, singular_directions=sdirs, singular_joints=sjoints,
-            index=index, tasks=list(names), residual=residuals[-1],
-            rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
-            dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
-            sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
-            unenforced_violation=unenforced, qp_status=info.qp_status, saturated_torques=sat,
-            violations=violations))
-    return residuals, task_res, diags
-
-
-def _violated_rows(out: dict, name: str, viol: np.ndarray, rows: np.ndarray, tol: float, keep: int = 8) -> None:
-    """``out[name]`` = [(row, violation)] of the rows violated beyond ``tol``, worst first."""
-    bad = np.flatnonzero((viol > tol) & np.isfinite(viol))      # a failed cycle's rows are inf
-    if len(bad):
-        bad = bad[np.argsort(-viol[bad], kind="stable")][:keep]
-        out[name] = [(int(rows[i]), float(viol[i])) for i in bad]
-
+# Controller's call signature is its __init__'s (``__new__`` only dispatches on ``mode``)
+_init = inspect.signature(Controller.__init__)
+Controller.__signature__ = _init.replace(parameters=list(_init.parameters.values())[1:])  # type: ignore[attr-defined]

@@ -272,6 +272,10 @@ def _build(src: Path, cfg: dict) -> RobotModel:
         locked_joints=list(locked),
         source=src,
         compensation=JointCompensation.of_model(model, **cfg["compensate"]),
+        position_gains={"kp": _joint_map(model, "position_gains.kp", cfg["position_gains"]["kp"], locked),
+                        "kd": _joint_map(model, "position_gains.kd", cfg["position_gains"]["kd"], locked),
+                        "saturation_error": cfg["position_gains"]["saturation_error"],
+                        "bandwidth": cfg["position_gains"]["bandwidth"]},
     )
     check_robot(robot)        # RobotWarning: static torque over a limit, posture outside limits, tilted contact
     return robot

@@ -117,6 +117,8 @@ class RobotModel:
         source: the robot YAML file it was loaded from; None: built in Python.
         compensation: joint damping and friction D q̇ + F σ(q̇) added to h (robot YAML
             ``compensate:``, :mod:`wbc.robot.joint_compensation`); None: none.
+        position_gains: the position servos' gains (robot YAML ``position_gains:``,
+            :func:`wbc.robot.servo.servo_gains`); default none given (derived from the robot).
     """
 
     name: str
@@ -138,6 +140,9 @@ class RobotModel:
     source: Path | None = None
     #: D q̇ + F σ(q̇) added to h (robot YAML ``compensate:``), None for none
     compensation: JointCompensation | None = None
+    #: the position servos' gains of the robot YAML (``position_gains:``, :mod:`wbc.robot.servo`):
+    #: ``kp``/``kd`` {velocity index: gain} and ``saturation_error`` (rad or m); empty: defaults
+    position_gains: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         m = self.model
@@ -253,6 +258,26 @@ class RobotModel:
             self.data.nle -= tau_e
         if self.compensation is not None:
             self._h_eff = self.data.nle + self.compensation.torque(v)
+        self._cache.clear()
+        self.cycle += 1
+
+    def update_kinematics(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
+        """The velocity-level cycle's pinocchio calls, once (:mod:`wbc.controller.velocity`):
+        ``computeJointJacobians(q)`` (its forward pass gives the placements), the frame
+        placements, and ``jacobianCenterOfMass`` (the CoM and J_com). No M, h, body velocities
+        or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
+        and ``frame_drift`` hold the last :meth:`update`'s values, not this state's.
+
+        Args:
+            q: the configuration (nq; m, rad, unit quaternion), not copied.
+            v: the velocity kept as ``v`` (nv; m/s, rad/s); None: zeros.
+        """
+        m, d = self.model, self.data
+        self.q = q
+        self.v = self._zero_v if v is None else v
+        pin.computeJointJacobians(m, d, q)
+        pin.updateFramePlacements(m, d)
+        pin.jacobianCenterOfMass(m, d, False)
         self._cache.clear()
         self.cycle += 1
 

@@ -22,6 +22,9 @@
                                                   # auto: from the robot's inertia (wbc.robot.gains)
     compensate: {damping: true, friction: true,   # the controller's model adds the URDF's joint
                  friction_velocity: 0.01}         # damping and friction (wbc.robot.joint_compensation); rad/s
+    position_gains: {kp: {joint: N·m/rad}, kd: {joint: N·m·s/rad},   # position-controlled actuators'
+                     saturation_error: 0.01,      # servo gains (wbc.robot.servo): joints not listed get
+                     bandwidth: 150.0}            # kp = min(τ_max/saturation_error, M_ii bandwidth²), kd critical
 
 Unknown keys are refused with a did-you-mean; every value's type, length and range is
 checked (contact sizes in (0, 1] m, mu in (0, 10], limits >= 1e-6 with ``.inf`` for none,
@@ -45,7 +48,7 @@ ROOTS = ("free_flyer", "planar", "fixed")
 N_ROOT = {"free_flyer": 6, "planar": 3, "fixed": 0}
 KEYS = {"name", "urdf", "srdf", "root", "actuated_root", "differential_drive", "level_on_contacts",
         "default_posture", "locked_joints", "base_position", "frames", "contacts", "limits", "gains",
-        "compensate"}
+        "compensate", "position_gains"}
 CONTACT_KEYS = {"frame", "kind", "half_length", "half_width", "mu", "radius", "offset"}
 LIMIT_KEYS = {"torque", "velocity", "root_torque", "root_velocity"}
 MAX_MU = 10.0
@@ -109,6 +112,15 @@ def check_document(cfg: dict) -> dict:
                                                     error=RobotDefinitionError)
                     for k, v in gains.items()}
     out["compensate"] = _compensate(cfg.get("compensate"))
+    servo = mapping(cfg.get("position_gains"), "position_gains", allowed={"kp", "kd", "saturation_error", "bandwidth"},
+                    error=RobotDefinitionError)
+    out["position_gains"] = {
+        "kp": joint_values(servo.get("kp", {}), "position_gains.kp", ge=0, unit="N·m/rad or N/m"),
+        "kd": joint_values(servo.get("kd", {}), "position_gains.kd", ge=0, unit="N·m·s/rad or N·s/m"),
+        "saturation_error": number(servo.get("saturation_error", 0.01), "position_gains.saturation_error", gt=0,
+                                   le=1, unit="rad or m", error=RobotDefinitionError),
+        "bandwidth": number(servo.get("bandwidth", 150.0), "position_gains.bandwidth", gt=0, le=1e4, unit="rad/s",
+                            error=RobotDefinitionError)}
     return out
 
 

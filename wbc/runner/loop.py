@@ -45,6 +45,7 @@ from wbc.controller.faults import FaultPolicy, diverged, simulation_diverged
 from wbc.errors import ConfigError
 from wbc.interaction.external_force import ExternalForceRun
 from wbc.interaction.measurement import InteractionRun
+from wbc.robot.servo import gravity_feedforward, servo_gains
 from wbc.runner.compile_notice import CompileNotice
 from wbc.runner.metrics import RunMetrics, fallen
 from wbc.runner.observers import (
@@ -132,8 +133,10 @@ class ScenarioRun:
         self.notice = CompileNotice(enabled=o.progress)    # a first run compiles the kernels: say so
         self.notice.start()
         try:
+            self.mode = o.mode or sc.mode
             self.ctrl = Controller(robot, stack, solver=self.solver_name, dt=sc.dt,
-                                   faults=o.faults or FaultPolicy(detect_stale=True, **sc.faults), **opts)
+                                   faults=o.faults or FaultPolicy(detect_stale=True, **sc.faults), mode=self.mode,
+                                   **opts)
         except ConfigError as exc:    # a solver chosen over the scenario's, given the scenario's options
             raise ConfigError(f"{exc.message} (the scenario's solver is '{given}'; this run's is "
                               f"'{self.solver_name}')", key=exc.key, file=sc.source) from None
@@ -143,6 +146,10 @@ class ScenarioRun:
         if o.wrap_simulator is not None:
             sim = o.wrap_simulator(sim)
         self.sim = sim
+        #: velocity mode: the position servos' gains and the commanded configuration (module docstring)
+        self.servo = servo_gains(robot) if self.mode == "velocity" else None
+        self.servo_data = robot.model.createData()         # the drivers' own model data (gravity)
+        self.q_cmd: np.ndarray | None = None
         for p in sc.pushes:
             sim.push(p["frame"], p["force"], p["start"], p["duration"])
         self.last_sol = None
@@ -230,7 +237,12 @@ class ScenarioRun:
         for o in observers:
             o.before_solve(c)
         t0 = time.perf_counter()
-        sol = self.last_sol = c.sol = ctrl.solve(q, v, c.tau_e)
+        if self.servo is None:
+            sol = self.last_sol = c.sol = ctrl.solve(q, v, c.tau_e)
+        else:
+            # the command state (q and its q̇): what the cycle integrates (the measured v is the servos')
+            v_cmd = v if self.last_sol is None or not hasattr(self.last_sol, "qd") else self.last_sol.qd
+            sol = self.last_sol = c.sol = ctrl.solve(self._command_state(q), v_cmd, c.tau_e)
         self.cycle_times[k] = time.perf_counter() - t0
         if k == 0:
             # the first cycle loads (or compiles) the kernels: the real-time factor starts after it
@@ -243,7 +255,11 @@ class ScenarioRun:
             return False
         for o in observers:
             o.after_solve(c)
-        sim.step(sol.tau_full)
+        if self.servo is None:
+            sim.step(sol.tau_full)
+        else:
+            self.q_cmd = sol.q_next
+            sim.step_position(sol.q_next, sol.qd, *self.servo, gravity_feedforward(self.robot, self.servo_data, q))
         why = simulation_diverged(sim, self.sim_failures)
         if why:
             self.stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}
@@ -262,6 +278,18 @@ class ScenarioRun:
                              f"solver failures {self.failures}{end}")
             sys.stderr.flush()
         return True
+
+    def _command_state(self, q: np.ndarray) -> np.ndarray:
+        """The configuration a velocity cycle solves at: the last command on the actuated joints
+        (a position-controlled robot integrates its own command; its servos close the loop on
+        the measured state), the measured one on a floating base's unactuated root; the
+        measurement on the first cycle."""
+        if self.q_cmd is None:
+            return q
+        out = self.q_cmd.copy()
+        if self.robot.root == "free_flyer":
+            out[:7] = q[:7]
+        return out
 
     def metrics(self) -> dict:
         """The metrics dict of the cycles run (see the module docstring)."""
@@ -286,6 +314,8 @@ class ScenarioRun:
             "faults": self.ctrl.fault_counts(),
             "stopped": self.stopped,
         }
+        if self.mode == "velocity":
+            out["mode"] = "velocity"
         for key in ("relaxed_cycles", "saturated_cycles", "tau_ratio_max", "tau_ratio_requested_max",
                     "singular_cycles", "singularities"):
             out[key] = measured.pop(key)

@@ -37,6 +37,8 @@ class RunOptions:
             simulator simulates (the controller keeps the nominal one): model error.
         wrap_simulator: ``f(sim)`` -> the object the loop drives in place of the simulator,
             with the same :class:`~wbc.sim.backends.PhysicsSimulator` members (the bench's timer).
+        mode: ``"torque"`` or ``"velocity"`` (position-controlled actuators, :mod:`wbc.controller.velocity`);
+            None: the scenario's ``mode``.
     """
 
     solver: str | None = None
@@ -51,6 +53,7 @@ class RunOptions:
     callback: Callable | None = None
     model_perturbation: Callable | None = None
     wrap_simulator: Callable | None = None
+    mode: str | None = None
 
     @classmethod
     def of(cls, options: RunOptions | None, settings: dict) -> RunOptions:

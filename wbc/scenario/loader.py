@@ -20,6 +20,8 @@
     faults: {max_hold_cycles: 20, damping: 10.0, solve_timeout: 0.005}   # wbc.controller.faults: held cycles
                                        # before a stop, the hold torque's damping (1/s), a solve's
                                        # time budget (s; none by default)
+    mode: torque                       # or velocity: x = q̇, position-controlled actuators
+                                       # (wbc.controller.velocity; `wbc run --mode` overrides)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories.position`, an offset from the start value unless ``absolute``).
@@ -61,13 +63,16 @@ from wbc.stack import Stack
 from wbc.tasks.contact import Contact
 from wbc.tasks.contact_wrench import ContactWrench
 from wbc.tasks.null_space_impedance import check_in_stack
+from wbc.tasks.velocity import check_velocity_stack
 from wbc.trajectories.position import build_task_trajectory
 from wbc.validation.schema import boolean, mapping, sequence, text
 from wbc.validation.yamlio import read_document
 
+#: the control modes a scenario may name (``mode:``)
+MODES = ("torque", "velocity")
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
         "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics", "interaction",
-        "faults"}
+        "faults", "mode"}
 
 
 @dataclass
@@ -99,6 +104,8 @@ class Scenario:
         interaction: the external-force source and glass metrics
             (:mod:`wbc.interaction.external_force`); None: none.
         faults: :class:`~wbc.controller.faults.FaultPolicy` keyword arguments; default none.
+        mode: ``"torque"`` (default) or ``"velocity"`` (x = q̇, position-controlled actuators:
+            :mod:`wbc.controller.velocity`).
     """
 
     name: str
@@ -120,6 +127,7 @@ class Scenario:
     joint_dynamics: bool = False      # the URDF's joint damping and friction in the simulator
     interaction: InteractionSpec | None = None   # external-force source and glass metrics (wbc.interaction.external_force)
     faults: dict = field(default_factory=dict)   # FaultPolicy keyword arguments (wbc.controller.faults)
+    mode: str = "torque"     # "torque" or "velocity" (wbc.controller.velocity; `wbc run --mode` overrides)
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -169,10 +177,39 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
         raise ConfigError("needs the mujoco package, which is not installed (pip install 'wbc[mujoco]')",
                           key="simulator")
     joint_dynamics = boolean(cfg.get("joint_dynamics", False), "joint_dynamics")
+    mode = mode_value(cfg.get("mode", "torque"), stack, solver)
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
                     acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
-                    joint_dynamics=joint_dynamics, interaction=interaction, faults=faults)
+                    joint_dynamics=joint_dynamics, interaction=interaction, faults=faults,
+                    mode=mode)
+
+
+def check_mode(sc: Scenario, mode: str | None) -> None:
+    """Whether ``sc`` can run in ``mode`` (``wbc run --mode``; None: its own): a ConfigError naming
+    the scenario's file, the line and key path of the first task without a velocity form."""
+    if mode is None or mode == sc.mode:
+        return
+    try:
+        mode_value(mode, sc.stack, sc.solver)
+    except WbcError as exc:
+        line = read_document(sc.source, ConfigError).line(exc.key) if sc.source is not None else None
+        raise placed(exc, file=sc.source, line=line, cls=ConfigError) from None
+
+
+def mode_value(value: Any, stack: Stack, solver: dict) -> str:
+    """``mode:`` ``torque`` (default) or ``velocity``; a velocity scenario's tasks must all have a
+    velocity form (:func:`wbc.tasks.velocity.check_velocity_stack`: the error names ``stack[k][i].type``)
+    and its solver no inertia weighting."""
+    mode = text(value, "mode", what="torque or velocity")
+    if mode not in MODES:
+        raise ConfigError(f"expected one of {list(MODES)}, got {mode!r}", key="mode")
+    if mode == "velocity":
+        check_velocity_stack(stack.levels)
+        if solver.get("weighting") not in (None, "identity"):
+            raise ConfigError("mode velocity has no inertia matrix: expected weighting identity, got "
+                              f"{solver['weighting']!r}", key="solver.weighting")
+    return mode
 
 
 def _robot(value: Any, src: Path, robot_loader):

@@ -152,6 +152,7 @@ class MujocoSimulator:
         self.noise_q, self.noise_v = noise_q, noise_v
         self._delay: deque = deque(maxlen=latency_steps + 1)
         self.solver_failures = self.saturated_steps = 0
+        self._servo = False             # the joint motors turned position actuators (step_position)
         self._f6 = np.zeros(6)
         self.t = 0.0
         self.set_state(robot.q_default if q0 is None else q0, np.zeros(m.nv) if v0 is None else v0)
@@ -295,9 +296,54 @@ class MujocoSimulator:
             tau = tau[self._act_v]
         if not np.all(np.isfinite(tau)):
             raise WbcError("simulator: non-finite torque")
-        mm, d = self.mj_model, self.mj_data
-        d.ctrl[:] = tau
+        self.mj_data.ctrl[:] = tau
         self.saturated_steps += bool(np.any(np.abs(tau) > self.tau_limits[self._act_v]))
+        self._advance()
+
+    def step_position(self, q_cmd: np.ndarray, v_cmd: np.ndarray, kp: np.ndarray, kd: np.ndarray,
+                      tau_ff: np.ndarray | None = None) -> None:
+        """Advance one control period with position-controlled actuators (:mod:`wbc.robot.servo`):
+        each joint motor becomes a MuJoCo position actuator (gain k_p, bias −k_p q − k_d q̇, force
+        range ±τ_max) on its first call, commanded ctrl = q + (q_cmd ⊖ q) + (k_d q̇_cmd + τ_ff)/k_p, so
+        that its force is τ_ff + k_p (q_cmd ⊖ q) + k_d (q̇_cmd − q̇) at every MuJoCo step. An actuated root
+        (TIAGo's site motors, which have no joint position) gets the same law as a torque held over
+        the period.
+
+        Args:
+            q_cmd: commanded configuration (nq, pinocchio's coordinates).
+            v_cmd: commanded velocity (nv).
+            kp: servo stiffnesses (nv; N·m/rad, N/m).
+            kd: servo dampings (nv; N·m·s/rad, N·s/m).
+            tau_ff: feed-forward torque held over the period (nv; N·m, N); None: none.
+        """
+        mm, d = self.mj_model, self.mj_data
+        act = self._act_v
+        joint = mm.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT
+        if not self._servo:
+            k = np.flatnonzero(joint)
+            mm.actuator_gainprm[k, 0] = kp[act[k]]
+            mm.actuator_biastype[k] = mujoco.mjtBias.mjBIAS_AFFINE
+            mm.actuator_biasprm[k, :3] = np.column_stack([np.zeros(len(k)), -kp[act[k]], -kd[act[k]]])
+            mm.actuator_forcerange[k] = mm.actuator_ctrlrange[k]
+            mm.actuator_forcelimited[k] = 1
+            mm.actuator_ctrllimited[k] = 0
+            self._servo = True
+        err = pin.difference(self.model, self.q, np.asarray(q_cmd, dtype=float))
+        v_cmd = np.asarray(v_cmd, dtype=float)
+        ff = np.zeros(self.model.nv) if tau_ff is None else np.asarray(tau_ff, dtype=float)
+        shift = np.divide(kd * v_cmd + ff, kp, out=np.zeros_like(kd), where=kp > 0)
+        qj = d.qpos[mm.jnt_qposadr[mm.actuator_trnid[:, 0]]]
+        ctrl = np.where(joint, qj + err[act] + shift[act], 0.0)
+        root = ~joint
+        if root.any():
+            tau = ff[act] + kp[act] * err[act] + kd[act] * (v_cmd[act] - self.v[act])
+            ctrl[root] = np.clip(tau[root], -self.tau_limits[act][root], self.tau_limits[act][root])
+        d.ctrl[:] = ctrl
+        self._advance()
+
+    def _advance(self) -> None:
+        """``substeps`` MuJoCo steps at the current ctrl, then the contacts and the state read."""
+        mm, d = self.mj_model, self.mj_data
         w = mujoco.mjtWarning          # MuJoCo resets the state on any of these (a diverged step)
         bad = (w.mjWARN_BADQPOS, w.mjWARN_BADQVEL, w.mjWARN_BADQACC)
         for _ in range(self.substeps):

@@ -222,6 +222,34 @@ class Simulator:
         for _ in range(self.substeps):
             self._substep(tau)
 
+    def step_position(self, q_cmd: np.ndarray, v_cmd: np.ndarray, kp: np.ndarray, kd: np.ndarray,
+                      tau_ff: np.ndarray | None = None) -> None:
+        """Advance one control period with position-controlled actuators: at every physics step
+        τ = τ_ff + k_p (q_cmd ⊖ q) + k_d (q̇_cmd − q̇) on the actuated coordinates
+        (:func:`wbc.robot.servo.servo_torque`), clipped to ±``tau_limits``.
+
+        Args:
+            q_cmd: commanded configuration (nq).
+            v_cmd: commanded velocity (nv; m/s, rad/s).
+            kp: servo stiffnesses (nv; N·m/rad, N/m).
+            kd: servo dampings (nv; N·m·s/rad, N·s/m).
+            tau_ff: feed-forward torque held over the period (nv; N·m, N); None: none.
+        """
+        from wbc.robot.servo import servo_torque
+
+        lim = self.tau_limits
+        clipped = False
+        for _ in range(self.substeps):
+            tau = np.where(self.actuated, servo_torque(self.model, self.q, self.v, q_cmd, v_cmd, kp, kd, tau_ff),
+                           0.0)
+            if not np.all(np.isfinite(tau)):
+                raise WbcError("simulator: non-finite servo torque")
+            if lim is not None and np.any(np.abs(tau) > lim):
+                tau = np.clip(tau, -lim, lim)
+                clipped = True
+            self._substep(tau)
+        self.saturated_steps += clipped
+
     def _external_forces(self):
         active = [p for p in self.pushes if p.active(self.t)]
         if not active:

@@ -70,6 +70,12 @@ class JointLimits(Task):
             self._map = (qi, vi, extra, np.concatenate([vi, extra]))
         return self._map
 
+    def coordinates(self, robot) -> tuple[tuple, tuple]:
+        """((q indices, v indices of the joints with limits, velocity-only coordinates with a
+        finite v_max, every bounded v index), (q_max, q_min, v_max of those joints, v_max of
+        the velocity-only ones)): what the bounds are built from (m, rad, m/s, rad/s)."""
+        return self._indices(robot), self._lim
+
     def bounds(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(v indices, lower, upper) acceleration bounds in rad/s² or m/s²: the joints', then
         the velocity-only coordinates' (v_min − v)/dt ≤ q̈ ≤ (v_max − v)/dt."""

@@ -86,6 +86,10 @@ class Posture(MotionTask):
                 self._idx = np.asarray(idx, dtype=np.int64)
         return self._idx
 
+    def coordinates(self, robot) -> np.ndarray:
+        """The velocity indices of the joints the task drives (its rows' columns)."""
+        return self._indices(robot)
+
     def _q_ref(self, robot) -> np.ndarray:
         if self._target is None:
             self._target = robot.q_default.copy()

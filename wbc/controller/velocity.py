@@ -1,0 +1,210 @@
+"""The velocity-level mode: the same stack, tasks and solvers over x = q̇, for position- or
+velocity-controlled robots (and inverse kinematics).
+
+One cycle, top to bottom:
+
+    robot.update_kinematics(q)    pinocchio: joint Jacobians, frame placements, CoM and J_com
+                                  (no M, no h: nothing here needs the dynamics)
+    rows                          each task's velocity form J q̇ = ẋ_d + K e, its limits as
+                                  bounds on q̇ (wbc.tasks.velocity), one row buffer
+    solver                        the same hqp / projection / weighted solvers, on x = q̇
+    output                        q̇ and q_next = q ⊕ q̇ dt (pin.integrate, on the manifold)
+
+Why a sibling class behind ``Controller(robot, stack, mode="velocity")`` rather than a flag
+inside :class:`~wbc.controller.cycle.Controller`: the torque cycle's steps (force layout,
+floating-base dynamics, contact regularisation, force ramps, torque saturation, the hold
+torque) have no velocity counterpart, and a flag would branch each of them; here the cycle
+is ~100 lines that share the solvers, the row buffer and the diagnostics, not the torque
+path (whose behaviour is unchanged: ``benchmarks/same_behaviour.py``). ``Controller(...,
+mode="velocity")`` returns a :class:`VelocityController`: one way in.
+
+How the Problem says "velocity": its layout has no forces (nx = nv), M is the identity (the
+projection solver's generalised-inverse weight: ``weighting="inertia"`` is refused, there is
+no M) and there are no unactuated rows (no dynamics to hold). The solvers are unchanged.
+The QP margin (the room kept from a limit) is in the rows' units, here m/s and rad/s:
+``margin`` (default 1e-3), not the torque mode's 1 (rad/s², N·m).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+import pinocchio as pin
+
+from wbc.controller.diagnostics import level_diagnostics
+from wbc.controller.faults import FaultMonitor, FaultPolicy
+from wbc.controller.solution import Solution
+from wbc.controller.solver_names import SOLVERS
+from wbc.errors import ConfigError, SolverError
+from wbc.problem.buffer import RowBuffer, row_values
+from wbc.problem.problem import Problem
+from wbc.problem.rows import Layout, Level
+from wbc.robot.model import RobotModel
+from wbc.solvers import create_solver
+from wbc.solvers.backends import Backend
+from wbc.solvers.cascade import Damping
+from wbc.stack import Stack
+from wbc.tasks.dynamics import DifferentialDrive
+from wbc.tasks.velocity import check_velocity_stack, velocity_rows
+
+__all__ = ["VelocityController", "VelocitySolution"]
+
+_NO_INDEX = np.zeros(0, dtype=np.int64)
+
+
+class VelocitySolution(Solution):
+    """A velocity cycle's result: ``qd`` = q̇ (nv; m/s, rad/s) and ``q_next`` = q ⊕ q̇ dt (nq),
+    the command of a position- or velocity-controlled robot. The torque fields are zeros
+    (``tau`` na, ``tau_full`` nv: a velocity cycle computes no torque), ``qdd`` is zeros and
+    ``x`` is q̇; status, residuals and diagnostics as :class:`~wbc.controller.solution.Solution`
+    (residuals in m/s and rad/s).
+
+    Args:
+        qd: the joint velocity q̇ (nv).
+        q_next: the configuration after one period at q̇ (nq).
+        na: the number of actuated coordinates (the zero ``tau``'s length).
+        **kwargs: :class:`Solution`'s ``status``, ``message``, ``qp_count``, ``evaluate``,
+            ``relaxed``, ``residuals``, ``task_residuals``, ``diagnostics``.
+    """
+
+    def __init__(self, qd: np.ndarray, q_next: np.ndarray, na: int, **kwargs) -> None:
+        nv = len(qd)
+        super().__init__(qdd=np.zeros(nv), tau=np.zeros(na), tau_full=np.zeros(nv), forces={}, x=qd, **kwargs)
+        self.qd, self.q_next = qd, q_next
+
+
+class VelocityController:
+    """Velocity-level whole-body controller (module docstring): :meth:`solve` (q) -> q̇, q_next.
+
+    Args:
+        robot: the robot (:func:`wbc.load_robot`); every task is bound to it here.
+        stack: the task hierarchy (a :class:`~wbc.stack.Stack` or its levels); every task must
+            have a velocity form (:data:`wbc.tasks.velocity.VELOCITY_KINDS`), else a
+            TaskDefinitionError naming it and its ``stack[k][i]``.
+        solver: ``"hqp"``, ``"projection"`` or ``"weighted"`` (as :class:`~wbc.Controller`).
+        backend: the QP back-end (as :class:`~wbc.Controller`).
+        weighting: (projection) ``"identity"`` only (None: identity): there is no M here.
+        damping: the cascade's singularity damping (None: the solver's default).
+        sacrifice_tol: absolute part of the sacrifice threshold (m/s, rad/s); default 1e-6.
+        level_weight: (weighted) the weight ratio between successive folded levels.
+        dt: the control period (s): q_next = q ⊕ q̇ dt; default 1 ms.
+        sacrifice_rel: relative part of the sacrifice threshold (fraction of ‖b‖); default 1e-3.
+        gain: K (1/s) of every motion task's J q̇ = ẋ_d + K e; None (default): √K_p of each
+            task's own gains. ``1/dt`` makes each cycle a full Gauss–Newton step.
+        margin: the room a QP keeps from a limit where it can (m/s, rad/s); default 1e-3.
+        faults: the fault policy (a faulty cycle holds q: q̇ = 0, q_next = the measured q).
+        solve_timeout: the policy's per-cycle budget (s); None: the policy's.
+        mode: ``"velocity"`` (accepted so that ``Controller``'s keywords pass through).
+    """
+
+    mode = "velocity"
+
+    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
+                 weighting: str | None = None, damping: Damping | None = None, sacrifice_tol: float = 1e-6,
+                 level_weight: float | None = None, dt: float = 1e-3, sacrifice_rel: float = 1e-3,
+                 gain: float | None = None, margin: float = 1e-3, faults: FaultPolicy | None = None,
+                 solve_timeout: float | None = None, mode: str = "velocity", **torque_only) -> None:
+        if solver not in SOLVERS:
+            raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
+        if weighting not in (None, "identity"):
+            raise ConfigError(f"weighting {weighting!r} needs the inertia matrix, which the velocity mode "
+                              "does not compute: expected 'identity'", key="solver.weighting")
+        unused = sorted(k for k, v in torque_only.items() if k not in ("warm_start", "contact_regularization"))
+        if unused:
+            raise ConfigError(f"unknown option(s) {unused} for the velocity mode", key=unused[0])
+        if gain is not None and not (np.isfinite(gain) and gain > 0):
+            raise ConfigError(f"gain must be a number > 0 (1/s), got {gain!r}", key="gain")
+        if not isinstance(stack, Stack):
+            stack = Stack(stack)
+        check_velocity_stack(stack.levels)
+        self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
+        self.sacrifice_tol, self.sacrifice_rel = sacrifice_tol, sacrifice_rel
+        self.dt, self.gain = float(dt), gain
+        options = {k: v for k, v in (("level_weight", level_weight),) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
+        self.margin = float(margin)
+        policy = faults or FaultPolicy()
+        if solve_timeout is not None:
+            policy = FaultPolicy(policy.max_hold_cycles, policy.damping, policy.detect_stale, solve_timeout)
+        self.faults = FaultMonitor(policy)
+        self._diff_drive = DifferentialDrive() if robot.differential_drive else None
+        self.layout = Layout(nv=robot.nv)
+        self._identity = np.eye(robot.nv)
+        self._h = np.zeros(robot.nv)
+        self._buffer: RowBuffer | None = None
+        self.levels: list[Level] = []
+        self.phase_clock = None
+        for task in self.stack:
+            task.bind(robot)
+
+    def lowest_tasks(self) -> list:
+        """None: the velocity mode adds no level below the stack's."""
+        return []
+
+    def fault_counts(self) -> dict[str, int]:
+        """As :meth:`wbc.Controller.fault_counts`."""
+        return {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
+
+    def solve(self, q: np.ndarray, v: np.ndarray | None = None, external_torque: np.ndarray | None = None
+              ) -> VelocitySolution:
+        """One velocity cycle at q under the fault policy.
+
+        Args:
+            q: measured configuration (nq).
+            v: measured velocity (nv; kept as the model's v, read by no row); None: zeros.
+            external_torque: must be None (a velocity cycle has no dynamics).
+
+        Returns:
+            The :class:`VelocitySolution` (q̇, q_next, status, diagnostics).
+        """
+        if external_torque is not None and np.any(external_torque):
+            raise ConfigError("the velocity mode takes no external torque (no dynamics)", key="external_torque")
+        v = np.zeros(self.robot.nv) if v is None else v
+        return self.faults.cycle(q, v, self._solve, self._hold)
+
+    def groups(self) -> list[list]:
+        """The levels of tasks solved this cycle: the stack's, the differential drive in level 0."""
+        levels = self.stack.levels
+        if self._diff_drive is None:
+            return levels
+        return [[self._diff_drive, *(levels[0] if levels else [])], *levels[1:]]
+
+    def _solve(self, q: np.ndarray, v: np.ndarray) -> VelocitySolution:
+        robot, nv, dt, gain = self.robot, self.robot.nv, self.dt, self.gain
+        q, v = robot.check_state(q, v, finite=False)
+        robot.update_kinematics(q, v)
+        groups = self.groups()
+        rows = [[velocity_rows(t, robot, nv, dt, gain) for t in tasks] for tasks in groups]
+        key = (self.stack.version, tuple(len(g) for g in groups))
+        buf = self._buffer
+        if buf is None or buf.key != key or not buf.fill(groups, rows):
+            buf = self._buffer = RowBuffer(nv, groups, rows, key=key)
+            buf.fill(groups, rows)
+        self.levels = levels = buf.levels
+        res = self.solver.solve(Problem(levels, self.layout, self._identity, self._h, _NO_INDEX,
+                                         margin=self.margin))
+        qd = res.x[:nv]
+        ok, message = res.ok, res.message
+        if not np.all(np.isfinite(qd)):
+            ok, message = False, "non-finite solution"
+        relaxed = any(info.relaxed for info in res.levels)
+        status = "ok" if ok else "failed"
+        if ok and relaxed:
+            status = "relaxed"
+        elif ok and res.degraded:
+            status = "degraded"
+        if not ok:
+            qd = np.zeros(nv)
+        values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
+        evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
+                           (not res.enforces_inequality_rows, res.outside_cascade),
+                           (self.sacrifice_tol, self.sacrifice_rel))
+        return VelocitySolution(qd, pin.integrate(robot.model, q, qd * dt), robot.na, status=status,
+                                message=message, qp_count=res.qp_count, evaluate=evaluate, relaxed=relaxed)
+
+    def _hold(self, v: np.ndarray, message: str) -> VelocitySolution:
+        """A faulty cycle: hold the model's last configuration (q̇ = 0)."""
+        robot = self.robot
+        return VelocitySolution(np.zeros(robot.nv), robot.q.copy(), robot.na, status="failed", message=message,
+                                residuals=[], task_residuals={}, diagnostics=[])
