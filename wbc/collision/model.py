@@ -152,6 +152,14 @@ class CollisionModel:
                        if isinstance(g.geometry, coal.Halfspace)}
         self._cycle: Any = None
         self._rows: Any = None
+        #: J̇_d q̇ from the distance's exact second difference (:meth:`_curvature_drift`); False:
+        #: the witness points' rigid-body drift only (cheaper, blind to the surfaces' curvature)
+        self.exact_drift = True
+        self.drift_step = 1e-3
+        self._fd_data = model.createData()
+        self._fd_gd = pin.GeometryData(gm)
+        for req in self._fd_gd.distanceRequests:
+            req.gjk_tolerance = 1e-10
         #: (njoints × nv) 1 where joint j's Jacobian may be non-zero (its supporting chain)
         self._support = np.zeros((model.njoints, model.nv))
         for j in range(1, model.njoints):
@@ -185,16 +193,13 @@ class CollisionModel:
             gaps[k] = n @ c - off - r
         return gaps
 
-    def _result(self, k: int):
-        """Pair k's distance result of the last ``computeDistances``: (d, p1, p2, n)."""
-        res = self.geometry_data.distanceResults[k]
-        return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
-                np.array(res.normal))
 
-    def _compute(self, active: np.ndarray | None) -> None:
+    def _compute(self, active: np.ndarray | None, gd: pin.GeometryData | None = None) -> None:
         """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs flagged in
-        ``active`` (None: all), on the placements already updated."""
-        gm, gd = self.geometry_model, self.geometry_data
+        ``active`` (None: all), on the placements already updated (in ``gd``, default the
+        control cycle's :attr:`geometry_data`)."""
+        gm = self.geometry_model
+        gd = self.geometry_data if gd is None else gd
         n = gm.ngeoms
         cmap = self._all_map if active is None else np.zeros((n, n), dtype=bool)
         if active is not None:
@@ -203,17 +208,42 @@ class CollisionModel:
         gd.setActiveCollisionPairs(gm, cmap)
         pin.computeDistances(gm, gd)
 
-    def all_distances(self, q: np.ndarray, data: pin.Data | None = None) -> np.ndarray:
+    def all_distances(self, q: np.ndarray, data: pin.Data | None = None,
+                      geometry_data: pin.GeometryData | None = None) -> np.ndarray:
         """The exact distance of every monitored pair at ``q`` (m), on its own pinocchio
         data (for monitoring the simulator's true state; the control cycle's rows, computed
-        before, are kept)."""
+        before, are kept).
+
+        Args:
+            q: the configuration (nq).
+            data: pinocchio data to compute the placements in (None: a new one).
+            geometry_data: where the distance results go (None: :attr:`geometry_data`, the
+                control cycle's; a monitor passes its own, :meth:`new_geometry_data`).
+        """
         model = self.robot.model
         data = model.createData() if data is None else data
+        gd = self.geometry_data if geometry_data is None else geometry_data
         pin.forwardKinematics(model, data, q)
-        pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
-        self._compute(None)
-        res = self.geometry_data.distanceResults
+        pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
+        self._compute(None, gd)
+        res = gd.distanceResults
         return np.array([res[k].min_distance for k in range(len(self.pairs))])
+
+    def new_geometry_data(self) -> pin.GeometryData:
+        """A GeometryData of its own (placements and results apart from the control cycle's),
+        with the same distance requests (tolerances) as :attr:`geometry_data`."""
+        gd = pin.GeometryData(self.geometry_model)
+        for mine, theirs in zip(gd.distanceRequests, self.geometry_data.distanceRequests):
+            mine.gjk_tolerance = theirs.gjk_tolerance
+        return gd
+
+    def witness_of(self, k: int, geometry_data: pin.GeometryData | None = None):
+        """Pair k's last distance result in ``geometry_data`` (default :attr:`geometry_data`):
+        (d in m, p1, p2 world witness points in m, unit normal n from the first to the second)."""
+        gd = self.geometry_data if geometry_data is None else geometry_data
+        res = gd.distanceResults[k]
+        return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
+                np.array(res.normal))
 
     def witness(self, influence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Broad then exact phase on the placements already updated: (pair indices, d, p1,
@@ -222,7 +252,7 @@ class CollisionModel:
         near = np.flatnonzero(self._broad_gaps(W) < influence)
         self._compute(near)
         res = self.geometry_data.distanceResults
-        out = [(int(k), *self._result(int(k))) for k in near if res[int(k)].min_distance < influence]
+        out = [(int(k), *self.witness_of(int(k))) for k in near if res[int(k)].min_distance < influence]
         m = len(out)
         ks = np.array([o[0] for o in out], dtype=np.int64)
         d = np.array([o[1] for o in out], dtype=float)
@@ -255,9 +285,33 @@ class CollisionModel:
                 coef = np.concatenate([N, _cross(P, N)], axis=1) * sign          # (k × 6)
                 J += (coef @ data.J) * self._support[jid]
                 drift += sign * self._point_drift(data, jid, P, N)
+        if m and self.exact_drift:
+            drift = self._curvature_drift(robot, ks)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
+
+    def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
+        """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance
+        along q̈ = 0, d̈ = [d(q ⊕ εv) − 2 d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at
+        1e-10 m), which holds the terms the witness-point drift leaves out: the normal's turn
+        and the witness points sliding over curved or rotating surfaces (a hand sliding round a
+        sphere: ~1 m/s² at 0.25 m/s, which the damper would turn into a steady d_s − 1/ω² × that)."""
+        model, gm, gd, data = robot.model, self.geometry_model, self._fd_gd, self._fd_data
+        n = gm.ngeoms
+        cmap = np.zeros((n, n), dtype=bool)
+        cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
+        gd.setActiveCollisionPairs(gm, cmap)
+        eps = self.drift_step
+        out = np.zeros(len(ks))
+        for step, w in ((0.0, -2.0), (eps, 1.0), (-eps, 1.0)):
+            q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
+            pin.forwardKinematics(model, data, q)
+            pin.updateGeometryPlacements(model, data, gm, gd)
+            pin.computeDistances(gm, gd)
+            res = gd.distanceResults
+            out += w * np.array([res[int(k)].min_distance for k in ks])
+        return out / (eps * eps)
 
     def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
         """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r),

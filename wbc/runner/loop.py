@@ -12,6 +12,11 @@ clipping); per sole contact ``cop_edge_min`` (m), ``cop_inside_1cm`` and
 ``normal_force_min`` (N), and for two contacts ``internal_force`` (N), all from the
 simulator's contact forces (:class:`~wbc.runner.metrics.ContactMetrics`).
 
+Collisions: a stack with a ``collision_avoidance`` task gets ``collision_distance_min`` (m, every
+monitored pair, every cycle, on the simulator's true state), ``collision_closest_pair``,
+``collision_pairs_active_max``, ``collision_rows_binding_max`` and ``collision_closest``
+(:class:`~wbc.runner.observers.CollisionObserver`, :mod:`wbc.collision.monitor`).
+
 Faults (:mod:`wbc.controller.faults`, ``docs/faults.md``): ``faults`` holds the controller's fault
 counters (a non-finite or stale measurement, a solver that raised, failed or overran, the
 cycles held, the stops); a run the controller stopped, or whose simulated state diverged
@@ -49,6 +54,7 @@ from wbc.runner.compile_notice import CompileNotice
 from wbc.runner.metrics import RunMetrics, fallen
 from wbc.runner.observers import (
     CallbackObserver,
+    CollisionObserver,
     Cycle,
     ExternalForceObserver,
     InteractionObserver,
@@ -180,6 +186,9 @@ class ScenarioRun:
             out.append(InteractionObserver(interaction))
         if sc.interaction is not None:      # external-force source and glass figures of an interaction scenario
             out.append(ExternalForceObserver(ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)))
+        for task in stack:                  # collision monitoring: every pair's distance on the true state
+            if task.kind == "collision_avoidance":
+                out.append(CollisionObserver(task, sim.q))
         if o.callback is not None:
             out.append(CallbackObserver(o.callback))
         out.extend(o.observers)

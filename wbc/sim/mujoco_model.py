@@ -1,7 +1,7 @@
 """The MuJoCo model of a robot, compiled at run time from its own URDF (:mod:`wbc.sim.mujoco_sim`
 has the conventions): the URDF's joints and inertias, a free, planar or fixed root, sole boxes
 and contact spheres at the robot's contact points, one motor per actuated joint with
-``ctrlrange`` = ±τ_max, the scenario's ground, incline and boxes with their μ, and explicit
+``ctrlrange`` = ±τ_max, the scenario's ground, incline, planes, boxes, spheres and cylinders with their μ, and explicit
 contact pairs for the points that carry their own MuJoCo contact parameters.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import WbcError
-from .environment import Box, HalfSpace
+from .environment import Box, Cylinder, HalfSpace, Sphere
 
 if TYPE_CHECKING:
     from wbc.robot.model import RobotModel
@@ -138,6 +138,12 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
         elif isinstance(s, Box):
             spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=s.center,
                                     size=s.size / 2, **env)
+        elif isinstance(s, Sphere):
+            spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=s.center,
+                                    size=[s.radius, 0, 0], **env)
+        elif isinstance(s, Cylinder):
+            spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=s.center,
+                                    size=[s.radius, s.length / 2, 0], **env)
         else:
             raise WbcError(f"mujoco: unsupported environment shape {type(s).__name__}")
         for gname, params in paired:      # what the priority rule gives, with the point's solref/solimp
