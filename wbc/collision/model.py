@@ -71,6 +71,15 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
+def _pair_line(path, j: int) -> int | None:
+    """The line (1-based) of the j-th pair of a pair file, or None."""
+    if path is None:
+        return None
+    from ..validation.yamlio import read_document
+
+    return read_document(path, RobotDefinitionError).line(f"pairs[{j}]")
+
+
 def bounding_sphere(geometry) -> tuple[np.ndarray, float]:
     """(centre in the geometry's frame, radius) of a sphere enclosing ``geometry`` (m);
     infinite radius for a half-space."""
@@ -97,7 +106,7 @@ class CollisionModel:
     def __init__(self, robot, obstacles: Sequence[Obstacle] = (), obstacle_links: list[str] | None = None,
                  self_collision: bool = True, self_pairs: list[tuple[str, str]] | str | None = None,
                  hull_dir: Path | None = None) -> None:
-        from .pairs import default_self_pairs, read_pair_file
+        from .pairs import default_self_pairs, pair_file, read_pair_file
 
         self.robot = robot
         model = robot.model
@@ -121,16 +130,19 @@ class CollisionModel:
         self.links = [model.frames[g.parentFrame].name for g in gm.geometryObjects]
         pairs: list[tuple[int, int]] = []
         if self_collision:
+            read = None
             if self_pairs is None:
-                self_pairs = read_pair_file(robot)
+                self_pairs = read = read_pair_file(robot)
             chosen: list[tuple[str, str]] = (default_self_pairs(robot, gm, self.n_robot)
                                               if self_pairs is None or isinstance(self_pairs, str) else list(self_pairs))
             idx = {n: i for i, n in enumerate(robot_names)}
-            for a, b in chosen:
+            source = pair_file(robot) if read is not None and self_pairs is read else None
+            for j, (a, b) in enumerate(chosen):
                 for name in (a, b):
                     if name not in idx:
-                        raise RobotDefinitionError(f"self pair ({a}, {b}): no robot geometry '{name}'; expected one "
-                                                   f"of {robot_names}")
+                        raise RobotDefinitionError(f"no robot geometry '{name}' (self pair [{a}, {b}]); expected "
+                                                   f"one of {robot_names}", key=f"pairs[{j}]", file=source,
+                                                   line=_pair_line(source, j))
                 pairs.append((idx[a], idx[b]))
         for k in range(len(obstacles)):
             ob = self.n_robot + k

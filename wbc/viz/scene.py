@@ -43,7 +43,7 @@ import pinocchio as pin
 from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
-from ..sim.environment import Box, HalfSpace
+from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from . import server
 from .diagnostics import overlay_html, render_png, table_lines
 
@@ -174,6 +174,14 @@ class Scene:
             if isinstance(s, Box):
                 self.vis[f"env/{s.name}"].set_object(mg.Box(s.size), mg.MeshLambertMaterial(color=0x8D6E63))
                 self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center))
+            elif isinstance(s, Sphere):
+                self.vis[f"env/{s.name}"].set_object(mg.Sphere(s.radius), mg.MeshLambertMaterial(color=0x8D6E63))
+                self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center))
+            elif isinstance(s, Cylinder):       # meshcat's cylinder is along y; the obstacle's along z
+                self.vis[f"env/{s.name}"].set_object(mg.Cylinder(s.length, s.radius),
+                                                     mg.MeshLambertMaterial(color=0x8D6E63))
+                self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center)
+                                                        @ mt.rotation_matrix(np.pi / 2, [1, 0, 0]))
             elif isinstance(s, HalfSpace):
                 T = np.eye(4)
                 T[:3, :3] = s.R
@@ -301,6 +309,9 @@ class Scene:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
             self._legend = [line for task in stack if task.kind == "force"
                             for line in self._draw_task_force(task, stack)]
+            for task in stack:
+                if task.kind == "collision_avoidance":
+                    self._draw_witnesses(task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
             pin.updateFramePlacement(m, d, fid)
@@ -314,6 +325,27 @@ class Scene:
                 self._place(f"extras/{name}", *_arrow_pose(*arrow), hideable=True)
         for name, p in (points or {}).items():
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
+
+    def _draw_witnesses(self, task, count: int = 5) -> None:
+        """The ``count`` closest pairs' witness segments p₁–p₂ of a collision task's last cycle,
+        coloured by distance: red at or below the safety distance d_s, through yellow, to green
+        at the influence distance d_i (pairs beyond it have no row and are not drawn). Live
+        only (a recording's frames hold transforms, not new lines)."""
+        if self._target is not None:
+            return
+        last = task.last
+        rows, order = (None, []) if last is None else last
+        for slot in range(count):
+            node = self.vis[f"collision/{task.name}/{slot}"]
+            if slot >= len(order):
+                node.delete()
+                continue
+            i = order[slot]
+            u = float(np.clip((rows.d[i] - task.safety) / (task.influence - task.safety), 0.0, 1.0))
+            r, g = (1.0, 2 * u) if u < 0.5 else (2 * (1 - u), 1.0)
+            color = (int(255 * r) << 16) | (int(255 * min(g, 1.0)) << 8)
+            line = np.stack([rows.p1[i], rows.p2[i]], axis=1).astype(np.float32)
+            node.set_object(mg.Line(mg.PointsGeometry(line), mg.LineBasicMaterial(color=color, linewidth=4)))
 
     def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """(point, desired, measured) of a force task at the last drawn state: its contact's
