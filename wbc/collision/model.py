@@ -80,6 +80,26 @@ def _pair_line(path, j: int) -> int | None:
     return read_document(path, RobotDefinitionError).line(f"pairs[{j}]")
 
 
+def _vertices(geometry) -> np.ndarray:
+    """Vertices (n × 3, m) whose convex hull is (or encloses) ``geometry``."""
+    if isinstance(geometry, coal.ConvexBase):
+        return np.asarray(geometry.points(), dtype=float).reshape(-1, 3)
+    if isinstance(geometry, coal.Box):
+        h = np.asarray(geometry.halfSide, dtype=float)
+        return np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * h
+    dirs = np.array([[x, y, z] for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)],
+                    dtype=float)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    if isinstance(geometry, coal.Sphere):
+        return dirs * geometry.radius / np.cos(np.pi / 4) ** 2       # a shell enclosing the sphere
+    if isinstance(geometry, coal.Capsule | coal.Cylinder):
+        r, h = geometry.radius, geometry.halfLength
+        ring = dirs[np.abs(dirs[:, 2]) < 1e-9] * r / np.cos(np.pi / 8)
+        return np.vstack([ring + [0, 0, h], ring - [0, 0, h]] + ([dirs * r / np.cos(np.pi / 4) ** 2 + [0, 0, s * h]
+                                                                   for s in (-1, 1)] if isinstance(geometry, coal.Capsule) else []))
+    raise TypeError(f"no vertices for a {type(geometry).__name__}")
+
+
 def bounding_sphere(geometry) -> tuple[np.ndarray, float]:
     """(centre in the geometry's frame, radius) of a sphere enclosing ``geometry`` (m);
     infinite radius for a half-space."""
@@ -184,6 +204,24 @@ class CollisionModel:
             self._all_map[self.pairs[:, 0], self.pairs[:, 1]] = True
 
     # ------------------------------------------------------------ queries
+    def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
+        """The robot geometries on ``links`` (None: those paired with an obstacle), for another
+        simulator to collide (MuJoCo, :func:`wbc.sim.mujoco_model.build_model`'s ``link_geoms``):
+        (geometry name, its joint's name, placement in the joint's frame, hull vertices n × 3 in m).
+        Non-mesh primitives are given by the vertices of their convex hull too (sampled
+        surface: boxes' corners, spheres' and capsules' 26-point shells)."""
+        if links is None:
+            obstacles = set(range(self.n_robot, self.geometry_model.ngeoms))
+            wanted = {int(i) for i, j in self.pairs if int(j) in obstacles}
+        else:
+            wanted = {i for i in range(self.n_robot) if self.links[i] in links}
+        out = []
+        for i in sorted(wanted):
+            g = self.geometry_model.geometryObjects[i]
+            out.append((g.name, self.robot.model.names[g.parentJoint], g.placement, _vertices(g.geometry)))
+        return out
+
+
     def pair_name(self, k: int) -> str:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"

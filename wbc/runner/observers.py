@@ -153,6 +153,20 @@ class CollisionObserver(RunObserver):
 
     def after_step(self, c: Cycle) -> None:
         self.monitor.record(c.t + c.sim.dt, c.sim.q, self.in_use, self.binding)
+        touching = c.sim.link_contacts() if hasattr(c.sim, "link_contacts") else None
+        if touching is not None:
+            self.mujoco_checked = True
+            if touching:
+                self.link_contact_cycles += 1
+                if self.first_contact is None:
+                    self.first_contact = {"time": c.t + c.sim.dt, "contacts": [list(x) for x in touching[:5]]}
+
+    mujoco_checked = False
+    link_contact_cycles = 0
+    first_contact: dict | None = None
 
     def summary(self) -> dict:
-        return self.monitor.summary()
+        out = self.monitor.summary()
+        if self.mujoco_checked:
+            out.update(mujoco_link_contacts=self.link_contact_cycles, mujoco_link_contact_first=self.first_contact)
+        return out

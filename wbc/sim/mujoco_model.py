@@ -70,11 +70,14 @@ def _pair_params(params: dict) -> dict:
 
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
                 joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
-                joint_dynamics: bool = False) -> mujoco.MjModel:
+                joint_dynamics: bool = False, link_geoms: Sequence = ()) -> mujoco.MjModel:
     """The MuJoCo model of ``robot`` (a :class:`~wbc.robot.model.RobotModel`) in ``environment``
     (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`contact_points`. See the
     module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
-    motors' limits, the robot's by default."""
+    motors' limits, the robot's by default. ``link_geoms``: (name, joint name, placement in the
+    joint's frame, vertices n × 3 in m) of robot collision geometries to add as convex meshes
+    (``wbc_link_<name>``) that collide with the environment: what MuJoCo's contact list then
+    reports (:meth:`wbc.sim.mujoco_sim.MujocoSimulator.link_contacts`)."""
     if inertias not in ("model", "urdf"):
         raise WbcError(f"mujoco: inertias must be 'model' or 'urdf', got {inertias!r}")
     m = robot.model
@@ -124,6 +127,11 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
                        pos=r + POINT_RADIUS * R[:, 2], size=[POINT_RADIUS, 0, 0], **geom)
             if params:
                 paired.append((f"wbc_point_geom_{i}", params))
+    for gname, jname, M, verts in link_geoms:        # chosen links' collision hulls, against the environment
+        spec.add_mesh(name=f"wbc_mesh_{gname}", uservert=np.asarray(verts, dtype=float).ravel().tolist())
+        body_of(m.getJointId(jname)).add_geom(name=f"wbc_link_{gname}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                                              meshname=f"wbc_mesh_{gname}", pos=M.translation,
+                                              quat=_quat_wxyz(M.rotation), **robot_geom)
     for c in (c for c in robot.contacts.values() if c.kind == "surface"):
         f = m.frames[m.getFrameId(c.frame)]
         M = f.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, SOLE_THICKNESS / 2]))
