@@ -95,8 +95,9 @@ def _vertices(geometry) -> np.ndarray:
     if isinstance(geometry, coal.Capsule | coal.Cylinder):
         r, h = geometry.radius, geometry.halfLength
         ring = dirs[np.abs(dirs[:, 2]) < 1e-9] * r / np.cos(np.pi / 8)
-        return np.vstack([ring + [0, 0, h], ring - [0, 0, h]] + ([dirs * r / np.cos(np.pi / 4) ** 2 + [0, 0, s * h]
-                                                                   for s in (-1, 1)] if isinstance(geometry, coal.Capsule) else []))
+        caps = ([dirs * r / np.cos(np.pi / 4) ** 2 + [0, 0, s * h] for s in (-1, 1)]
+                if isinstance(geometry, coal.Capsule) else [])
+        return np.vstack([ring + [0, 0, h], ring - [0, 0, h], *caps])
     raise TypeError(f"no vertices for a {type(geometry).__name__}")
 
 

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from wbc.validation.schema import number
+from wbc.validation.schema import boolean, number, sequence, text
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows
@@ -67,13 +67,17 @@ class CollisionAvoidance(Task):
         self.max_speed = number(max_speed, "max_speed", gt=0, le=100, unit="m/s", error=TaskDefinitionError,
                                 owner=owner)
         self.max_rows = int(number(max_rows, "max_rows", ge=1, le=1000, error=TaskDefinitionError, owner=owner))
-        self.self_collision = bool(self_collision)
+        err = dict(error=TaskDefinitionError, owner=owner)
+        self.self_collision = boolean(self_collision, "self_collision", **err)
         from wbc.collision.shapes import Obstacle, obstacle
 
+        obstacles = sequence(obstacles, "obstacles", what="a list of obstacle mappings", **err)
         self.obstacles = [o if isinstance(o, Obstacle) else obstacle(o, f"obstacles[{i}]", f"obstacle_{i}")
                           for i, o in enumerate(obstacles)]
-        self.links = None if links is None else list(links)
-        self.environment = bool(environment)
+        self.links = None if links is None else [
+            text(x, f"links[{i}]", what="a link name", **err)
+            for i, x in enumerate(sequence(links, "links", min_len=1, what="a list of link names", **err))]
+        self.environment = boolean(environment, "environment", **err)
         self.environment_obstacles: list = []
         self.omega = self.max_speed / (self.influence - self.safety)
         self.model: Any = None          # the CollisionModel, built at bind

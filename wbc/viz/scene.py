@@ -45,6 +45,7 @@ from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from . import server
+from .collisions import draw_witnesses
 from .diagnostics import overlay_html, render_png, table_lines
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
@@ -310,8 +311,8 @@ class Scene:
             self._legend = [line for task in stack if task.kind == "force"
                             for line in self._draw_task_force(task, stack)]
             for task in stack:
-                if task.kind == "collision_avoidance":
-                    self._draw_witnesses(task)
+                if task.kind == "collision_avoidance" and self._target is None:     # live only
+                    draw_witnesses(self.vis, task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
             pin.updateFramePlacement(m, d, fid)
@@ -325,27 +326,6 @@ class Scene:
                 self._place(f"extras/{name}", *_arrow_pose(*arrow), hideable=True)
         for name, p in (points or {}).items():
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
-
-    def _draw_witnesses(self, task, count: int = 5) -> None:
-        """The ``count`` closest pairs' witness segments p₁–p₂ of a collision task's last cycle,
-        coloured by distance: red at or below the safety distance d_s, through yellow, to green
-        at the influence distance d_i (pairs beyond it have no row and are not drawn). Live
-        only (a recording's frames hold transforms, not new lines)."""
-        if self._target is not None:
-            return
-        last = task.last
-        rows, order = (None, []) if last is None else last
-        for slot in range(count):
-            node = self.vis[f"collision/{task.name}/{slot}"]
-            if slot >= len(order):
-                node.delete()
-                continue
-            i = order[slot]
-            u = float(np.clip((rows.d[i] - task.safety) / (task.influence - task.safety), 0.0, 1.0))
-            r, g = (1.0, 2 * u) if u < 0.5 else (2 * (1 - u), 1.0)
-            color = (int(255 * r) << 16) | (int(255 * min(g, 1.0)) << 8)
-            line = np.stack([rows.p1[i], rows.p2[i]], axis=1).astype(np.float32)
-            node.set_object(mg.Line(mg.PointsGeometry(line), mg.LineBasicMaterial(color=color, linewidth=4)))
 
     def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """(point, desired, measured) of a force task at the last drawn state: its contact's
