@@ -126,4 +126,4 @@ def test_starting_in_collision_warns_and_is_pushed_out(tmp_path):
     for k in range(r.n):
         assert r.cycle(k)
         assert np.all(np.isfinite(r.last_sol.tau))
-    assert obs.monitor.last.min() >= 0.02 - 1e-3
+    assert obs.monitor.last[0].min() >= 0.02 - 1e-3

@@ -280,6 +280,50 @@ class CollisionModel:
         res = gd.distanceResults
         return np.array([res[k].min_distance for k in range(len(self.pairs))])
 
+    def smallest_distances(self, q: np.ndarray, count: int, data: pin.Data,
+                           geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
+        """The ``count`` smallest distances over **all** monitored pairs at ``q`` (m), exactly, and
+        their pair indices, nearest first. Exact distances are computed in order of the broad
+        phase's lower bound (bounding spheres: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d, also in penetration) until
+        that bound exceeds the ``count``-th smallest distance found: no pair left out can be
+        nearer, so the result is the one all pairs would give, at a fraction of the cost.
+
+        Args:
+            q: the configuration (nq).
+            count: how many (≥ 1).
+            data: pinocchio data for the placements.
+            geometry_data: where the results go (:meth:`new_geometry_data`).
+        """
+        model, gm, gd = self.robot.model, self.geometry_model, geometry_data
+        pin.forwardKinematics(model, data, q)
+        pin.updateGeometryPlacements(model, data, gm, gd)
+        oMg = gd.oMg
+        H = np.array([oMg[i].homogeneous for i in range(len(self.centres))])
+        W = np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
+        bound = self._broad_gaps(W)
+        order = np.argsort(bound)
+        n = gm.ngeoms
+        best_d: list[float] = []
+        best_k: list[int] = []
+        res = gd.distanceResults
+        start, batch = 0, max(8, count)
+        while start < len(order):
+            if len(best_d) >= count and bound[order[start]] > sorted(best_d)[count - 1]:
+                break
+            ks = order[start:start + batch]
+            cmap = np.zeros((n, n), dtype=bool)
+            cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
+            gd.setActiveCollisionPairs(gm, cmap)
+            pin.computeDistances(gm, gd)
+            for k in ks:
+                best_d.append(float(res[int(k)].min_distance))
+                best_k.append(int(k))
+            start += batch
+            batch *= 2
+        d, k = np.array(best_d), np.array(best_k, dtype=np.int64)
+        first = np.argsort(d)[:count]
+        return d[first], k[first]
+
     def new_geometry_data(self) -> pin.GeometryData:
         """A GeometryData of its own (placements and results apart from the control cycle's),
         with the same distance requests (tolerances) as :attr:`geometry_data`."""
@@ -335,7 +379,8 @@ class CollisionModel:
                 jid = self.joint_of[g]
                 coef = np.concatenate([N, _cross(P, N)], axis=1) * sign          # (k × 6)
                 J += (coef @ data.J) * self._support[jid]
-                drift += sign * self._point_drift(data, jid, P, N)
+                if not self.exact_drift:
+                    drift += sign * self._point_drift(data, jid, P, N)
         if m and self.exact_drift:
             drift = self._curvature_drift(robot, ks)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
@@ -372,15 +417,17 @@ class CollisionModel:
     def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
         """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r),
         r = p − o_j, all world-aligned (m/s²); zero on the universe (joint 0)."""
-        k = len(jid)
-        R = np.empty((k, 3, 3))
-        o = np.empty((k, 3))
-        va = np.empty((k, 4, 3))
-        for i, j in enumerate(jid):     # k ≤ a few tens: the per-joint quantities pinocchio holds
+        joints, inv = np.unique(jid, return_inverse=True)
+        u = len(joints)
+        Ru = np.empty((u, 3, 3))
+        ou = np.empty((u, 3))
+        vau = np.empty((u, 4, 3))
+        for i, j in enumerate(joints):  # once per joint: the per-joint quantities pinocchio holds
             M = data.oMi[int(j)]
-            R[i], o[i] = M.rotation, M.translation
+            Ru[i], ou[i] = M.rotation, M.translation
             v, acc = data.v[int(j)], data.a[int(j)]
-            va[i] = (v.linear, v.angular, acc.linear, acc.angular)
+            vau[i] = (v.linear, v.angular, acc.linear, acc.angular)
+        R, o, va = Ru[inv], ou[inv], vau[inv]
         world = np.einsum("kab,knb->kna", R, va)                       # rotated to the world
         v_o, w, a_o, alpha = world[:, 0], world[:, 1], world[:, 2], world[:, 3]
         r = P - o

@@ -41,35 +41,35 @@ class CollisionMonitor:
         self.pairs_active_max = 0
         self.rows_binding_max = 0
         self.cycles = 0
-        self.last: np.ndarray | None = None
+        self.last: tuple[np.ndarray, np.ndarray] | None = None   # the last cycle's 5 smallest (d, pairs)
 
     def distances(self, q: np.ndarray) -> np.ndarray:
         """Every monitored pair's distance at ``q`` (m), in the monitor's own data."""
         return self.model.all_distances(q, self.data, self.gdata)
 
     def record(self, t: float, q: np.ndarray, rows_in_use: int = 0, rows_binding: int = 0) -> float:
-        """One cycle: the distances at the true state ``q``, and the task's rows in use and at
-        their bound this cycle. Returns this cycle's smallest distance (m)."""
-        d = self.last = self.distances(q)
+        """One cycle: the five smallest distances over every pair at the true state ``q`` (exact:
+        :meth:`~wbc.collision.model.CollisionModel.smallest_distances`), and the task's rows in
+        use and at their bound this cycle. Returns this cycle's smallest distance (m)."""
         self.cycles += 1
         self.pairs_active_max = max(self.pairs_active_max, int(rows_in_use))
         self.rows_binding_max = max(self.rows_binding_max, int(rows_binding))
-        if not len(d):
+        if not len(self.model.pairs):
             return np.inf
-        k = int(np.argmin(d))
-        if d[k] < self.d_min:
-            self.d_min, self.closest_k, self.closest_t = float(d[k]), k, float(t)
-            order = np.argsort(d)[:5]
-            self.closest_list = [(self.model.pair_name(int(i)), float(d[i])) for i in order]
-        return float(d[k])
+        d, ks = self.model.smallest_distances(q, 5, self.data, self.gdata)
+        self.last = (d, ks)
+        if d[0] < self.d_min:
+            self.d_min, self.closest_k, self.closest_t = float(d[0]), int(ks[0]), float(t)
+            self.closest_list = [(self.model.pair_name(int(k)), float(x)) for x, k in zip(d, ks)]
+        return float(d[0])
 
     def witness_segments(self, count: int = 5) -> list[tuple[str, float, np.ndarray, np.ndarray]]:
-        """The ``count`` closest pairs of the last :meth:`record` (name, d in m, p1, p2 world
+        """The closest pairs of the last :meth:`record` (at most 5: name, d in m, p1, p2 world
         witness points in m), closest first: what a viewer draws."""
-        if self.last is None or not len(self.last):
+        if self.last is None:
             return []
         out = []
-        for k in np.argsort(self.last)[:count]:
+        for k in self.last[1][:count]:
             d, p1, p2, _ = self.model.witness_of(int(k), self.gdata)
             out.append((self.model.pair_name(int(k)), d, p1, p2))
         return out
