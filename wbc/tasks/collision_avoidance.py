@@ -67,7 +67,7 @@ class CollisionAvoidance(Task):
         self.max_speed = number(max_speed, "max_speed", gt=0, le=100, unit="m/s", error=TaskDefinitionError,
                                 owner=owner)
         self.max_rows = int(number(max_rows, "max_rows", ge=1, le=1000, error=TaskDefinitionError, owner=owner))
-        err = dict(error=TaskDefinitionError, owner=owner)
+        err: dict[str, Any] = {"error": TaskDefinitionError, "owner": owner}
         self.self_collision = boolean(self_collision, "self_collision", **err)
         from wbc.collision.shapes import Obstacle, obstacle
 
