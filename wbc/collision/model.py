@@ -192,7 +192,7 @@ class CollisionModel:
         self._fd_data = model.createData()
         self._fd_gd = pin.GeometryData(gm)
         for req in self._fd_gd.distanceRequests:
-            req.gjk_tolerance = 1e-10
+            req.gjk_tolerance = 1e-8
         #: (njoints × nv) 1 where joint j's Jacobian may be non-zero (its supporting chain)
         self._support = np.zeros((model.njoints, model.nv))
         for j in range(1, model.njoints):
