@@ -153,7 +153,7 @@ class CollisionObserver(RunObserver):
 
     def after_step(self, c: Cycle) -> None:
         self.monitor.record(c.t + c.sim.dt, c.sim.q, self.in_use, self.binding)
-        touching = c.sim.link_contacts() if hasattr(c.sim, "link_contacts") else None
+        touching = c.sim.link_contacts() if getattr(c.sim, "link_geom_names", None) else None
         if touching is not None:
             self.mujoco_checked = True
             if touching:

@@ -120,6 +120,8 @@ class MujocoSimulator:
         #: MuJoCo geom id -> name of the links' collision geometries added (``link_geoms``)
         self._link_geoms = {mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_GEOM, f"wbc_link_{g[0]}"): g[0]
                             for g in link_geoms}
+        #: the robot geometries added with ``link_geoms`` (what :meth:`link_contacts` watches)
+        self.link_geom_names = [g[0] for g in link_geoms]
         self.mj_data = mujoco.MjData(mm)
         # pinocchio joint -> MuJoCo body, and the (q, v) <-> (qpos, qvel) indices of the joints
         self._body = np.zeros(m.njoints, int)
