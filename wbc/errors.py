@@ -106,6 +106,12 @@ class RobotWarning(UserWarning):
     the ground); issued by :func:`wbc.robot.extras.check_robot` at load time."""
 
 
+class CollisionWarning(UserWarning):
+    """A run whose robot starts with a monitored pair closer than the collision task's
+    safety distance (or in penetration): the pair and its distance are named; the task's
+    damper pushes the pair out (:class:`wbc.runner.observers.CollisionObserver`)."""
+
+
 @overload
 def join_key(prefix: str | None, key: str) -> str: ...
 @overload

@@ -26,7 +26,7 @@ ALLOWED: dict[str, set[str]] = {
     "wbc.validation": BASE,
     "wbc.robot": BASE | {"wbc.validation"},
     "wbc.problem": BASE,
-    "wbc.collision": BASE | {"wbc.validation", "wbc.robot"},
+    "wbc.collision": BASE | {"wbc.validation", "wbc.robot", "wbc.sim"},
     "wbc.tasks": BASE | {"wbc.validation", "wbc.robot", "wbc.problem", "wbc.null_space", "wbc.collision"},
     "wbc.stack": BASE | {"wbc.tasks", "wbc.problem"},
     "wbc.solvers": BASE | {"wbc.problem"},
@@ -39,7 +39,7 @@ ALLOWED: dict[str, set[str]] = {
     "wbc.scenario": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks", "wbc.stack", "wbc.trajectories",
                             "wbc.interaction", "wbc.sim", "wbc.solvers", "wbc.controller"},
     "wbc.runner": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks", "wbc.trajectories", "wbc.interaction",
-                          "wbc.sim", "wbc.controller", "wbc.scenario"},
+                          "wbc.sim", "wbc.controller", "wbc.scenario", "wbc.collision"},
     "wbc.viz": BASE | {"wbc.sim", "wbc.robot", "wbc.tasks"},
     "wbc.sweep": BASE | {"wbc.validation", "wbc.jsonable", "wbc.blas", "wbc.robot", "wbc.scenario", "wbc.runner"},
 }

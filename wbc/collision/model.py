@@ -71,6 +71,36 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
+def _pair_line(path, j: int) -> int | None:
+    """The line (1-based) of the j-th pair of a pair file, or None."""
+    if path is None:
+        return None
+    from ..validation.yamlio import read_document
+
+    return read_document(path, RobotDefinitionError).line(f"pairs[{j}]")
+
+
+def _vertices(geometry) -> np.ndarray:
+    """Vertices (n × 3, m) whose convex hull is (or encloses) ``geometry``."""
+    if isinstance(geometry, coal.ConvexBase):
+        return np.asarray(geometry.points(), dtype=float).reshape(-1, 3)
+    if isinstance(geometry, coal.Box):
+        h = np.asarray(geometry.halfSide, dtype=float)
+        return np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * h
+    dirs = np.array([[x, y, z] for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)],
+                    dtype=float)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    if isinstance(geometry, coal.Sphere):
+        return dirs * geometry.radius / np.cos(np.pi / 4) ** 2       # a shell enclosing the sphere
+    if isinstance(geometry, coal.Capsule | coal.Cylinder):
+        r, h = geometry.radius, geometry.halfLength
+        ring = dirs[np.abs(dirs[:, 2]) < 1e-9] * r / np.cos(np.pi / 8)
+        caps = ([dirs * r / np.cos(np.pi / 4) ** 2 + [0, 0, s * h] for s in (-1, 1)]
+                if isinstance(geometry, coal.Capsule) else [])
+        return np.vstack([ring + [0, 0, h], ring - [0, 0, h], *caps])
+    raise TypeError(f"no vertices for a {type(geometry).__name__}")
+
+
 def bounding_sphere(geometry) -> tuple[np.ndarray, float]:
     """(centre in the geometry's frame, radius) of a sphere enclosing ``geometry`` (m);
     infinite radius for a half-space."""
@@ -97,7 +127,7 @@ class CollisionModel:
     def __init__(self, robot, obstacles: Sequence[Obstacle] = (), obstacle_links: list[str] | None = None,
                  self_collision: bool = True, self_pairs: list[tuple[str, str]] | str | None = None,
                  hull_dir: Path | None = None) -> None:
-        from .pairs import default_self_pairs, read_pair_file
+        from .pairs import default_self_pairs, pair_file, read_pair_file
 
         self.robot = robot
         model = robot.model
@@ -121,16 +151,19 @@ class CollisionModel:
         self.links = [model.frames[g.parentFrame].name for g in gm.geometryObjects]
         pairs: list[tuple[int, int]] = []
         if self_collision:
+            read = None
             if self_pairs is None:
-                self_pairs = read_pair_file(robot)
+                self_pairs = read = read_pair_file(robot)
             chosen: list[tuple[str, str]] = (default_self_pairs(robot, gm, self.n_robot)
                                               if self_pairs is None or isinstance(self_pairs, str) else list(self_pairs))
             idx = {n: i for i, n in enumerate(robot_names)}
-            for a, b in chosen:
+            source = pair_file(robot) if read is not None and self_pairs is read else None
+            for j, (a, b) in enumerate(chosen):
                 for name in (a, b):
                     if name not in idx:
-                        raise RobotDefinitionError(f"self pair ({a}, {b}): no robot geometry '{name}'; expected one "
-                                                   f"of {robot_names}")
+                        raise RobotDefinitionError(f"no robot geometry '{name}' (self pair [{a}, {b}]); expected "
+                                                   f"one of {robot_names}", key=f"pairs[{j}]", file=source,
+                                                   line=_pair_line(source, j))
                 pairs.append((idx[a], idx[b]))
         for k in range(len(obstacles)):
             ob = self.n_robot + k
@@ -152,6 +185,14 @@ class CollisionModel:
                        if isinstance(g.geometry, coal.Halfspace)}
         self._cycle: Any = None
         self._rows: Any = None
+        #: J̇_d q̇ from the distance's exact second difference (:meth:`_curvature_drift`); False:
+        #: the witness points' rigid-body drift only (cheaper, blind to the surfaces' curvature)
+        self.exact_drift = True
+        self.drift_step = 1e-2
+        self._fd_data = model.createData()
+        self._fd_gd = pin.GeometryData(gm)
+        for req in self._fd_gd.distanceRequests:
+            req.gjk_tolerance = 1e-8
         #: (njoints × nv) 1 where joint j's Jacobian may be non-zero (its supporting chain)
         self._support = np.zeros((model.njoints, model.nv))
         for j in range(1, model.njoints):
@@ -164,6 +205,24 @@ class CollisionModel:
             self._all_map[self.pairs[:, 0], self.pairs[:, 1]] = True
 
     # ------------------------------------------------------------ queries
+    def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
+        """The robot geometries on ``links`` (None: those paired with an obstacle), for another
+        simulator to collide (MuJoCo, :func:`wbc.sim.mujoco_model.build_model`'s ``link_geoms``):
+        (geometry name, its joint's name, placement in the joint's frame, hull vertices n × 3 in m).
+        Non-mesh primitives are given by the vertices of their convex hull too (sampled
+        surface: boxes' corners, spheres' and capsules' 26-point shells)."""
+        if links is None:
+            obstacles = set(range(self.n_robot, self.geometry_model.ngeoms))
+            wanted = {int(i) for i, j in self.pairs if int(j) in obstacles}
+        else:
+            wanted = {i for i in range(self.n_robot) if self.links[i] in links}
+        out = []
+        for i in sorted(wanted):
+            g = self.geometry_model.geometryObjects[i]
+            out.append((g.name, self.robot.model.names[g.parentJoint], g.placement, _vertices(g.geometry)))
+        return out
+
+
     def pair_name(self, k: int) -> str:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"
@@ -185,16 +244,13 @@ class CollisionModel:
             gaps[k] = n @ c - off - r
         return gaps
 
-    def _result(self, k: int):
-        """Pair k's distance result of the last ``computeDistances``: (d, p1, p2, n)."""
-        res = self.geometry_data.distanceResults[k]
-        return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
-                np.array(res.normal))
 
-    def _compute(self, active: np.ndarray | None) -> None:
+    def _compute(self, active: np.ndarray | None, gd: pin.GeometryData | None = None) -> None:
         """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs flagged in
-        ``active`` (None: all), on the placements already updated."""
-        gm, gd = self.geometry_model, self.geometry_data
+        ``active`` (None: all), on the placements already updated (in ``gd``, default the
+        control cycle's :attr:`geometry_data`)."""
+        gm = self.geometry_model
+        gd = self.geometry_data if gd is None else gd
         n = gm.ngeoms
         cmap = self._all_map if active is None else np.zeros((n, n), dtype=bool)
         if active is not None:
@@ -203,17 +259,86 @@ class CollisionModel:
         gd.setActiveCollisionPairs(gm, cmap)
         pin.computeDistances(gm, gd)
 
-    def all_distances(self, q: np.ndarray, data: pin.Data | None = None) -> np.ndarray:
+    def all_distances(self, q: np.ndarray, data: pin.Data | None = None,
+                      geometry_data: pin.GeometryData | None = None) -> np.ndarray:
         """The exact distance of every monitored pair at ``q`` (m), on its own pinocchio
         data (for monitoring the simulator's true state; the control cycle's rows, computed
-        before, are kept)."""
+        before, are kept).
+
+        Args:
+            q: the configuration (nq).
+            data: pinocchio data to compute the placements in (None: a new one).
+            geometry_data: where the distance results go (None: :attr:`geometry_data`, the
+                control cycle's; a monitor passes its own, :meth:`new_geometry_data`).
+        """
         model = self.robot.model
         data = model.createData() if data is None else data
+        gd = self.geometry_data if geometry_data is None else geometry_data
         pin.forwardKinematics(model, data, q)
-        pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
-        self._compute(None)
-        res = self.geometry_data.distanceResults
+        pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
+        self._compute(None, gd)
+        res = gd.distanceResults
         return np.array([res[k].min_distance for k in range(len(self.pairs))])
+
+    def smallest_distances(self, q: np.ndarray, count: int, data: pin.Data,
+                           geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
+        """The ``count`` smallest distances over **all** monitored pairs at ``q`` (m), exactly, and
+        their pair indices, nearest first. Exact distances are computed in order of the broad
+        phase's lower bound (bounding spheres: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d, also in penetration) until
+        that bound exceeds the ``count``-th smallest distance found: no pair left out can be
+        nearer, so the result is the one all pairs would give, at a fraction of the cost.
+
+        Args:
+            q: the configuration (nq).
+            count: how many (≥ 1).
+            data: pinocchio data for the placements.
+            geometry_data: where the results go (:meth:`new_geometry_data`).
+        """
+        model, gm, gd = self.robot.model, self.geometry_model, geometry_data
+        pin.forwardKinematics(model, data, q)
+        pin.updateGeometryPlacements(model, data, gm, gd)
+        oMg = gd.oMg
+        H = np.array([oMg[i].homogeneous for i in range(len(self.centres))])
+        W = np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
+        bound = self._broad_gaps(W)
+        order = np.argsort(bound)
+        n = gm.ngeoms
+        best_d: list[float] = []
+        best_k: list[int] = []
+        res = gd.distanceResults
+        start, batch = 0, max(8, count)
+        while start < len(order):
+            if len(best_d) >= count and bound[order[start]] > sorted(best_d)[count - 1]:
+                break
+            ks = order[start:start + batch]
+            cmap = np.zeros((n, n), dtype=bool)
+            cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
+            gd.setActiveCollisionPairs(gm, cmap)
+            pin.computeDistances(gm, gd)
+            for k in ks:
+                best_d.append(float(res[int(k)].min_distance))
+                best_k.append(int(k))
+            start += batch
+            batch *= 2
+        d, k = np.array(best_d), np.array(best_k, dtype=np.int64)
+        first = np.argsort(d)[:count]
+        return d[first], k[first]
+
+    def new_geometry_data(self) -> pin.GeometryData:
+        """A GeometryData of its own (placements and results apart from the control cycle's),
+        with the same distance requests (tolerances) as :attr:`geometry_data`."""
+        gd = pin.GeometryData(self.geometry_model)
+        for mine, theirs in zip(gd.distanceRequests, self.geometry_data.distanceRequests):
+            mine.gjk_tolerance = theirs.gjk_tolerance
+        return gd
+
+    def witness_of(self, k: int, geometry_data: pin.GeometryData | None = None):
+        """Pair k's last distance result in ``geometry_data`` (default :attr:`geometry_data`):
+        (d in m, p1, p2 world witness points in m, unit normal n from the first to the second)."""
+        gd = self.geometry_data if geometry_data is None else geometry_data
+        res = gd.distanceResults[k]
+        return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
+                np.array(res.normal))
 
     def witness(self, influence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Broad then exact phase on the placements already updated: (pair indices, d, p1,
@@ -222,7 +347,7 @@ class CollisionModel:
         near = np.flatnonzero(self._broad_gaps(W) < influence)
         self._compute(near)
         res = self.geometry_data.distanceResults
-        out = [(int(k), *self._result(int(k))) for k in near if res[int(k)].min_distance < influence]
+        out = [(int(k), *self.witness_of(int(k))) for k in near if res[int(k)].min_distance < influence]
         m = len(out)
         ks = np.array([o[0] for o in out], dtype=np.int64)
         d = np.array([o[1] for o in out], dtype=float)
@@ -254,23 +379,55 @@ class CollisionModel:
                 jid = self.joint_of[g]
                 coef = np.concatenate([N, _cross(P, N)], axis=1) * sign          # (k × 6)
                 J += (coef @ data.J) * self._support[jid]
-                drift += sign * self._point_drift(data, jid, P, N)
+                if not self.exact_drift:
+                    drift += sign * self._point_drift(data, jid, P, N)
+        if m and self.exact_drift:
+            drift = self._curvature_drift(robot, ks)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
 
+    def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
+        """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance
+        along q̈ = 0, d̈ = [d(q ⊕ εv) − 2 d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at
+        1e-10 m), which holds the terms the witness-point drift leaves out: the normal's turn
+        and the witness points sliding over curved or rotating surfaces (a hand hull sliding
+        round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into
+        a steady violation of 1.75/ω² = 3.5 mm). ε = 10 ms, not less: between two hulls the
+        distance is C¹ but not C² (the closest features switch), and a 1 ms difference turned
+        each switch into a −12 to −34 m/s² spike (Talos's torso against an upper arm) that made
+        level 0 infeasible; over ±10 ms the switch is spread ten times thinner, and a smooth
+        curvature (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %."""
+        model, gm, gd, data = robot.model, self.geometry_model, self._fd_gd, self._fd_data
+        n = gm.ngeoms
+        cmap = np.zeros((n, n), dtype=bool)
+        cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
+        gd.setActiveCollisionPairs(gm, cmap)
+        eps = self.drift_step
+        out = np.zeros(len(ks))
+        for step, w in ((0.0, -2.0), (eps, 1.0), (-eps, 1.0)):
+            q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
+            pin.forwardKinematics(model, data, q)
+            pin.updateGeometryPlacements(model, data, gm, gd)
+            pin.computeDistances(gm, gd)
+            res = gd.distanceResults
+            out += w * np.array([res[int(k)].min_distance for k in ks])
+        return out / (eps * eps)
+
     def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
         """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r),
         r = p − o_j, all world-aligned (m/s²); zero on the universe (joint 0)."""
-        k = len(jid)
-        R = np.empty((k, 3, 3))
-        o = np.empty((k, 3))
-        va = np.empty((k, 4, 3))
-        for i, j in enumerate(jid):     # k ≤ a few tens: the per-joint quantities pinocchio holds
+        joints, inv = np.unique(jid, return_inverse=True)
+        u = len(joints)
+        Ru = np.empty((u, 3, 3))
+        ou = np.empty((u, 3))
+        vau = np.empty((u, 4, 3))
+        for i, j in enumerate(joints):  # once per joint: the per-joint quantities pinocchio holds
             M = data.oMi[int(j)]
-            R[i], o[i] = M.rotation, M.translation
+            Ru[i], ou[i] = M.rotation, M.translation
             v, acc = data.v[int(j)], data.a[int(j)]
-            va[i] = (v.linear, v.angular, acc.linear, acc.angular)
+            vau[i] = (v.linear, v.angular, acc.linear, acc.angular)
+        R, o, va = Ru[inv], ou[inv], vau[inv]
         world = np.einsum("kab,knb->kna", R, va)                       # rotated to the world
         v_o, w, a_o, alpha = world[:, 0], world[:, 1], world[:, 2], world[:, 3]
         r = P - o

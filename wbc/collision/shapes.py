@@ -58,12 +58,22 @@ def obstacle(spec, where: str, default_name: str) -> Obstacle:
 
 
 def from_environment(shapes) -> list[Obstacle]:
-    """The scenario environment's ground (a plane) and boxes (:mod:`wbc.sim.environment`) as obstacles."""
+    """The scenario environment's shapes (:mod:`wbc.sim.environment`: ground, incline and planes
+    as half-spaces, boxes, spheres, vertical cylinders) as obstacles, by their names."""
+    from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
+
     out = []
     for s in shapes:
-        if hasattr(s, "size"):
+        if isinstance(s, Box):
             out.append(Obstacle(s.name, coal.Box(*s.size), pin.SE3(np.eye(3), np.asarray(s.center, dtype=float))))
-        elif hasattr(s, "normal"):
+        elif isinstance(s, HalfSpace):
             n = np.asarray(s.normal, dtype=float)
             out.append(Obstacle(s.name, coal.Halfspace(n, float(n @ s.point)), pin.SE3.Identity()))
+        elif isinstance(s, Sphere):
+            out.append(Obstacle(s.name, coal.Sphere(float(s.radius)), pin.SE3(np.eye(3), s.center)))
+        elif isinstance(s, Cylinder):
+            out.append(Obstacle(s.name, coal.Cylinder(float(s.radius), float(s.length)),
+                                pin.SE3(np.eye(3), s.center)))
+        else:
+            raise TypeError(f"no collision geometry for environment shape {type(s).__name__}")
     return out

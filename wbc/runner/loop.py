@@ -12,6 +12,14 @@ clipping); per sole contact ``cop_edge_min`` (m), ``cop_inside_1cm`` and
 ``normal_force_min`` (N), and for two contacts ``internal_force`` (N), all from the
 simulator's contact forces (:class:`~wbc.runner.metrics.ContactMetrics`).
 
+Collisions: a stack with a ``collision_avoidance`` task gets ``collision_distance_min`` (m, every
+monitored pair, every cycle, on the simulator's true state), ``collision_closest_pair``,
+``collision_pairs_active_max``, ``collision_rows_binding_max`` and ``collision_closest``
+(:class:`~wbc.runner.observers.CollisionObserver`, :mod:`wbc.collision.monitor`); in MuJoCo the
+links paired with obstacles get their collision hulls as geoms, and ``mujoco_link_contacts``
+counts the cycles in which MuJoCo's own contact list has one of them touching something
+(``mujoco_link_contact_first``: the first such contact, time and geoms).
+
 Faults (:mod:`wbc.controller.faults`, ``docs/faults.md``): ``faults`` holds the controller's fault
 counters (a non-finite or stale measurement, a solver that raised, failed or overran, the
 cycles held, the stops); a run the controller stopped, or whose simulated state diverged
@@ -50,6 +58,7 @@ from wbc.runner.compile_notice import CompileNotice
 from wbc.runner.metrics import RunMetrics, fallen
 from wbc.runner.observers import (
     CallbackObserver,
+    CollisionObserver,
     Cycle,
     ExternalForceObserver,
     InteractionObserver,
@@ -140,9 +149,14 @@ class ScenarioRun:
         except ConfigError as exc:    # a solver chosen over the scenario's, given the scenario's options
             raise ConfigError(f"{exc.message} (the scenario's solver is '{given}'; this run's is "
                               f"'{self.solver_name}')", key=exc.key, file=sc.source) from None
+        extra = {}
+        if self.simulator == "mujoco":      # the links kept from obstacles collide in MuJoCo too (its contact list)
+            geoms = [g for t in stack if t.kind == "collision_avoidance" for g in t.model.link_geometries()]
+            if geoms:
+                extra["link_geoms"] = list({g[0]: g for g in geoms}.values())
         sim = make_simulator(self.simulator, _simulated_robot(robot, o.model_perturbation), sc.environment,
                              joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
-                             tau_limits=robot.tau_max, **sc.sensing)
+                             tau_limits=robot.tau_max, **sc.sensing, **extra)
         if o.wrap_simulator is not None:
             sim = o.wrap_simulator(sim)
         self.sim = sim
@@ -187,6 +201,9 @@ class ScenarioRun:
             out.append(InteractionObserver(interaction))
         if sc.interaction is not None:      # external-force source and glass figures of an interaction scenario
             out.append(ExternalForceObserver(ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)))
+        for task in stack:                  # collision monitoring: every pair's distance on the true state
+            if task.kind == "collision_avoidance":
+                out.append(CollisionObserver(task, sim.q))
         if o.callback is not None:
             out.append(CallbackObserver(o.callback))
         out.extend(o.observers)

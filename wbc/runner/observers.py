@@ -126,3 +126,48 @@ class MetricsObserver(RunObserver):
 
     def after_step(self, c: Cycle) -> None:
         self.metrics.record_state(c.t, c.sim, c.sol, c.stack)
+
+
+class CollisionObserver(RunObserver):
+    """The collision metrics of a stack's :class:`~wbc.tasks.CollisionAvoidance` task
+    (:class:`~wbc.collision.monitor.CollisionMonitor`): every monitored pair's distance on the
+    simulator's true state after each step, the task's rows in use and at their bound after
+    each solve. A pair closer than the safety distance at the start is a warning
+    (:class:`~wbc.errors.CollisionWarning`)."""
+
+    def __init__(self, task, q0: np.ndarray) -> None:
+        import warnings
+
+        from wbc.collision.monitor import CollisionMonitor
+        from wbc.errors import CollisionWarning
+
+        self.task = task
+        self.monitor = CollisionMonitor(task.model, task.safety, task.influence)
+        for msg in self.monitor.start_warnings(q0):
+            warnings.warn(f"task '{task.name}': {msg}", CollisionWarning, stacklevel=4)
+        self.in_use = self.binding = 0
+
+    def after_solve(self, c: Cycle) -> None:
+        last = self.task.last
+        self.in_use = 0 if last is None else len(last[1])
+        self.binding = int(np.count_nonzero(self.task.binding_rows(c.sol.x))) if self.in_use else 0
+
+    def after_step(self, c: Cycle) -> None:
+        self.monitor.record(c.t + c.sim.dt, c.sim.q, self.in_use, self.binding)
+        touching = c.sim.link_contacts() if getattr(c.sim, "link_geom_names", None) else None
+        if touching is not None:
+            self.mujoco_checked = True
+            if touching:
+                self.link_contact_cycles += 1
+                if self.first_contact is None:
+                    self.first_contact = {"time": c.t + c.sim.dt, "contacts": [list(x) for x in touching[:5]]}
+
+    mujoco_checked = False
+    link_contact_cycles = 0
+    first_contact: dict | None = None
+
+    def summary(self) -> dict:
+        out = self.monitor.summary()
+        if self.mujoco_checked:
+            out.update(mujoco_link_contacts=self.link_contact_cycles, mujoco_link_contact_first=self.first_contact)
+        return out

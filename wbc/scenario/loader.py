@@ -165,6 +165,13 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     duration = sections.duration_value(cfg.get("duration", 5.0), dt)
     environment = sections.environment_section(cfg.get("environment"))
     stack, refs, offsets = _stack(cfg["stack"], robot, dt)
+    for k, level in enumerate(stack.levels):      # collision tasks that keep away from the environment's shapes
+        for i, task in enumerate(level):
+            if task.kind == "collision_avoidance":
+                try:
+                    cast(Any, task).use_environment(environment, robot)
+                except WbcError as exc:
+                    raise placed(exc, f"stack[{k}][{i}]", cls=ConfigError) from exc
     pushes = sections.pushes_section(cfg.get("pushes"), robot, duration)
     events = build_events(cfg.get("events"), robot, stack, dt, duration)
     sensing = sections.sensing_section(cfg.get("sensing"))

@@ -9,6 +9,9 @@ loads is one the runner can run (``wbc validate`` and ``wbc run`` go through the
 - ``duration``: (0, 3600] s, at least one control period, at most 10⁷ control cycles;
 - ``environment``: ``mu`` in (0, 10]; a ground's ``height`` in [-1, 1] m; an incline's
   ``angle`` in (-π/2, π/2) rad; a box's ``center`` within ±1000 m, ``size`` in (0, 1000] m;
+  a plane's ``point`` (m) and non-zero outward ``normal``; a sphere's or (vertical) cylinder's
+  ``center`` (m), ``radius`` in (0, 100] m, a cylinder's ``length`` in (0, 1000] m (obstacles:
+  the collision task and MuJoCo see them, the own simulator's contact points do not);
   shape names unique (a ground is named ``ground``, an incline ``incline``);
 - ``pushes``: a frame of the robot, ``force`` 3 numbers within ±10⁵ N, ``start`` in
   [0, duration) s, ``duration`` in (0, 3600] s;
@@ -31,7 +34,7 @@ import numpy as np
 
 from wbc.controller.solver_names import SOLVERS
 from wbc.errors import ConfigError, SolverError, WbcError, placed
-from wbc.sim.environment import Box, HalfSpace, ground, incline
+from wbc.sim.environment import Box, Cylinder, HalfSpace, Sphere, ground, incline
 from wbc.solvers import SOLVER_OPTIONS
 from wbc.solvers.options import check_options
 from wbc.validation.schema import integer, mapping, number, sequence, text, vector
@@ -44,7 +47,12 @@ MAX_CYCLES = 10_000_000
 MAX_MU = 10.0
 MAX_PUSH = 1e5
 _SHAPE_KEYS = {"ground": {"type", "mu", "height"}, "incline": {"type", "mu", "angle"},
-               "box": {"type", "mu", "center", "size", "name"}}
+               "box": {"type", "mu", "center", "size", "name"},
+               "plane": {"type", "mu", "point", "normal", "name"},
+               "sphere": {"type", "mu", "center", "radius", "name"},
+               "cylinder": {"type", "mu", "center", "radius", "length", "name"}}
+_SHAPE_REQUIRED = {"box": ("center", "size"), "plane": ("point", "normal"), "sphere": ("center", "radius"),
+                   "cylinder": ("center", "radius", "length")}
 
 
 def solver_section(spec: Any) -> dict:
@@ -94,28 +102,41 @@ def environment_section(spec: Any) -> list:
     """``environment:`` -> shapes of :mod:`wbc.sim.environment` (default: a ground, mu 0.8)."""
     if spec is None:
         return [ground()]
-    shapes: list[HalfSpace | Box] = []
+    shapes: list[HalfSpace | Box | Sphere | Cylinder] = []
     names: dict[str, str] = {}
-    for i, s in enumerate(sequence(spec, "environment", what="a list of shapes (ground, incline, box)")):
+    for i, s in enumerate(sequence(spec, "environment", what="a list of shapes (ground, incline, plane, box, sphere, cylinder)")):
         where = f"environment[{i}]"
         s = mapping(s, where, required=("type",), what="a shape mapping with a 'type' key")
         kind = text(s["type"], f"{where}.type", choices=sorted(_SHAPE_KEYS))
         mapping(s, where, allowed=_SHAPE_KEYS[kind])
         mu = number(s.get("mu", 0.8), f"{where}.mu", gt=0, le=MAX_MU, unit="unitless")
-        shape: HalfSpace | Box
+        shape: HalfSpace | Box | Sphere | Cylinder
+        for k in _SHAPE_REQUIRED.get(kind, ()):
+            if k not in s:
+                raise ConfigError(f"missing (a {kind} needs {', '.join(_SHAPE_REQUIRED[kind])}; lengths in m)",
+                                  key=f"{where}.{k}")
+        name = text(s.get("name", f"{kind}{i}"), f"{where}.name", what="a shape name")
         if kind == "ground":
             shape = ground(number(s.get("height", 0.0), f"{where}.height", ge=-1, le=1, unit="m"), mu)
         elif kind == "incline":
             shape = incline(number(s.get("angle", 0.0), f"{where}.angle", gt=-math.pi / 2, lt=math.pi / 2,
                                    unit="rad"), mu)
-        else:
-            for k in ("center", "size"):
-                if k not in s:
-                    raise ConfigError("missing (a box needs center: [x, y, z] and size: [sx, sy, sz], m)",
-                                      key=f"{where}.{k}")
+        elif kind == "plane":
+            normal = vector(s["normal"], f"{where}.normal", 3, ge=-1e3, le=1e3, unit="unitless")
+            if not np.linalg.norm(normal) > 1e-9:
+                raise ConfigError(f"must be a non-zero vector (the plane's outward normal), got {normal.tolist()}",
+                                  key=f"{where}.normal")
+            shape = HalfSpace(vector(s["point"], f"{where}.point", 3, ge=-1e3, le=1e3, unit="m"), normal, mu, name)
+        elif kind == "box":
             center = vector(s["center"], f"{where}.center", 3, ge=-1e3, le=1e3, unit="m")
             size = vector(s["size"], f"{where}.size", 3, gt=0, le=1e3, unit="m")
-            shape = Box(center, size, mu, text(s.get("name", f"box{i}"), f"{where}.name", what="a shape name"))
+            shape = Box(center, size, mu, name)
+        else:
+            center = vector(s["center"], f"{where}.center", 3, ge=-1e3, le=1e3, unit="m")
+            radius = number(s["radius"], f"{where}.radius", gt=0, le=100, unit="m")
+            shape = (Sphere(center, radius, mu, name) if kind == "sphere" else
+                     Cylinder(center, radius, number(s["length"], f"{where}.length", gt=0, le=1e3, unit="m"), mu,
+                              name))
         key = f"{where}.name" if "name" in s else where
         if shape.name in names:
             raise ConfigError(f"a second shape named '{shape.name}' ({names[shape.name]} is the first); names must "

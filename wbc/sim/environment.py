@@ -1,8 +1,12 @@
-"""What the robot can touch: half-spaces (the ground, an incline) and boxes (a table).
+"""What the robot can touch: half-spaces (the ground, an incline, a plane) and boxes (a table);
+and obstacles: spheres and cylinders.
 
-Each shape answers, for a world point p, whether it is in (or near) contact:
-its signed depth (m, > 0 inside), the contact frame (rotation whose z is the
-outward normal) and its friction coefficient μ.
+Each contact surface (:class:`HalfSpace`, :class:`Box`) answers, for a world point p, whether it
+is in (or near) contact: its signed depth (m, > 0 inside), the contact frame (rotation whose z
+is the outward normal) and its friction coefficient μ. The obstacles (:class:`Sphere`,
+:class:`Cylinder`; ``contact_surface = False``) are for the collision task (kept away from the
+chosen links, :mod:`wbc.collision.shapes`) and for MuJoCo (real geoms); the own simulator's
+contact points (feet, hand pads) do not touch them.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ class HalfSpace:
     normal: np.ndarray
     mu: float = 0.8
     name: str = "ground"
+    contact_surface = True
 
     def __post_init__(self) -> None:
         self.point = np.asarray(self.point, dtype=float)
@@ -61,6 +66,7 @@ class Box:
     size: np.ndarray
     mu: float = 0.5
     name: str = "box"
+    contact_surface = True
 
     def __post_init__(self) -> None:
         self.center = np.asarray(self.center, dtype=float)
@@ -82,3 +88,32 @@ class Box:
         d = self.top - P[:, 2]
         outside = np.any(np.abs(P[:, :2] - self.center[:2]) > half[:2], axis=1) | (d >= self.size[2])
         return np.where(outside, -np.inf, d)
+
+
+@dataclass
+class Sphere:
+    """A fixed sphere obstacle: centre (m, world) and radius (m)."""
+
+    center: np.ndarray
+    radius: float
+    mu: float = 0.5
+    name: str = "sphere"
+    contact_surface = False
+
+    def __post_init__(self) -> None:
+        self.center = np.asarray(self.center, dtype=float)
+
+
+@dataclass
+class Cylinder:
+    """A fixed cylinder obstacle, axis along the world z: centre (m), radius and length (m)."""
+
+    center: np.ndarray
+    radius: float
+    length: float
+    mu: float = 0.5
+    name: str = "cylinder"
+    contact_surface = False
+
+    def __post_init__(self) -> None:
+        self.center = np.asarray(self.center, dtype=float)

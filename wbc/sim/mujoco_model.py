@@ -1,7 +1,7 @@
 """The MuJoCo model of a robot, compiled at run time from its own URDF (:mod:`wbc.sim.mujoco_sim`
 has the conventions): the URDF's joints and inertias, a free, planar or fixed root, sole boxes
 and contact spheres at the robot's contact points, one motor per actuated joint with
-``ctrlrange`` = ±τ_max, the scenario's ground, incline and boxes with their μ, and explicit
+``ctrlrange`` = ±τ_max, the scenario's ground, incline, planes, boxes, spheres and cylinders with their μ, and explicit
 contact pairs for the points that carry their own MuJoCo contact parameters.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import WbcError
-from .environment import Box, HalfSpace
+from .environment import Box, Cylinder, HalfSpace, Sphere
 
 if TYPE_CHECKING:
     from wbc.robot.model import RobotModel
@@ -81,11 +81,14 @@ def _pair_params(params: dict) -> dict:
 
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
                 joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
-                joint_dynamics: bool = False) -> mujoco.MjModel:
+                joint_dynamics: bool = False, link_geoms: Sequence = ()) -> mujoco.MjModel:
     """The MuJoCo model of ``robot`` (a :class:`~wbc.robot.model.RobotModel`) in ``environment``
     (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`contact_points`. See the
     module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
-    motors' limits, the robot's by default."""
+    motors' limits, the robot's by default. ``link_geoms``: (name, joint name, placement in the
+    joint's frame, vertices n × 3 in m) of robot collision geometries to add as convex meshes
+    (``wbc_link_<name>``) that collide with the environment: what MuJoCo's contact list then
+    reports (:meth:`wbc.sim.mujoco_sim.MujocoSimulator.link_contacts`)."""
     if inertias not in ("model", "urdf"):
         raise WbcError(f"mujoco: inertias must be 'model' or 'urdf', got {inertias!r}")
     m = robot.model
@@ -135,6 +138,11 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
                        pos=r + POINT_RADIUS * R[:, 2], size=[POINT_RADIUS, 0, 0], **geom)
             if params:
                 paired.append((f"wbc_point_geom_{i}", params))
+    for gname, jname, M, verts in link_geoms:        # chosen links' collision hulls, against the environment
+        spec.add_mesh(name=f"wbc_mesh_{gname}", uservert=np.asarray(verts, dtype=float).ravel().tolist())
+        body_of(m.getJointId(jname)).add_geom(name=f"wbc_link_{gname}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                                              meshname=f"wbc_mesh_{gname}", pos=M.translation,
+                                              quat=_quat_wxyz(M.rotation), **robot_geom)
     for c in (c for c in robot.contacts.values() if c.kind == "surface"):
         f = m.frames[m.getFrameId(c.frame)]
         M = f.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, SOLE_THICKNESS / 2]))
@@ -149,6 +157,12 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
         elif isinstance(s, Box):
             spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=s.center,
                                     size=s.size / 2, **env)
+        elif isinstance(s, Sphere):
+            spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=s.center,
+                                    size=[s.radius, 0, 0], **env)
+        elif isinstance(s, Cylinder):
+            spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=s.center,
+                                    size=[s.radius, s.length / 2, 0], **env)
         else:
             raise WbcError(f"mujoco: unsupported environment shape {type(s).__name__}")
         for gname, params in paired:      # what the priority rule gives, with the point's solref/solimp

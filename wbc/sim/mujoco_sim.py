@@ -99,7 +99,8 @@ class MujocoSimulator:
                  v0: np.ndarray | None = None, dt: float = 1e-3, substeps: int = 1, extra_points=(),
                  noise_q: float = 0.0, noise_v: float = 0.0, latency_steps: int = 0, seed: int = 0,
                  joint_limits: bool = True, inertias: str = "model", tau_limits: np.ndarray | None = None,
-                 baumgarte: float | None = None, margin: float | None = None, joint_dynamics: bool = False) -> None:
+                 baumgarte: float | None = None, margin: float | None = None, joint_dynamics: bool = False,
+                 link_geoms=()) -> None:
         self.robot, self.model, self.root = robot, robot.model, robot.root
         m = self.model
         self.data = m.createData()
@@ -115,7 +116,12 @@ class MujocoSimulator:
         if lim.shape[0] != m.nv:
             self.tau_limits[self.actuated] = lim
         self.mj_model = mm = build_model(robot, self.env, pts, self.h, joint_limits, inertias, self.tau_limits,
-                                         joint_dynamics)
+                                         joint_dynamics, link_geoms)
+        #: MuJoCo geom id -> name of the links' collision geometries added (``link_geoms``)
+        self._link_geoms = {mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_GEOM, f"wbc_link_{g[0]}"): g[0]
+                            for g in link_geoms}
+        #: the robot geometries added with ``link_geoms`` (what :meth:`link_contacts` watches)
+        self.link_geom_names = [g[0] for g in link_geoms]
         self.mj_data = mujoco.MjData(mm)
         # pinocchio joint -> MuJoCo body, and the (q, v) <-> (qpos, qvel) indices of the joints
         self._body = np.zeros(m.njoints, int)
@@ -392,6 +398,21 @@ class MujocoSimulator:
             self._contacts.append((b, r, R.T @ f))
             idx, offs = self._geom_points[g]
             self.point_forces[idx[np.argmin(((offs - r) ** 2).sum(axis=1))]] += f
+
+    def link_contacts(self) -> list[tuple[str, str, float]]:
+        """MuJoCo's own contact list, now, between the links' collision geometries added with
+        ``link_geoms`` and anything else: (robot geometry name, the other geom's name,
+        MuJoCo's distance, m, < 0 in penetration)."""
+        mm, d = self.mj_model, self.mj_data
+        out = []
+        for k in range(d.ncon):
+            c = d.contact[k]
+            for g, other in ((int(c.geom1), int(c.geom2)), (int(c.geom2), int(c.geom1))):
+                if g in self._link_geoms:
+                    out.append((self._link_geoms[g], mujoco.mj_id2name(mm, mujoco.mjtObj.mjOBJ_GEOM, other) or "",
+                                float(c.dist)))
+                    break
+        return out
 
     # ----------------------------------------------------------- sensing
     def measure(self) -> tuple[np.ndarray, np.ndarray]:

@@ -122,7 +122,8 @@ class Simulator:
                  joint_dynamics: bool = False, contact_solver: str = "compiled") -> None:
         self.model = model
         self.data = model.createData()
-        self.env = list(environment)
+        # the contact surfaces (obstacles, wbc.sim.environment.Sphere/Cylinder, touch no contact point)
+        self.env = [e for e in environment if getattr(e, "contact_surface", True)]
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.h = self.dt / self.substeps

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from wbc.validation.schema import number
+from wbc.validation.schema import boolean, number, sequence, text
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
@@ -45,6 +45,9 @@ class CollisionAvoidance(Task):
         obstacles: fixed obstacles (:class:`~wbc.collision.shapes.Obstacle` or their YAML mappings,
             :func:`wbc.collision.shapes.obstacle`).
         links: robot links checked against the obstacles (None: all).
+        environment: whether the scenario's ``environment:`` shapes (ground, planes, boxes, spheres,
+            cylinders) are obstacles too (against ``links``; the scenario loader hands them over,
+            :meth:`use_environment`).
         name: the task's name in the stack (unique).
         weight: its weight within its level (unitless, > 0).
     """
@@ -53,7 +56,7 @@ class CollisionAvoidance(Task):
 
     def __init__(self, influence: float = 0.05, safety: float = 0.01, max_speed: float = 0.5, max_rows: int = 16,
                  self_collision: bool = True, obstacles=(), links: list[str] | None = None,
-                 name: str = "collision_avoidance", weight: float = 1.0) -> None:
+                 environment: bool = False, name: str = "collision_avoidance", weight: float = 1.0) -> None:
         super().__init__(name, weight)
         owner = f"task '{self.name}'"
         self.influence = number(influence, "influence", gt=0, le=1, unit="m", error=TaskDefinitionError, owner=owner)
@@ -64,12 +67,18 @@ class CollisionAvoidance(Task):
         self.max_speed = number(max_speed, "max_speed", gt=0, le=100, unit="m/s", error=TaskDefinitionError,
                                 owner=owner)
         self.max_rows = int(number(max_rows, "max_rows", ge=1, le=1000, error=TaskDefinitionError, owner=owner))
-        self.self_collision = bool(self_collision)
+        err: dict[str, Any] = {"error": TaskDefinitionError, "owner": owner}
+        self.self_collision = boolean(self_collision, "self_collision", **err)
         from wbc.collision.shapes import Obstacle, obstacle
 
+        obstacles = sequence(obstacles, "obstacles", what="a list of obstacle mappings", **err)
         self.obstacles = [o if isinstance(o, Obstacle) else obstacle(o, f"obstacles[{i}]", f"obstacle_{i}")
                           for i, o in enumerate(obstacles)]
-        self.links = None if links is None else list(links)
+        self.links = None if links is None else [
+            text(x, f"links[{i}]", what="a link name", **err)
+            for i, x in enumerate(sequence(links, "links", min_len=1, what="a list of link names", **err))]
+        self.environment = boolean(environment, "environment", **err)
+        self.environment_obstacles: list = []
         self.omega = self.max_speed / (self.influence - self.safety)
         self.model: Any = None          # the CollisionModel, built at bind
         self._buf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -80,8 +89,27 @@ class CollisionAvoidance(Task):
         if self.model is None or self.model.robot is not robot:
             from wbc.collision.model import CollisionModel
 
-            self.model = CollisionModel(robot, obstacles=self.obstacles, obstacle_links=self.links,
-                                        self_collision=self.self_collision)
+            self.model = CollisionModel(robot, obstacles=self.obstacles + self.environment_obstacles,
+                                        obstacle_links=self.links, self_collision=self.self_collision)
+            if self.links is not None:
+                unknown = sorted(set(self.links) - {robot.model.frames[i].name for i in range(robot.model.nframes)})
+                if unknown:
+                    raise TaskDefinitionError(f"no link {unknown} in robot '{robot.name}'", key="links")
+                bare = sorted(set(self.links) - set(self.model.links))
+                if bare:
+                    raise TaskDefinitionError(f"link(s) {bare} of robot '{robot.name}' have no collision geometry; links "
+                                      f"with some: {sorted(set(self.model.links))}", key="links")
+
+    def use_environment(self, shapes, robot) -> None:
+        """The scenario's environment shapes (:mod:`wbc.sim.environment`) become obstacles of this
+        task (if it was built with ``environment: true``), against its ``links``; rebinds to ``robot``."""
+        if not self.environment:
+            return
+        from wbc.collision.shapes import from_environment
+
+        self.environment_obstacles = from_environment(shapes)
+        self.model = None
+        self.bind(robot)
 
     def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         self.bind(robot)
@@ -103,18 +131,33 @@ class CollisionAvoidance(Task):
         self.last = (r, order)
         return Rows(C=C, lo=lo, hi=hi)
 
-    def diagnostics(self) -> dict:
-        """The closest pairs (names, distances in m) of the last cycle and the rows in use."""
+    def binding_rows(self, x: np.ndarray, tol: float = 1e-7) -> np.ndarray:
+        """Which of the last cycle's rows (nearest pair first) hold at their bound for the
+        solution ``x`` (the damper braking: J_d q̈ = d̈_min − J̇_d q̇ within ``tol`` m/s²); bool (k,)."""
+        if self.last is None or self._buf is None:
+            return np.zeros(0, dtype=bool)
+        k = len(self.last[1])
+        C, lo, _ = self._buf
+        return C[:k] @ x <= lo[:k] + tol
+
+    def diagnostics(self, x: np.ndarray | None = None) -> dict:
+        """The last cycle's rows: ``rows_active`` (pairs within the influence distance, each a
+        row), ``closest`` (the five nearest: pair name, d in m) and ``rows`` (every row: pair
+        name, d in m, ḋ in m/s, and, given the solution ``x``, whether it holds at its bound)."""
         if self.last is None:
-            return {"rows_active": 0, "closest": []}
+            return {"rows_active": 0, "closest": [], "rows": []}
         r, order = self.last
+        bind = self.binding_rows(x) if x is not None else None
+        rows = [{"pair": self.model.pair_name(int(r.pairs[i])), "d": float(r.d[i]), "d_dot": float(r.d_dot[i]),
+                 **({"binding": bool(bind[j])} if bind is not None else {})} for j, i in enumerate(order)]
         return {"rows_active": len(order),
-                "closest": [(self.model.pair_name(int(r.pairs[i])), float(r.d[i])) for i in order[:5]]}
+                "closest": [(row["pair"], row["d"]) for row in rows[:5]],
+                "rows": rows}
 
     def params(self) -> dict:
         p = super().params()
         p.update(influence=self.influence, safety=self.safety, max_speed=self.max_speed, max_rows=self.max_rows,
-                 self_collision=self.self_collision)
+                 self_collision=self.self_collision, environment=self.environment)
         if p["name"] == "collision_avoidance":
             del p["name"]
         return p

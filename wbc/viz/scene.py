@@ -43,8 +43,9 @@ import pinocchio as pin
 from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
-from ..sim.environment import Box, HalfSpace
+from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from . import server
+from .collisions import draw_witnesses
 from .diagnostics import overlay_html, render_png, table_lines
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
@@ -174,6 +175,14 @@ class Scene:
             if isinstance(s, Box):
                 self.vis[f"env/{s.name}"].set_object(mg.Box(s.size), mg.MeshLambertMaterial(color=0x8D6E63))
                 self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center))
+            elif isinstance(s, Sphere):
+                self.vis[f"env/{s.name}"].set_object(mg.Sphere(s.radius), mg.MeshLambertMaterial(color=0x8D6E63))
+                self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center))
+            elif isinstance(s, Cylinder):       # meshcat's cylinder is along y; the obstacle's along z
+                self.vis[f"env/{s.name}"].set_object(mg.Cylinder(s.length, s.radius),
+                                                     mg.MeshLambertMaterial(color=0x8D6E63))
+                self.vis[f"env/{s.name}"].set_transform(mt.translation_matrix(s.center)
+                                                        @ mt.rotation_matrix(np.pi / 2, [1, 0, 0]))
             elif isinstance(s, HalfSpace):
                 T = np.eye(4)
                 T[:3, :3] = s.R
@@ -301,6 +310,9 @@ class Scene:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
             self._legend = [line for task in stack if task.kind == "force"
                             for line in self._draw_task_force(task, stack)]
+            for task in stack:
+                if task.kind == "collision_avoidance" and self._target is None:     # live only
+                    draw_witnesses(self.vis, task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
             pin.updateFramePlacement(m, d, fid)

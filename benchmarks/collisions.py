@@ -1,0 +1,120 @@
+"""Cost of self-collision avoidance on Talos: interleaved A/B in one process.
+
+    PYTHONPATH=. python benchmarks/collisions.py [--seconds 6.0] [--rounds 5] [--out benchmarks/collisions.json]
+
+1. Runs ``talos_hands_cross`` (every self pair of the pair file monitored, the arms crossing)
+   on the own simulator for ``--seconds`` and keeps the measured states (q, v) and the hand
+   references of every 10th cycle.
+2. On those states, times the control cycle (``Controller.solve``) of the scenario's stack (A:
+   with the collision task) and of the same stack without it (B), alternately state by state
+   (A B, B A, ...), ``--rounds`` passes; per round the median of each, and the ratio A/B.
+3. The distance phase alone (``CollisionModel.distance_rows``: broad phase, coal on the near
+   pairs, rows d, J_d, J̇_d q̇) on the same states, with the drift from the exact second
+   difference (the default) and from the witness points' rigid motion only, and how many pairs
+   the broad phase kept.
+
+Reports ranges over the rounds with ``uptime``'s load (the machine is shared): numbers for
+benchmarks/collisions.md, not asserted anywhere.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+import warnings
+
+import numpy as np
+
+from wbc.controller.cycle import Controller
+from wbc.runner.loop import ScenarioRun
+from wbc.scenario.loader import load_config
+from wbc.stack import Stack
+
+
+def _load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seconds", type=float, default=6.0)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--every", type=int, default=10)
+    ap.add_argument("--out", default=None)
+    a = ap.parse_args()
+    warnings.simplefilter("ignore")
+    sc = load_config("talos_hands_cross")
+    r = ScenarioRun(sc, duration=a.seconds)
+    hands = [t for t in sc.stack if t.kind == "frame" and t.moves_position]
+    states = []
+    for k in range(r.n):
+        q, v = r.sim.q.copy(), r.sim.v.copy()
+        if not r.cycle(k):
+            break
+        if k % a.every == 0:
+            states.append((q, v, [(t.name, t.target.copy(), t.target_velocity.copy(), t.target_acceleration.copy())
+                                  for t in hands]))
+    metrics = r.metrics()
+    coll = sc.stack["collision_avoidance"]
+    levels_b = [[t for t in lvl if t.kind != "collision_avoidance"] for lvl in sc.stack.levels]
+    robot = sc.robot
+    stack_a = sc.stack
+    stack_b = Stack([lvl for lvl in levels_b if lvl])
+    ctrl_a = Controller(robot, stack_a, solver="hqp", dt=sc.dt)
+    ctrl_b = Controller(robot, stack_b, solver="hqp", dt=sc.dt)
+
+    def solve(ctrl, stack, state):
+        q, v, refs = state
+        for name, M, vel, acc in refs:
+            stack[name].set_reference(M, vel, acc)
+        t0 = time.perf_counter()
+        ctrl.solve(q, v)
+        return time.perf_counter() - t0
+
+    for s in states[:20]:                       # warm-up (kernels, caches)
+        solve(ctrl_a, stack_a, s)
+        solve(ctrl_b, stack_b, s)
+    rounds = []
+    for rnd in range(a.rounds):
+        ta, tb = [], []
+        for i, s in enumerate(states):
+            if (i + rnd) % 2:
+                ta.append(solve(ctrl_a, stack_a, s))
+                tb.append(solve(ctrl_b, stack_b, s))
+            else:
+                tb.append(solve(ctrl_b, stack_b, s))
+                ta.append(solve(ctrl_a, stack_a, s))
+        ma, mb = float(np.median(ta)), float(np.median(tb))
+        rounds.append({"with_ms": ma * 1e3, "without_ms": mb * 1e3, "ratio": ma / mb, "load": _load()})
+    model = coll.model
+    phase = {}
+    near = []
+    for exact in (True, False):
+        model.exact_drift = exact
+        times = []
+        for _ in range(a.rounds):
+            for q, v, _ in states:
+                robot.update(q, v)
+                t0 = time.perf_counter()
+                rows = model.distance_rows(robot, coll.influence)
+                times.append(time.perf_counter() - t0)
+                if exact:
+                    near.append(len(rows.d))
+        phase["exact_drift" if exact else "witness_drift"] = {
+            "median_ms": float(np.median(times)) * 1e3, "p90_ms": float(np.percentile(times, 90)) * 1e3}
+    model.exact_drift = True
+    out = {"states": len(states), "pairs": len(model.pairs), "geometries": model.geometry_model.ngeoms,
+           "near_pairs": {"median": float(np.median(near)), "max": int(max(near))},
+           "collision_distance_min": metrics.get("collision_distance_min"),
+           "collision_closest_pair": metrics.get("collision_closest_pair"),
+           "cycle": rounds, "distance_phase": phase, "load_end": _load()}
+    print(json.dumps(out, indent=1))
+    if a.out:
+        with open(a.out, "w") as f:
+            json.dump(out, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
