@@ -20,6 +20,8 @@
     faults: {max_hold_cycles: 20, damping: 10.0, solve_timeout: 0.005}   # wbc.controller.faults: held cycles
                                        # before a stop, the hold torque's damping (1/s), a solve's
                                        # time budget (s; none by default)
+    walk: {command: {v_x: 0.25, steps: 10}, timing: {single: 0.6, double: 0.2}}   # a walk
+                                       # (wbc.scenario.walk_section, wbc.locomotion.walker)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories.position`, an offset from the start value unless ``absolute``).
@@ -48,6 +50,7 @@ import numpy as np
 from wbc.errors import ConfigError, WbcError, placed
 from wbc.interaction.external_force import InteractionSpec, interaction_section
 from wbc.interaction.hybrid_selection import check_force_tasks
+from wbc.locomotion.walker import WalkSpec
 from wbc.robot.gains import apply_robot_gains
 from wbc.robot.loader import load_robot
 from wbc.robot.model import RobotModel
@@ -56,6 +59,7 @@ from wbc.scenario.build_tasks import build_task
 from wbc.scenario.contacts import with_contacts
 from wbc.scenario.events import build_events
 from wbc.scenario.examples import scenario_path
+from wbc.scenario.walk_section import walk_section
 from wbc.sim.backends import SIMULATORS
 from wbc.stack import Stack
 from wbc.tasks.contact import Contact
@@ -67,7 +71,7 @@ from wbc.validation.yamlio import read_document
 
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
         "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics", "interaction",
-        "faults"}
+        "faults", "walk"}
 
 
 @dataclass
@@ -99,6 +103,7 @@ class Scenario:
         interaction: the external-force source and glass metrics
             (:mod:`wbc.interaction.external_force`); None: none.
         faults: :class:`~wbc.controller.faults.FaultPolicy` keyword arguments; default none.
+        walk: the ``walk:`` section (:mod:`wbc.scenario.walk_section`); None: no walk.
     """
 
     name: str
@@ -120,6 +125,7 @@ class Scenario:
     joint_dynamics: bool = False      # the URDF's joint damping and friction in the simulator
     interaction: InteractionSpec | None = None   # external-force source and glass metrics (wbc.interaction.external_force)
     faults: dict = field(default_factory=dict)   # FaultPolicy keyword arguments (wbc.controller.faults)
+    walk: WalkSpec | None = None      # the walk the run's walker makes (wbc.scenario.walk_section)
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -169,10 +175,11 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
         raise ConfigError("needs the mujoco package, which is not installed (pip install 'wbc[mujoco]')",
                           key="simulator")
     joint_dynamics = boolean(cfg.get("joint_dynamics", False), "joint_dynamics")
+    walk = walk_section(cfg.get("walk"), robot, stack, duration)
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
                     acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
-                    joint_dynamics=joint_dynamics, interaction=interaction, faults=faults)
+                    joint_dynamics=joint_dynamics, interaction=interaction, faults=faults, walk=walk)
 
 
 def _robot(value: Any, src: Path, robot_loader):
