@@ -1,7 +1,8 @@
 """A walk's figures, from the simulator's true state and contact forces (the metrics JSON's
 ``walk`` entry).
 
-- ``steps_taken``: touch-downs made (``early``, ``late``: how many of them were).
+- ``steps_taken``: touch-downs made (``early``, ``late``: how many of them were; ``delay``,
+  s: how long the plan waited for late landings in all).
 - ``distance`` (m): the pelvis's travel from start to end along the plan (its displacement
   projected on the plan's, or its length when the plan goes nowhere).
 - ``final_error`` (m), ``final_yaw_error`` (rad): the pelvis's horizontal position and yaw at
@@ -105,6 +106,7 @@ class WalkMetrics:
                      "steps_planned": len(w.plan.steps) if w.plan is not None else 0,
                      "early": sum(td["early"] for td in w.touchdowns),
                      "late": sum(td["late"] for td in w.touchdowns),
+                     "delay": w.delay,
                      "stance_slip_max": self.slip_max, "zmp_outside_cycles": self.zmp_outside,
                      "zmp_margin_min": float(self.zmp_margin_min) if np.isfinite(self.zmp_margin_min) else None,
                      "stopped": stopped, "warnings": list(w.warnings)}

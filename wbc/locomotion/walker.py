@@ -54,7 +54,9 @@ class WalkSpec:
     ``start`` (s, the walk's first double support begins); ``contacts``: side -> the robot's
     contact surface; ``changes``: run-time changes, (time s, Command or None = stop), sorted;
     ``swing_kp`` (1/s²); ``replan_period`` and ``horizon`` (s) of the preview;
-    ``touchdown_force`` (fraction of m g), ``late_max`` (s), ``descent_speed`` (m/s)."""
+    ``touchdown_force`` (fraction of m g), ``late_max`` (s), ``descent_speed`` (m/s),
+    ``touchdown_depth`` (m: the swing aims this far below the ground, so that a foot lagging
+    its spline by as much still lands on the clock)."""
 
     footsteps: list[Footstep] | None = None
     command: Command | None = None
@@ -70,6 +72,7 @@ class WalkSpec:
     touchdown_force: float = 0.05
     late_max: float = 0.15
     descent_speed: float = 0.1
+    touchdown_depth: float = 0.002
 
 
 def pose2d(M: pin.SE3) -> tuple[float, float, float]:
@@ -213,7 +216,7 @@ class Walker:
             M = self.swing_task.target
             x, y, yaw = pose2d(M)
             goal_yaw = yaw + wrap(step.yaw - yaw)
-            self.swing = SwingTrajectory([x, y, M.translation[2], yaw], [step.x, step.y, self.ground_z, goal_yaw],
+            self.swing = SwingTrajectory([x, y, M.translation[2], yaw], [step.x, step.y, self.ground_z - self.spec.touchdown_depth, goal_yaw],
                                          te - ts, self.spec.step_height)
             self.swing_rot = M.rotation.copy()
             self.swing_yaw0 = yaw
@@ -258,7 +261,7 @@ class Walker:
         assert self.swing_task is not None
         self.stack.remove(self.swing_task.name)
         late = self.state == "late"
-        self.touchdowns.append({"time": t, "side": side, "early": early, "late": late})
+        self.touchdowns.append({"time": t, "side": side, "early": early, "late": late, "delay": self.delay})
         self.swing_task, self.swing = None, None
         self.i += 1
         self.state = "wait"

@@ -136,7 +136,10 @@ def walk_section(spec: Any, robot, stack, duration: float) -> WalkSpec | None:
             out.changes.append((when, None))
         else:
             vx, vy, om, n = _command(ev["command"], f"{k}.command")
-            from_command(feet, vx, vy, om, period, n, limits)       # beyond the limits: refused here
+            try:                # beyond the limits: refused here (at run time it would be clipped)
+                from_command(feet, vx, vy, om, period, n, limits)
+            except ConfigError as exc:
+                raise ConfigError(exc.message, key=(exc.key or "").replace("walk.command", f"{k}.command")) from None
             out.changes.append((when, Command(vx, vy, om, n)))
             end = max(end, when + timing.first + (n + 1) * period + timing.last)
     out.changes.sort(key=lambda e: e[0])
