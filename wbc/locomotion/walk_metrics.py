@@ -77,7 +77,7 @@ class WalkMetrics:
         for side, idx in self.pts.items():
             task = w.contact_task[side]
             held = task.name in stack
-            if held:
+            if held or float(pf[idx, 2].sum()) > w.spec.touchdown_force * w.robot.weight:
                 stance.append(idx)
             if held and task.fmax == np.inf:
                 xy = pts[idx, :2]
