@@ -56,7 +56,8 @@ class WalkSpec:
     ``swing_kp`` (1/s²); ``replan_period`` and ``horizon`` (s) of the preview;
     ``touchdown_force`` (fraction of m g), ``late_max`` (s), ``descent_speed`` (m/s),
     ``touchdown_depth`` (m: the swing aims this far below the ground, so that a foot lagging
-    its spline by as much still lands on the clock)."""
+    its spline by as much still lands on the clock); ``horizontal``: the fraction of the swing
+    in which the foot moves horizontally (it comes down vertically after it)."""
 
     footsteps: list[Footstep] | None = None
     command: Command | None = None
@@ -73,6 +74,7 @@ class WalkSpec:
     late_max: float = 0.15
     descent_speed: float = 0.1
     touchdown_depth: float = 0.002
+    horizontal: float = 0.8
 
 
 def pose2d(M: pin.SE3) -> tuple[float, float, float]:
@@ -217,7 +219,7 @@ class Walker:
             x, y, yaw = pose2d(M)
             goal_yaw = yaw + wrap(step.yaw - yaw)
             self.swing = SwingTrajectory([x, y, M.translation[2], yaw], [step.x, step.y, self.ground_z - self.spec.touchdown_depth, goal_yaw],
-                                         te - ts, self.spec.step_height)
+                                         te - ts, self.spec.step_height, self.spec.horizontal)
             self.swing_rot = M.rotation.copy()
             self.swing_yaw0 = yaw
             self.t_swing, self.state = ts, "swing"
