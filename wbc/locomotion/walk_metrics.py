@@ -133,5 +133,5 @@ class WalkMetrics:
             out["average_speed"] = distance / walked if walked > 0 else None
         times = np.asarray(w.preview.replan_times) if w.preview is not None else np.zeros(0)
         if len(times):
-            out["replan_time"] = {"median": float(np.median(times)), "max": float(times.max()), "count": len(times)}
+            out["replan_time"] = {"median": float(np.median(times)), "max": float(np.max(times)), "count": len(times)}
         return out

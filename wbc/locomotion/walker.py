@@ -214,39 +214,40 @@ class Walker:
             task.bind(self.robot)
             self.stack.add(task, self.com_level)
             self.swing_task, self.state = task, "release"
-        if self.state == "release" and tau >= ts - 1e-9:
+        if self.state == "release" and tau >= ts - 1e-9 and self.swing_task is not None:
             M = self.swing_task.target
+            assert M is not None
             x, y, yaw = pose2d(M)
-            goal_yaw = yaw + wrap(step.yaw - yaw)
-            self.swing = SwingTrajectory([x, y, M.translation[2], yaw], [step.x, step.y, self.ground_z - self.spec.touchdown_depth, goal_yaw],
-                                         te - ts, self.spec.step_height, self.spec.horizontal)
+            goal = [step.x, step.y, self.ground_z - self.spec.touchdown_depth, yaw + wrap(step.yaw - yaw)]
+            self.swing = SwingTrajectory([x, y, M.translation[2], yaw], goal, te - ts, self.spec.step_height,
+                                         self.spec.horizontal)
             self.swing_rot = M.rotation.copy()
             self.swing_yaw0 = yaw
             self.t_swing, self.state = ts, "swing"
-        if self.state in ("swing", "late"):
-            s = tau - self.t_swing
-            weight = self.robot.weight
-            touched = fz[side] > self.spec.touchdown_force * weight
-            if touched and s >= 0.5 * self.swing.T:
-                self._touchdown(t, side, early=s < self.swing.T - 1e-9)
-                return
-            if s >= self.swing.T - 1e-9:
-                # the clock's end without contact: keep descending while the plan waits
-                if self.state == "swing":
-                    self.state, self.t_late = "late", t
-                late = t - self.t_late
-                if late > self.spec.late_max:
-                    self.stopped = f"missed touchdown: the {side} foot found no ground {late:.3f} s after its swing"
-                    return
-                self.delay += self.dt
-                p, vel, acc = self.swing.sample(self.swing.T)
-                p[2] -= self.spec.descent_speed * late
-                vel = vel.copy()
-                vel[2] = -self.spec.descent_speed
-                self._swing_reference(p, vel, acc)
-                return
-            p, vel, acc = self.swing.sample(s)
-            self._swing_reference(p, vel, acc)
+        if self.state in ("swing", "late") and self.swing is not None:
+            self._swing(t, tau - self.t_swing, side, self.swing, fz[side])
+
+    def _swing(self, t: float, s: float, side: str, swing: SwingTrajectory, fz: float) -> None:
+        """The swing foot ``s`` s after lift-off: its reference, or the touch-down (early: the
+        foot's force after half the swing; on time; late: descending while the plan waits)."""
+        if fz > self.spec.touchdown_force * self.robot.weight and s >= 0.5 * swing.T:
+            self._touchdown(t, side, early=s < swing.T - 1e-9)
+            return
+        if s < swing.T - 1e-9:
+            self._swing_reference(*swing.sample(s))
+            return
+        # the clock's end without contact: keep descending while the plan waits
+        if self.state == "swing":
+            self.state, self.t_late = "late", t
+        late = t - self.t_late
+        if late > self.spec.late_max:
+            self.stopped = f"missed touchdown: the {side} foot found no ground {late:.3f} s after its swing"
+            return
+        self.delay += self.dt
+        p, vel, acc = swing.sample(swing.T)
+        p[2] -= self.spec.descent_speed * late
+        vel[2] = -self.spec.descent_speed
+        self._swing_reference(p, vel, acc)
 
     def _swing_reference(self, p: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> None:
         R = rot_z(p[3] - self.swing_yaw0) @ self.swing_rot
