@@ -111,6 +111,7 @@ def walk_section(spec: Any, robot, stack, duration: float) -> WalkSpec | None:
         vx, vy, om, n = _command(spec["command"], "walk.command")
         out.command = Command(vx, vy, om, n)
         steps = from_command(feet, vx, vy, om, period, n, limits)
+        check_plan(feet, steps, limits, "walk.command")        # the start's width against the limits too
     else:
         out.footsteps = []
         for i, s in enumerate(sequence(spec["footsteps"], "walk.footsteps", min_len=1, max_len=MAX_STEPS,
