@@ -6,8 +6,11 @@ trajectories, and (issue #24) the planning a walking run needs.
 - :mod:`~wbc.locomotion.preview`: ZMP preview control on the LIPM (Kajita 2003), replanned from the
   measured CoM and DCM.
 - :mod:`~wbc.locomotion.swing`: quintic swing-foot trajectories.
+- :mod:`~wbc.locomotion.plan`: a walk's footsteps and phases, changed in its future at run time.
+- :mod:`~wbc.locomotion.walker`: the run-time walker (CoM replanning, swing foot, contact
+  switching through the controller's force ramps, touch-down detection).
+- :mod:`~wbc.locomotion.walk_metrics`: a walk's figures from the simulator's state and forces.
 
-Plain planning (numpy, scipy): it may import ``wbc.errors`` and nothing else of wbc. The
-run-time walker (contact switching through the controller's force ramps) is not built yet
-(issue #24).
+May import :mod:`wbc.errors` and :mod:`wbc.tasks` (the swing foot's Frame task); the
+controller it is given is used through its ``release_contact``/``make_contact``.
 """

@@ -66,6 +66,7 @@ from wbc.runner.observers import (
     RunObserver,
 )
 from wbc.runner.options import RunOptions
+from wbc.runner.walking import WalkObserver
 from wbc.scenario.loader import Scenario
 from wbc.scenario.sections import duration_value
 from wbc.sim.backends import make_simulator
@@ -196,6 +197,8 @@ class ScenarioRun:
         the metrics last (they record the state the others have seen)."""
         sc, robot, stack, sim = self.sc, self.robot, self.stack, self.sim
         out: list[RunObserver] = []
+        if sc.walk is not None:         # the walker sets the references and switches the feet's contacts
+            out.append(WalkObserver(sc.walk, robot, stack, self.ctrl, sim, sc.dt))
         interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)     # force tasks: measurement, figures
         if interaction is not None:
             out.append(InteractionObserver(interaction))
@@ -283,6 +286,11 @@ class ScenarioRun:
             return False
         for o in observers:
             o.after_step(c)
+        for o in observers:
+            if o.stop_reason:
+                self.stopped = {"time": t + sc.dt, "by": "observer", "reason": o.stop_reason}
+                self.fell = fallen(sim.q, self.base_z0) if self.base_z0 is not None else False
+                return False
         qs = sim.q
         if self.base_z0 is not None and fallen(qs, self.base_z0):
             self.fell = True

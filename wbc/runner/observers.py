@@ -47,7 +47,11 @@ class Cycle:
 
 
 class RunObserver:
-    """One observer of a run; every hook is optional (the default does nothing)."""
+    """One observer of a run; every hook is optional (the default does nothing). An observer
+    that sets ``stop_reason`` (text) ends the run after the cycle's step, with
+    ``stopped`` = {time, by: "observer", reason} in the metrics."""
+
+    stop_reason: str | None = None
 
     def after_events(self, c: Cycle) -> None:
         """After the cycle's events (the stack or its contacts may have changed)."""

@@ -4,4 +4,5 @@ and stacks from YAML (:mod:`~wbc.scenario.build_tasks`), the bundled examples.
 
 May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.tasks`,
 :mod:`wbc.stack`, :mod:`wbc.trajectories`, :mod:`wbc.interaction`, :mod:`wbc.sim`,
-:mod:`wbc.solvers` (back-end names), :mod:`wbc.controller` (solver names). Not the runner or the CLI."""
+:mod:`wbc.solvers` (back-end names), :mod:`wbc.controller` (solver names), :mod:`wbc.locomotion`
+(the ``walk:`` section). Not the runner or the CLI."""

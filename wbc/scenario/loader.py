@@ -22,6 +22,8 @@
                                        # time budget (s; none by default)
     mode: torque                       # or velocity: x = q̇, position-controlled actuators
                                        # (wbc.controller.velocity; `wbc run --mode` overrides)
+    walk: {command: {v_x: 0.25, steps: 10}, timing: {single: 0.6, double: 0.2}}   # a walk
+                                       # (wbc.scenario.walk_section, wbc.locomotion.walker)
 
 A task may carry ``offset`` (added to its value at the start) or ``trajectory``
 (:mod:`wbc.trajectories.position`, an offset from the start value unless ``absolute``).
@@ -50,6 +52,7 @@ import numpy as np
 from wbc.errors import ConfigError, WbcError, placed
 from wbc.interaction.external_force import InteractionSpec, interaction_section
 from wbc.interaction.hybrid_selection import check_force_tasks
+from wbc.locomotion.walker import WalkSpec
 from wbc.robot.gains import apply_robot_gains
 from wbc.robot.loader import load_robot
 from wbc.robot.model import RobotModel
@@ -58,6 +61,7 @@ from wbc.scenario.build_tasks import build_task
 from wbc.scenario.contacts import with_contacts
 from wbc.scenario.events import build_events
 from wbc.scenario.examples import scenario_path
+from wbc.scenario.walk_section import walk_section
 from wbc.sim.backends import SIMULATORS
 from wbc.stack import Stack
 from wbc.tasks.contact import Contact
@@ -72,7 +76,7 @@ from wbc.validation.yamlio import read_document
 MODES = ("torque", "velocity")
 _TOP = {"name", "robot", "solver", "control", "duration", "environment", "stack", "pushes", "sensing",
         "description", "acceptance", "events", "simulator", "contacts", "joint_dynamics", "interaction",
-        "faults", "mode"}
+        "faults", "mode", "walk"}
 
 
 @dataclass
@@ -106,6 +110,7 @@ class Scenario:
         faults: :class:`~wbc.controller.faults.FaultPolicy` keyword arguments; default none.
         mode: ``"torque"`` (default) or ``"velocity"`` (x = q̇, position-controlled actuators:
             :mod:`wbc.controller.velocity`).
+        walk: the ``walk:`` section (:mod:`wbc.scenario.walk_section`); None: no walk.
     """
 
     name: str
@@ -128,6 +133,7 @@ class Scenario:
     interaction: InteractionSpec | None = None   # external-force source and glass metrics (wbc.interaction.external_force)
     faults: dict = field(default_factory=dict)   # FaultPolicy keyword arguments (wbc.controller.faults)
     mode: str = "torque"     # "torque" or "velocity" (wbc.controller.velocity; `wbc run --mode` overrides)
+    walk: WalkSpec | None = None      # the walk the run's walker makes (wbc.scenario.walk_section)
 
 
 def load_config(path: str | Path, *, robot_loader: Callable[[str | Path], Any] | None = None) -> Scenario:
@@ -185,11 +191,12 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
                           key="simulator")
     joint_dynamics = boolean(cfg.get("joint_dynamics", False), "joint_dynamics")
     mode = mode_value(cfg.get("mode", "torque"), stack, solver)
+    walk = walk_section(cfg.get("walk"), robot, stack, duration)
     return Scenario(name=name, robot=robot, stack=stack, solver=solver, dt=dt, substeps=substeps, duration=duration,
                     environment=environment, pushes=pushes, sensing=sensing, references=refs, offsets=offsets,
                     acceptance=dict(acceptance), events=events, source=src, simulator=simulator,
                     joint_dynamics=joint_dynamics, interaction=interaction, faults=faults,
-                    mode=mode)
+                    mode=mode, walk=walk)
 
 
 def check_mode(sc: Scenario, mode: str | None) -> None:

@@ -1,0 +1,101 @@
+"""Walks in closed loop with contact physics: the walker, its contacts and metrics.
+
+Default suite: Talos walks 2 steps of 0.2 m (then the stop step) in the own simulator; a
+missed touch-down stops the run cleanly; a run-time command beyond the limits is clipped
+with a warning. The full walks (``talos_walk``, ``talos_walk_side``, ``talos_walk_turn``,
+``g1_walk``, ``talos_walk_push``; both simulators) are marked slow."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+
+import numpy as np
+import pytest
+
+from wbc.locomotion.footsteps import check_plan
+from wbc.locomotion.plan import Command
+from wbc.locomotion.walker import Walker
+from wbc.runner.loop import run
+from wbc.scenario.loader import load_config
+
+HAS_MUJOCO = importlib.util.find_spec("mujoco") is not None
+
+
+def _short(name: str = "talos_walk", steps: int = 2, **spec):
+    sc = load_config(name)
+    w = sc.walk
+    sc.walk = dataclasses.replace(w, command=Command(w.command.vx, w.command.vy, w.command.omega, steps), **spec)
+    t = w.timing
+    return sc, t.first + (steps + 1) * (t.single + t.double) - t.double + t.last + 0.3
+
+
+def _check_walk(m: dict, steps: int, yaw: bool = False) -> None:
+    """The issue's bounds: no fall, no relaxed or saturated cycle, every step down, final
+    error ≤ 5 cm (and yaw ≤ 5°), stance slip < 5 mm, no ZMP outside the stance polygon."""
+    w = m["walk"]
+    assert not m["fell"] and m["stopped"] is None and w["stopped"] is None
+    assert m["relaxed_cycles"] == 0 and m["saturated_cycles"] == 0 and m["solver_failures"] == 0
+    assert w["steps_taken"] == w["steps_planned"] == steps
+    assert w["final_error"] <= 0.05
+    assert w["stance_slip_max"] < 0.005
+    assert w["zmp_outside_cycles"] == 0
+    if yaw:
+        assert w["final_yaw_error"] <= np.radians(5)
+    assert w["replan_time"]["count"] > 0
+
+
+def test_talos_walks_two_steps_in_the_own_simulator():
+    sc, duration = _short()
+    m = run(sc, duration=duration)
+    _check_walk(m, 3)
+    w = m["walk"]
+    assert w["distance"] == pytest.approx(0.4, abs=0.03)       # 2 × 0.2 m, the pelvis over the feet
+    assert w["late"] == 0                                      # landed on the clock (or early)
+    assert w["zmp_margin_min"] > 0.01
+
+
+def test_a_missed_touchdown_stops_the_run_with_its_reason():
+    # a force threshold over the robot's weight: no landing is ever detected
+    sc, duration = _short(steps=1, touchdown_force=2.0)
+    m = run(sc, duration=duration)
+    assert m["stopped"] is not None and m["stopped"]["by"] == "observer"
+    assert m["walk"]["stopped"].startswith("missed touchdown")
+    assert m["walk"]["steps_taken"] == 0
+    t = sc.walk.timing
+    assert m["stopped"]["time"] == pytest.approx(t.first + t.single + sc.walk.late_max, abs=0.01)
+
+
+def test_a_command_beyond_the_limits_at_run_time_is_clipped_with_a_warning():
+    sc = load_config("talos_walk")
+    robot = sc.robot
+    walker = Walker(sc.walk, robot, sc.stack, ctrl=None, dt=sc.dt)
+    walker.begin(0.0, robot.q_default, np.zeros(robot.nv))
+    with pytest.warns(UserWarning, match="clipped"):
+        walker.command(0.1, Command(1.0, 0.0, 0.0, 4))
+    assert walker.warnings and "v_x" in walker.warnings[0]
+    check_plan(walker.start_feet, walker.plan.steps, sc.walk.limits)
+    assert len(walker.plan.steps) == 5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sim", ["pinocchio", pytest.param("mujoco", marks=pytest.mark.skipif(
+    not HAS_MUJOCO, reason="mujoco not installed"))])
+@pytest.mark.parametrize(("name", "yaw"), [("talos_walk", False), ("talos_walk_side", True),
+                                           ("talos_walk_turn", True), ("g1_walk", False)])
+def test_full_walks(name, yaw, sim):
+    if name == "g1_walk" and sim == "mujoco":
+        pytest.xfail("the G1's stance sole rolls on MuJoCo's soft contact and it falls after 3 steps "
+                     "(benchmarks/walking.md)")
+    sc = load_config(name)
+    m = run(sc, simulator=sim)
+    _check_walk(m, sc.walk.command.steps + 1, yaw)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not HAS_MUJOCO, reason="mujoco not installed")
+def test_talos_walk_survives_a_push_in_single_support():
+    sc = load_config("talos_walk_push")
+    m = run(sc)
+    assert sc.pushes[0]["force"][0] >= 60 and sc.pushes[0]["duration"] >= 0.1
+    _check_walk(m, sc.walk.command.steps + 1)
