@@ -37,6 +37,9 @@ class RunOptions:
             simulator simulates (the controller keeps the nominal one): model error.
         wrap_simulator: ``f(sim)`` -> the object the loop drives in place of the simulator,
             with the same :class:`~wbc.sim.backends.PhysicsSimulator` members (the bench's timer).
+        mailbox: an object whose ``apply(run, t, (q, v))`` the loop calls at the start of each
+            cycle, after measuring (commands from a page, :mod:`wbc.runner.interactive`); it
+            returns True when it changed the stack.
     """
 
     solver: str | None = None
@@ -51,6 +54,7 @@ class RunOptions:
     callback: Callable | None = None
     model_perturbation: Callable | None = None
     wrap_simulator: Callable | None = None
+    mailbox: Any = None
 
     @classmethod
     def of(cls, options: RunOptions | None, settings: dict) -> RunOptions:
