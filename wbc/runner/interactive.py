@@ -14,15 +14,17 @@ Two threads meet here and only here:
 
 Commands (key → value):
 
-- ``("target", task)`` → a 3-vector (CoM, m) or a 4×4 pose (frame, m): the task's target (its
-  trajectory, if any, is dropped: the page drives it from now on);
+- ``("target", task)`` → a 3-vector (m: a CoM, or a frame's position, its rotation kept) or a
+  4×4 pose (a frame, m): the task's target (its trajectory, if any, is dropped: the page drives
+  it from now on);
 - ``("kp", task)``, ``("weight", task)`` → a number, clamped to :func:`gain_range` /
   :func:`weight_range`;
 - ``("enabled", task)`` → bool (a disabled task leaves the stack and comes back to the level
   it had);
 - ``("level", task)`` → int (:meth:`wbc.Stack.move`; the lowest level + 1 makes a new one);
 - ``("push", frame)`` → (force (N, world, 3), duration (s)), from the cycle's time;
-- ``"pause"`` → bool; ``"step"`` → a count of cycles to run while paused; ``"speed"`` → × real time.
+- ``"pause"`` → bool; ``"step"`` → a count of cycles to run while paused; ``"speed"`` → × real time;
+  ``"stop"`` → True: end the run after this cycle (its metrics as usual).
 """
 
 from __future__ import annotations
@@ -111,6 +113,7 @@ class LiveControl:
         self.speed = float(np.clip(speed, *SPEED_RANGE))
         self.disabled: dict[str, tuple[Any, int]] = {}      # name -> (task, its level)
         self.applied = 0
+        self.stop = False
         self.kp0: dict[str, float] = {}
 
     def poll(self) -> dict:
@@ -120,6 +123,8 @@ class LiveControl:
             self.paused = bool(box.pop("pause"))
         if "step" in box:
             self.steps += max(0, int(box.pop("step")))
+        if box.pop("stop", False):
+            self.stop = True
         if "speed" in box:
             self.speed = float(np.clip(float(box.pop("speed")), *SPEED_RANGE))
         self._pending = {**getattr(self, "_pending", {}), **box}
@@ -145,7 +150,13 @@ class LiveControl:
             if kind == "target":
                 run.refs.pop(name, None)
                 value = np.asarray(value, float)
-                task.set_reference(value if task.kind == "com" else pin.SE3(value))
+                if task.kind == "com":
+                    task.set_reference(value)
+                elif value.shape == (3,):       # a position: the target keeps its rotation
+                    rotation = task.target.rotation if task.target is not None else np.eye(3)
+                    task.set_reference(pin.SE3(rotation, value))
+                else:
+                    task.set_reference(pin.SE3(value))
             elif kind == "kp" and adjustable(task):
                 kp0 = self.kp0.setdefault(name, float(task.kp))
                 critical = np.allclose(task.kd, 2.0 * np.sqrt(task.kp))
@@ -213,10 +224,12 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
     k = 0
     while k < r.n:
         live.poll()
+        if live.stop:
+            break
         if live.paused and not live.steps:
             paused_at = time.perf_counter()
             publish(snapshot(r, k * sc.dt, live))
-            while live.paused and not live.steps:
+            while live.paused and not live.steps and not live.stop:
                 time.sleep(1.0 / fps)
                 live.poll()
             r.exclude_wall_time(time.perf_counter() - paused_at)

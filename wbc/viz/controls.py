@@ -3,8 +3,9 @@
 Everything the page does goes through ``mailbox.post(key, value)`` (the control loop applies it
 at the start of its next cycle, :mod:`wbc.runner.interactive`; keys as documented there):
 
-- a transform gizmo on every CoM and frame task's target (translation; rotation too for a task
-  holding an orientation): a drag posts the new target on every move;
+- a transform gizmo on every CoM and frame task's target (translation along the world's axes;
+  rotation too, in the target's axes, for a task holding an orientation): a drag posts the new
+  target (a position, or a pose for a task holding an orientation) on every move;
 - **Run**: pause / resume, single step (one control cycle), speed (× real time);
 - **Tasks**: per task, kp and weight sliders (ranges of :mod:`wbc.tasks.tuning`, the loop clamps
   again), an enabled switch (not for contacts) and its level (0 = highest; one more than the
@@ -47,6 +48,7 @@ class Controls:
         self.view, self.mailbox = view, mailbox
         gui, scene = view.server.gui, view.server.scene
         self.gizmos: dict = {}
+        self.rotates: dict[str, bool] = {}  # a gizmo that turns too (a task holding an orientation)
         self.dragged: set[str] = set()      # targets the page has moved: no longer drawn from the loop's
         self.sliders: dict = {}
         for task in stack:
@@ -105,16 +107,16 @@ class Controls:
                                          depth_test=False, visible=False)     # placed by the first snapshot
         scene.add_icosphere(f"/targets/{name}/marker", radius=0.025 if task.kind == "com" else 0.018,
                             color=(46, 134, 222), opacity=0.7)
-        kind = task.kind
 
-        def moved(event, name=name, kind=kind) -> None:
+        def moved(event, name=name) -> None:
             self.dragged.add(name)
             h = event.target
-            value = np.asarray(h.position, float) if kind == "com" else _pose(h.wxyz, h.position)
+            value = _pose(h.wxyz, h.position) if rotate else np.asarray(h.position, float)
             self.mailbox.post(("target", name), value)
 
         g.on_update(moved)
         self.gizmos[name] = g
+        self.rotates[name] = rotate
 
     def _task_controls(self, gui, task, level: int, nlev: int) -> None:
         name, post = task.name, self.mailbox.post
@@ -153,7 +155,8 @@ class Controls:
                 continue
             if target.shape == (4, 4):
                 g.position = target[:3, 3]
-                g.wxyz = pin.Quaternion(target[:3, :3]).coeffs()[[3, 0, 1, 2]]
+                if self.rotates[name]:      # else world axes: drag along x, y, z of the world
+                    g.wxyz = pin.Quaternion(target[:3, :3]).coeffs()[[3, 0, 1, 2]]
             else:
                 g.position = target
             g.visible = True
