@@ -90,7 +90,7 @@ class Controls:
                                               for k in range(self.levels)),
                 title="residual per level", scales={"y": {"distr": 3}}, aspect=1.6)
             self.contact_names = [c.name for c in stack.contacts()]
-            self.normal_plot = gui.add_uplot(
+            self.normal_plot = None if not self.contact_names else gui.add_uplot(
                 (x,) + tuple(np.zeros(2) for _ in self.contact_names),
                 ({"label": "t (s)"},) + tuple({"label": f"{n} (N)", "stroke": f"rgb{LEVEL_COLORS[k % 6]}"}
                                               for k, n in enumerate(self.contact_names)),
@@ -172,8 +172,9 @@ class Controls:
                 for d in s.sol.diagnostics[: self.levels]:
                     res[d.index, i] = max(float(d.residual), 1e-12)
         self.residual_plot.data = (t[keep],) + tuple(r[keep] for r in res)
-        normal = tuple(np.array([s.normal.get(n, 0.0) for s in history])[keep] for n in self.contact_names)
-        self.normal_plot.data = (t[keep],) + normal
+        if self.normal_plot is not None:
+            normal = tuple(np.array([s.normal.get(n, 0.0) for s in history])[keep] for n in self.contact_names)
+            self.normal_plot.data = (t[keep],) + normal
 
     def _on_diagnostics(self, snap, rows) -> None:
         state = "paused" if snap.paused else ("finished" if snap.done else "running")

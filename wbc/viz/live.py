@@ -46,6 +46,20 @@ def _quat_wxyz(R: np.ndarray) -> np.ndarray:
     return np.array([q.w, q.x, q.y, q.z])
 
 
+def _check_host(host: str) -> None:
+    """Raise :class:`~wbc.errors.WbcError` if this machine cannot listen on ``host``."""
+    import socket
+
+    from ..errors import WbcError
+
+    try:
+        family = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)[0][0]
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.bind((host, 0))
+    except OSError as exc:
+        raise WbcError(f"the live view could not listen on {host!r}: {exc}") from None
+
+
 class LiveView:
     """See the module docstring. ``robot``: the controller's :class:`~wbc.robot.RobotModel`;
     ``environment``: the scenario's surfaces; ``host``/``port``: where the page listens (port 0:
@@ -55,6 +69,7 @@ class LiveView:
                  force_scale: float = 2.0, push_scale: float = 0.5) -> None:
         import viser
 
+        _check_host(host)
         self.robot = robot
         self.fps = float(fps)
         self.force_scale, self.push_scale = force_scale, push_scale
