@@ -54,7 +54,7 @@ def one(live: bool, duration: float, chromium: str, work: Path) -> dict:
             browser.wait()
     m = json.loads(out.read_text())
     return {"live": live, "rtf": m["real_time_factor"], "median_ms": m["cycle_time"]["median"] * 1e3,
-            "p99_ms": m["cycle_time"]["p99"] * 1e3, "load": load()}
+            "p99_ms": m["cycle_time"]["p99"] * 1e3, "load": load(), "view": m.get("live_view")}
 
 
 def main() -> None:
@@ -70,7 +70,9 @@ def main() -> None:
                 r = one(live, args.duration, args.chromium, Path(d))
                 rows.append(r)
                 print(f"{'live    ' if live else 'headless'} rtf {r['rtf']:.3f}  cycle median {r['median_ms']:.3f} ms  "
-                      f"p99 {r['p99_ms']:.3f} ms  load {r['load']}", flush=True)
+                      f"p99 {r['p99_ms']:.3f} ms  load {r['load']}"
+                      + (f"  drawn {r['view']['frames_drawn']} frames, {r['view']['draw_ms_mean']:.2f} ms each"
+                         if r["view"] else ""), flush=True)
     for live in (False, True):
         sel = [r for r in rows if r["live"] == live]
         print(f"{'live' if live else 'headless'}: rtf {min(r['rtf'] for r in sel):.3f}-{max(r['rtf'] for r in sel):.3f}, "

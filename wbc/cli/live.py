@@ -41,6 +41,9 @@ def run_with_view(sc, options: RunOptions, host: str = "127.0.0.1", port: int = 
             print("wbc: waiting for a browser to connect (--wait)", flush=True)
             view.wait_for_client()
         metrics = run_live(sc, options, view.publish, mailbox, fps=fps, speed=speed)
+        # the drawing thread's own cost: frames drawn and the wall time each took (ms), in this process
+        metrics["live_view"] = {"frames_drawn": view.frames_drawn, "commands": mailbox.posted,
+                                "draw_ms_mean": 1e3 * view.draw_seconds / max(view.frames_drawn, 1)}
         if keep:
             print("wbc: run finished; the page keeps the last state (--keep): Enter or Ctrl-C to stop", flush=True)
             try:

@@ -234,6 +234,7 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
                 live.poll()
             r.exclude_wall_time(time.perf_counter() - paused_at)
             wall0, sim0 = time.perf_counter(), k * sc.dt
+            continue                        # stopped, stepped or resumed: look again
         if live.steps:
             live.steps -= 1
         speed_before = live.speed

@@ -224,6 +224,8 @@ class ScenarioRun:
             for o in observers:             # what the metrics watch changes only at events
                 o.after_events(c)
         for tname, (traj, absolute, t0) in self.refs.items():
+            if tname not in stack:          # disabled from a live page: its trajectory waits
+                continue
             x, dx, ddx = traj.sample(t - t0)
             task = stack[tname]
             if task.kind == "com":
