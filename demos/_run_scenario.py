@@ -1,9 +1,9 @@
 """Shared body of the scenario demos: run one ``wbc/data/scenarios/*.yaml`` in the browser view.
 
-Live (Meshcat on 127.0.0.1, URL printed, real time, priority diagnostics top left)
-with ``--viz`` or when a display is available; otherwise headless, writing a
-self-contained HTML replay (plays offline) to ``recordings/<name>.html`` and
-printing its path. ``--plot out.png`` adds the run's plots. Prints the metrics.
+Live (the viser page on 127.0.0.1, URL printed, real time: drag the targets, change gains,
+pause, push; see docs/viewer.md) with ``--viz`` or when a display is available; otherwise
+headless, writing a self-contained HTML replay (Meshcat, plays offline) to
+``recordings/<name>.html`` and printing its path. ``--plot out.png`` adds the run's plots. Prints the metrics.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     parser = argparse.ArgumentParser(description=doc.strip().split("\n")[0],
                                      epilog=f"headless replay: recordings/{name}.html")
     parser.add_argument("--viz", action="store_true",
-                        help="play live in the browser (Meshcat on 127.0.0.1) even without a display")
+                        help="play live in the browser (viser on 127.0.0.1) even without a display")
     parser.add_argument("--solver", choices=["hqp", "projection", "weighted"],
                         help="priority solver (default: the scenario's, hqp)")
     parser.add_argument("--duration", type=float, default=duration, metavar="S",
@@ -75,20 +75,21 @@ def main(scenario: str, doc: str, name: str | None = None, duration: float | Non
     solver = args.solver or sc.solver.get('type', 'hqp')
     print(f"{doc.strip().split(chr(10))[0]}\n  scenario {scenario} (bundled), solver {solver}, "
           f"{dur:.1f} s simulated at {1 / sc.dt:.0f} Hz")
-    scene = Scene(sc.robot, sc.environment, open_browser=live, record=not live)
-    try:
-        if live:
-            print(f"browser view: {scene.url}")
-        cb = viewer_callback(scene, sc.stack, sc.dt, realtime=live, speed=args.speed,
-                             frames=shown_frames(sc))
-        m = run(sc, solver=args.solver, duration=dur, progress=True, callback=cb, series=bool(args.plot))
-        if not live:
+    if live:
+        from wbc.cli.live import run_with_view
+        from wbc.runner.options import RunOptions
+
+        m = run_with_view(sc, RunOptions(solver=args.solver, duration=dur, progress=True, series=bool(args.plot)),
+                          speed=args.speed, keep=sys.stdin.isatty())
+    else:
+        scene = Scene(sc.robot, sc.environment, record=True)
+        try:
+            cb = viewer_callback(scene, sc.stack, sc.dt, realtime=False, frames=shown_frames(sc))
+            m = run(sc, solver=args.solver, duration=dur, progress=True, callback=cb, series=bool(args.plot))
             Path(args.record).parent.mkdir(parents=True, exist_ok=True)
             print(f"replay written to {scene.save_html(args.record)} (open it in a browser; works offline)")
-        elif sys.stdin.isatty():
-            input("run finished: press Enter to close the browser view ")
-    finally:
-        scene.close()
+        finally:
+            scene.close()
     if args.plot:
         from wbc.runner.plot import plot_metrics
 

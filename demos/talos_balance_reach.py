@@ -2,8 +2,8 @@
 
 Closed loop: the wbc controller (strict HQP) drives a pinocchio simulation with
 rigid frictional foot contacts at 1 kHz. Prints the run's metrics. With --viz (or
-a display) it plays live in the browser (Meshcat, 127.0.0.1) with the priority
-diagnostics; otherwise it runs headless and writes a self-contained HTML replay to
+a display) it plays live in the browser (viser, 127.0.0.1: drag the targets, change
+gains, pause, push) with the priority diagnostics; otherwise it runs headless and writes a self-contained HTML replay to
 recordings/talos_balance_reach.html. This is `make demo`.
 
     python demos/talos_balance_reach.py [--viz] [--solver hqp|projection|weighted] [--duration S]

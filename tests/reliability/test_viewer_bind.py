@@ -1,5 +1,6 @@
-"""The browser view listens where it says: its page on 127.0.0.1 unless ``--host`` is given,
-its zmq socket (which draws the scene) on 127.0.0.1 always. Checked on the server process's
+"""The browser views listen where they say: the live view (viser) and the replay scene's page
+(Meshcat) on 127.0.0.1 unless ``--host`` is given, Meshcat's zmq socket (which draws the scene)
+on 127.0.0.1 always. Checked on the server process's
 own listening sockets (Linux: /proc/<pid>/fd and /proc/net/tcp{,6}), not on the URL it prints:
 meshcat 0.3.2's server printed http://127.0.0.1:7000 while listening on 0.0.0.0 and ::."""
 
@@ -31,7 +32,10 @@ def listening(pid: int) -> set[tuple[str, int]]:
     """(address, port) of every TCP socket process ``pid`` listens on."""
     inodes = set()
     for fd in Path(f"/proc/{pid}/fd").iterdir():
-        target = os.readlink(fd)
+        try:
+            target = os.readlink(fd)
+        except FileNotFoundError:       # closed meanwhile (another thread's)
+            continue
         if target.startswith("socket:["):
             inodes.add(target[8:-1])
     out = set()
@@ -74,4 +78,22 @@ def test_cli_host_option(capsys):
     # an address this machine does not have (TEST-NET-3): a clear error, exit 2
     assert main(["run", "tiago_reach", "--duration", "0.002", "--host", "203.0.113.7"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: the Meshcat server could not listen on '203.0.113.7'") and "Traceback" not in err
+    assert err.startswith("error: the live view could not listen on '203.0.113.7'") and "Traceback" not in err
+
+
+@pytest.mark.parametrize("host", [None, "127.0.0.2"])
+def test_live_view_listens_on_its_host_only(panda, host):
+    pytest.importorskip("viser", reason="the live view needs viser")
+    from wbc.viz.live import LiveView
+
+    view = LiveView(panda, []) if host is None else LiveView(panda, [], host=host)
+    try:
+        port = urlsplit(view.url).port
+        expected = host or "127.0.0.1"
+        assert urlsplit(view.url).hostname == expected
+        mine = {a for a in listening(os.getpid()) if a[1] == port}
+        assert mine == {(expected, port)}, mine
+        with urllib.request.urlopen(f"http://{expected}:{port}/", timeout=10) as r:   # the page is served
+            assert r.status == 200
+    finally:
+        view.close()

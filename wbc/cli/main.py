@@ -43,30 +43,27 @@ def _cmd_run(args) -> int:
         except ConfigError as exc:
             raise ConfigError(exc.message, key="--duration") from None
     callback, scene = None, None
-    if not args.headless or args.record:
+    if args.record:
         from wbc.viz import Scene, shown_frames, viewer_callback
 
-        scene = Scene(sc.robot, sc.environment, record=bool(args.record), fps=args.fps, live=not args.headless,
-                      host=args.host)
-        if not args.headless:
-            print(f"wbc: browser view at {scene.url}  (Ctrl-C to stop)", flush=True)
-        callback = viewer_callback(scene, sc.stack, sc.dt, realtime=not args.headless, speed=args.speed,
-                                   fps=args.fps, diagnostics_hz=args.diagnostics_rate, frames=shown_frames(sc))
+        scene = Scene(sc.robot, sc.environment, record=True, fps=args.fps, live=False)
+        callback = viewer_callback(scene, sc.stack, sc.dt, realtime=False, fps=args.fps,
+                                   diagnostics_hz=args.diagnostics_rate, frames=shown_frames(sc))
     want_series = bool(args.plot or args.series)
     try:
         options = RunOptions(solver=args.solver, backend=args.backend, duration=args.duration, mode=args.mode,
                              simulator=args.sim, joint_dynamics=True if args.joint_dynamics else None,
                              series=want_series, progress=True, callback=callback)
-        metrics = run(sc, options)
-        if not args.headless and sys.stdin.isatty():
-            try:
-                input("wbc: run finished; press Enter to close the browser view ")
-            except (EOFError, KeyboardInterrupt):
-                print()
+        if args.headless:
+            metrics = run(sc, options)
+        else:
+            from wbc.cli.live import run_with_view
+
+            metrics = run_with_view(sc, options, host=args.host, port=args.port, fps=args.fps, speed=args.speed,
+                                    wait=args.wait, keep=args.keep)
     finally:
         if scene is not None:
-            if args.record:
-                print(f"recording written to {scene.save_html(args.record)}")
+            print(f"recording written to {scene.save_html(args.record)}")
             scene.close()
     if args.plot:
         from wbc.runner.plot import plot_metrics
@@ -312,12 +309,18 @@ def build_parser() -> argparse.ArgumentParser:
                         "with the diagnostics panel following the replay")
     r.add_argument("--host", default="127.0.0.1", metavar="ADDR",
                    help="address the browser view's page listens on (default 127.0.0.1: this machine only; "
-                        "0.0.0.0: every interface, e.g. to watch from another machine; the scene itself is "
-                        "sent over a socket on 127.0.0.1 whatever ADDR)")
+                        "0.0.0.0: every interface, e.g. to watch and act from another machine)")
+    r.add_argument("--port", type=int, default=8080, metavar="N",
+                   help="the page's port (default 8080, or the next free one)")
+    r.add_argument("--wait", action="store_true",
+                   help="start the run once a browser has connected to the page")
+    r.add_argument("--keep", action="store_true",
+                   help="after the run, keep serving the page with the last state (until Enter or Ctrl-C)")
     r.add_argument("--speed", type=float, default=1.0, metavar="X",
                    help="live playback speed, 1 = real time, 0.5 = half speed (default 1.0; ignored with --headless)")
     r.add_argument("--fps", type=float, default=30.0, metavar="HZ",
-                   help="frames drawn per simulated second, live and in recordings (default 30)")
+                   help="frames drawn per second, live (wall time, by a drawing thread) and in recordings "
+                        "(simulated time) (default 30)")
     r.add_argument("--diagnostics-rate", type=float, default=10.0, metavar="HZ",
                    help="priority-diagnostics updates per simulated second in the view (default 10; 0: off)")
     r.set_defaults(fn=_cmd_run)

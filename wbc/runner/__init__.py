@@ -3,5 +3,6 @@ by cycle), its metrics (:mod:`~wbc.runner.metrics`, :mod:`~wbc.runner.stats`), p
 (:mod:`~wbc.runner.plot`) and the numba compile notice.
 
 May import: everything below the CLI (:mod:`wbc.scenario`, :mod:`wbc.controller`,
-:mod:`wbc.sim`, :mod:`wbc.collision` (the collision monitor), :mod:`wbc.interaction`, :mod:`wbc.locomotion`, :mod:`wbc.trajectories`, :mod:`wbc.tasks`,
+:mod:`wbc.sim`, :mod:`wbc.collision` (the collision monitor), :mod:`wbc.interaction`,
+:mod:`wbc.locomotion` (the walker), :mod:`wbc.trajectories`, :mod:`wbc.tasks`,
 :mod:`wbc.robot`, :mod:`wbc.validation`, :mod:`wbc.errors`). Not the CLI, the sweep or the viewer."""

@@ -180,6 +180,7 @@ class ScenarioRun:
             pts_of[c.name] = [i for i, (j, _) in enumerate(sim.points) if j == jid]
         self.base_z0 = sim.q[2] if robot.root == "free_flyer" else None
         mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
+        self.contact_points = pts_of      # contact task name -> indices of its simulator points
         self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, o.series,
                                    self.ctrl.lowest_tasks())
         self.observers = self._observers(o)
@@ -242,12 +243,16 @@ class ScenarioRun:
         q, v = sim.measure()                # once per cycle: events and the solve see the same sample
         c = Cycle(k, t, q, v, sim, stack, self.last_sol, None, None, self.switched)
         observers = self.observers
-        if k == 0 or (pending and pending[0]["time"] <= t + 1e-9):
+        mailbox = self.options.mailbox
+        commanded = mailbox is not None and mailbox.apply(self, t, (q, v))
+        if k == 0 or commanded or (pending and pending[0]["time"] <= t + 1e-9):
             while pending and pending[0]["time"] <= t + 1e-9:
                 _apply_event(pending.pop(0), ctrl, self.robot, (q, v), self.refs, self.start, t, self.switched)
             for o in observers:             # what the metrics watch changes only at events
                 o.after_events(c)
         for tname, (traj, absolute, t0) in self.refs.items():
+            if tname not in stack:          # disabled from a live page: its trajectory waits
+                continue
             x, dx, ddx = traj.sample(t - t0)
             task = stack[tname]
             if task.kind == "com":
@@ -316,6 +321,15 @@ class ScenarioRun:
             out[:7] = q[:7]
         return out
 
+    def real_time_factor(self) -> float:
+        """Simulated time over wall time since the end of the first cycle (0 before it)."""
+        done = int(np.count_nonzero(~np.isnan(self.cycle_times)))
+        return float((done - self.k_wall) * self.sc.dt / max(time.perf_counter() - self.t_wall, 1e-9))
+
+    def exclude_wall_time(self, seconds: float) -> None:
+        """Leave ``seconds`` of wall time (a pause) out of the real-time factor."""
+        self.t_wall += seconds
+
     def metrics(self) -> dict:
         """The metrics dict of the cycles run (see the module docstring)."""
         if self.k_wall == 0:      # no cycle ran
@@ -344,7 +358,7 @@ class ScenarioRun:
         for key in ("relaxed_cycles", "saturated_cycles", "tau_ratio_max", "tau_ratio_requested_max",
                     "singular_cycles", "singularities"):
             out[key] = measured.pop(key)
-        out["real_time_factor"] = float((len(ct) - self.k_wall) * sc.dt / max(time.perf_counter() - self.t_wall, 1e-9))
+        out["real_time_factor"] = self.real_time_factor()
         out.update(measured)
         if self.contacts and not diverged(sim.q, sim.v):
             robot.update(sim.q, sim.v)

@@ -39,6 +39,9 @@ class RunOptions:
             with the same :class:`~wbc.sim.backends.PhysicsSimulator` members (the bench's timer).
         mode: ``"torque"`` or ``"velocity"`` (position-controlled actuators, :mod:`wbc.controller.velocity`);
             None: the scenario's ``mode``.
+        mailbox: an object whose ``apply(run, t, (q, v))`` the loop calls at the start of each
+            cycle, after measuring (commands from a page, :mod:`wbc.runner.interactive`); it
+            returns True when it changed the stack.
     """
 
     solver: str | None = None
@@ -54,6 +57,7 @@ class RunOptions:
     model_perturbation: Callable | None = None
     wrap_simulator: Callable | None = None
     mode: str | None = None
+    mailbox: Any = None
 
     @classmethod
     def of(cls, options: RunOptions | None, settings: dict) -> RunOptions:

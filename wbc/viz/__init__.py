@@ -1,5 +1,7 @@
-"""Browser view (Meshcat): robot, targets, CoM and support polygon, contact forces, pushes,
-priority diagnostics, force tasks' desired and measured forces, a glass's frame.
+"""Browser views: the live page you act in (viser: :mod:`~wbc.viz.live` draws on a thread of its own,
+:mod:`~wbc.viz.controls` holds the gizmos, sliders, buttons and plots) and offline replays (Meshcat:
+:class:`Scene`): robot, targets, CoM and support polygon, contact forces, pushes, priority
+diagnostics, force tasks' desired and measured forces, a glass's frame. docs/viewer.md.
 
 May import: :mod:`wbc.errors`, :mod:`wbc.sim`, :mod:`wbc.robot`, :mod:`wbc.tasks`. Not the runner.
 """

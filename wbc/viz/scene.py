@@ -47,6 +47,8 @@ from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from . import server
 from .collisions import draw_witnesses
 from .diagnostics import overlay_html, render_png, table_lines
+from .keyframes import thin_animation
+from .meshes import cluster, geometry_mesh, visual_model
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
 #: a hidden node's scale in a recording (with a ``visible`` track set to false; not 0: singular matrices)
@@ -56,18 +58,7 @@ COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF
 PUSH_MIN_LENGTH = 0.05       # m: the shortest push arrow drawn
 TASK_FORCE_RADII = {"desired": 0.012, "measured": 0.005}   # m: the sleeve and its core
 FRAME_AXES = 0.12            # m: the axes of a frame drawn where it is (frames=...)
-
-
-def _visual_model(robot) -> pin.GeometryModel:
-    """Visual geometry matching ``robot.model`` (locked joints removed as in the robot YAML)."""
-    root = {"free_flyer": pin.JointModelFreeFlyer(), "planar": pin.JointModelPlanar()}.get(robot.root)
-    urdf = str(robot.urdf_path)
-    full = pin.buildModelFromUrdf(urdf, root) if root is not None else pin.buildModelFromUrdf(urdf)
-    geom = pin.buildGeomFromUrdf(full, urdf, pin.GeometryType.VISUAL, package_dirs=robot.package_dirs)
-    if robot.locked_joints:
-        ids = [full.getJointId(j) for j in robot.locked_joints]
-        _, geom = pin.buildReducedModel(full, geom, ids, pin.neutral(full))
-    return geom
+MESH_CELL = 0.005            # m: the robot meshes' clustering grid (wbc.viz.meshes.cluster)
 
 
 #: a node under the camera object: it moves with the view (a head-up display)
@@ -134,7 +125,7 @@ class Scene:
     def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
                  force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0,
                  live: bool | None = None, host: str = server.DEFAULT_HOST, push_scale: float = 0.5,
-                 task_force_scale: float = 0.1) -> None:
+                 task_force_scale: float = 0.1, mesh_cell: float = MESH_CELL) -> None:
         self.robot = robot
         self.server = None          # the server process this scene started (stopped by close)
         if not zmq_url:
@@ -143,10 +134,11 @@ class Scene:
         if open_browser:
             self.vis.open()
         self.vis.delete()
-        self.geom = _visual_model(robot)
+        self.geom = visual_model(robot)
         self.viz = MeshcatVisualizer(robot.model, self.geom, self.geom)
         self.viz.initViewer(viewer=self.vis, loadModel=False)
-        self.viz.loadViewerModel(rootNodeName="robot")
+        self.mesh_cell = mesh_cell
+        self._load_robot()
         self.force_scale = force_scale
         self.push_scale = push_scale
         self.task_force_scale = task_force_scale
@@ -169,6 +161,23 @@ class Scene:
     @property
     def url(self) -> str:
         return self.vis.url()
+
+    def _node_name(self, go) -> str:
+        return f"robot/visuals/{go.name}"
+
+    def _load_robot(self) -> None:
+        """Each visual as an indexed triangle mesh (:mod:`wbc.viz.meshes`: the URDF's mesh scale
+        baked in, thinned on a ``mesh_cell`` grid), flat-shaded (the page derives the normals):
+        a replay holds each mesh once, 12 bytes per vertex and per face."""
+        for go in self.geom.geometryObjects:
+            mesh = geometry_mesh(go)
+            if mesh is None:
+                continue
+            v, f = cluster(*mesh, self.mesh_cell)
+            color = int(np.dot(np.clip(np.asarray(go.meshColor[:3]) * 255, 0, 255).astype(int), [65536, 256, 1]))
+            self.vis[self._node_name(go)].set_object(
+                mg.TriangularMeshGeometry(v, f),
+                mg.MeshLambertMaterial(color=color, opacity=float(go.meshColor[3]), flatShading=True))
 
     def _env(self, environment) -> None:
         for i, s in enumerate(environment):
@@ -290,14 +299,8 @@ class Scene:
         m, d = self.robot.model, self.viz.data
         pin.forwardKinematics(m, d, q)
         pin.updateGeometryPlacements(m, d, self.geom, self.viz.visual_data)
-        for k, go in enumerate(self.geom.geometryObjects):
-            M = self.viz.visual_data.oMg[k]
-            T = M.homogeneous
-            scale = go.meshScale   # e.g. (1, -1, 1): a mirrored mesh, not a rotation
-            if scale is not None and np.allclose(scale, 1.0):
-                scale = None
-            self._place(f"robot/visuals/{self.viz.getViewerNodeName(go, pin.GeometryType.VISUAL).split('/')[-1]}",
-                        T, scale)
+        for k, go in enumerate(self.geom.geometryObjects):   # mesh scales are baked in (_load_robot)
+            self._place(self._node_name(go), self.viz.visual_data.oMg[k].homogeneous)
         com = pin.centerOfMass(m, d, q)
         self._node("overlay/com").set_transform(mt.translation_matrix(com))
         self._node("overlay/com_ground").set_transform(
@@ -431,6 +434,7 @@ class Scene:
         if self.hud_box is not None:      # the live panel: the replay has its own
             self.vis[HUD_PATH].delete()
             self.hud_box = None
+        thin_animation(self.anim)       # the keys linear interpolation restores within 0.1 mm dropped
         self.vis.set_animation(self.anim, play=True, repetitions=1)
         html = self.vis.static_html()
         if self._diag_text:

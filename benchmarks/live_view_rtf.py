@@ -1,0 +1,83 @@
+"""Real-time factor and control-cycle time of ``wbc run talos_reach``: live with the page open in
+headless Chromium (drawing at 30 fps) against headless, in alternated runs.
+
+    python benchmarks/live_view_rtf.py [--pairs 3] [--duration 4] [--chromium chromium]
+
+Each pair: one headless run (``--headless``), one live run (``--wait``: the run starts once the
+page has connected; Chromium is killed after the run). Prints, per run, the real-time factor,
+the control cycle's median and p99 (ms), and ``uptime``'s load; then the ranges. The results
+go in benchmarks/live_view.md by hand.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
+         "--no-first-run", "--disable-background-networking", "--window-size=800,600"]
+
+
+def load() -> str:
+    return Path("/proc/loadavg").read_text().split()[0]
+
+
+def one(live: bool, duration: float, chromium: str, work: Path) -> dict:
+    out = work / f"m_{'live' if live else 'headless'}_{time.monotonic_ns()}.json"
+    cmd = [sys.executable, "-m", "wbc.cli", "run", "talos_reach", "--duration", str(duration), "--metrics", str(out)]
+    cmd += ["--wait", "--port", "8290"] if live else ["--headless"]
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
+    browser = None
+    try:
+        if live:
+            for line in proc.stdout:
+                if "browser view at" in line:
+                    url = line.split("browser view at ")[1].split()[0]
+                    browser = subprocess.Popen([chromium, *FLAGS, f"--user-data-dir={work / 'profile'}", url],
+                                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                               start_new_session=True)
+                    break
+        proc.communicate(timeout=600)
+    finally:
+        if browser is not None:
+            os.killpg(browser.pid, signal.SIGKILL)
+            browser.wait()
+    m = json.loads(out.read_text())
+    return {"live": live, "rtf": m["real_time_factor"], "median_ms": m["cycle_time"]["median"] * 1e3,
+            "p99_ms": m["cycle_time"]["p99"] * 1e3, "load": load(), "view": m.get("live_view")}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--pairs", type=int, default=3)
+    ap.add_argument("--duration", type=float, default=4.0)
+    ap.add_argument("--chromium", default=shutil.which("chromium") or "chromium")
+    args = ap.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as d:
+        for _ in range(args.pairs):
+            for live in (False, True):
+                r = one(live, args.duration, args.chromium, Path(d))
+                rows.append(r)
+                print(f"{'live    ' if live else 'headless'} rtf {r['rtf']:.3f}  cycle median {r['median_ms']:.3f} ms  "
+                      f"p99 {r['p99_ms']:.3f} ms  load {r['load']}"
+                      + (f"  drawn {r['view']['frames_drawn']} frames, {r['view']['draw_ms_mean']:.2f} ms each"
+                         if r["view"] else ""), flush=True)
+    for live in (False, True):
+        sel = [r for r in rows if r["live"] == live]
+        print(f"{'live' if live else 'headless'}: rtf {min(r['rtf'] for r in sel):.3f}-{max(r['rtf'] for r in sel):.3f}, "
+              f"p99 {min(r['p99_ms'] for r in sel):.3f}-{max(r['p99_ms'] for r in sel):.3f} ms")
+
+
+if __name__ == "__main__":
+    main()

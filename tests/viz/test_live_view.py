@@ -1,0 +1,251 @@
+"""The live view (viser) in headless Chromium, driven over the DevTools protocol: a person's
+actions on the page reach the controller.
+
+One served run of ``talos_reach`` (paused after its first cycle, so the page and the test
+see a still robot) and one Chromium on its page, for every test of this module:
+
+- dragging the right hand's gizmo with the mouse (a press on its x arrow, where the camera
+  puts it, a move along it, a release) moves the right-hand task's target in the controller's stack along +x, and then,
+  once the run steps on, the hand itself (the simulator's state) towards it;
+- the CoM task's kp slider, moved with the keyboard (End: its top), sets the task's gain to
+  the top of its range (:func:`wbc.tasks.tuning.gain_range`);
+- the Pause button stops simulated time (the snapshots' ``t`` stays put for a second of wall
+  time) and the same button resumes it.
+
+Skipped with a reason when Chromium (Debian package ``chromium``) or viser is absent.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from .test_browser import CHROMIUM, DevTools, _kill, launch_devtools
+
+pytestmark = pytest.mark.browser
+CAMERA_FOV = 75.0           # degrees: the viewer's default vertical field of view
+ROOT = Path(__file__).resolve().parents[2]
+
+# a child text node equal to NAME: the element showing it (a folder's title, a button's label)
+FIND = """function wbcFind(name) {
+  var all = document.querySelectorAll('*');
+  for (var i = 0; i < all.length; i++) {
+    var nodes = all[i].childNodes;
+    for (var j = 0; j < nodes.length; j++) {
+      if (nodes[j].nodeType === 3 && nodes[j].textContent.trim() === name) { return all[i]; }
+    }
+  }
+  return null;
+}"""
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """(view, stack, chromium DevTools port, screenshot folder): a live talos_reach run paused
+    after one cycle, its page open in Chromium (a 1000×700 window, the camera 1 m to the
+    left of the right hand, looking at it: the world's x axis points left on the screen)."""
+    if CHROMIUM is None:
+        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    pytest.importorskip("viser", reason="the live view needs viser (a runtime dependency of wbc)")
+    from wbc.cli.live import run_with_view
+    from wbc.runner.options import RunOptions
+    from wbc.scenario.loader import load_config
+
+    root = tmp_path_factory.mktemp("live")
+    sc = load_config(ROOT / "wbc" / "data" / "scenarios" / "talos_reach.yaml")
+    views: list = []
+    result: dict = {}
+
+    def ready(view):
+        view.mailbox.post("pause", True)
+        view.mailbox.post("step", 1)        # one cycle: the hands' targets exist, then still
+        views.append(view)
+
+    def serve():
+        try:
+            result["metrics"] = run_with_view(sc, RunOptions(duration=60.0), port=8190, on_ready=ready)
+        except BaseException as exc:        # shown by the test that waits on it
+            result["error"] = exc
+            views.append(None)
+
+    runner = threading.Thread(target=serve, daemon=True)
+    runner.start()
+    t_end = time.monotonic() + 120
+    while not views and time.monotonic() < t_end:
+        time.sleep(0.1)
+    view = views[0] if views else None
+    assert view is not None, f"the live view did not start: {result.get('error')!r}"
+    while (view.latest() is None or "right_hand" not in view.latest().targets) and time.monotonic() < t_end:
+        time.sleep(0.1)
+    target = view.latest().targets["right_hand"][:3, 3].copy()
+    camera = target + np.array([0.0, 1.0, 0.0])       # world x points left on the screen
+    fmt = ",".join
+    url = (view.url + f"?initialCameraPosition={fmt(f'{x:.4f}' for x in camera)}"
+           f"&initialCameraLookAt={fmt(f'{x:.4f}' for x in target)}&initialCameraUp=0,0,1")
+    proc, port = launch_devtools(CHROMIUM, url, root)
+    try:
+        t_end = time.monotonic() + 60
+        while not view.server.get_clients() and time.monotonic() < t_end:
+            time.sleep(0.1)
+        assert view.server.get_clients(), "the page never connected to the view's server"
+        yield view, sc.stack, port, root
+    finally:
+        _kill(proc)
+        view.mailbox.post("stop", True)
+        runner.join(timeout=60)
+
+
+def _send(dt: DevTools, method: str, **params) -> None:
+    """A DevTools command whose answer nobody waits for (DevTools.call skips it when reading)."""
+    import json
+
+    dt.id += 1
+    dt.conn.write_message(json.dumps({"id": dt.id, "method": method, "params": params}))
+
+
+def _run(coro, timeout: float = 150.0):
+    return asyncio.run(asyncio.wait_for(coro, timeout))
+
+
+async def _click(dt: DevTools, name: str, timeout: float = 30.0) -> bool:
+    """Click the element labelled ``name`` once the page shows it (False: it never did)."""
+    t_end = time.monotonic() + timeout
+    while True:
+        if await dt.evaluate(f"(function () {{ {FIND} var e = wbcFind({name!r}); "
+                             "if (!e) { return false; } e.click(); return true; })()"):
+            return True
+        if time.monotonic() > t_end:
+            return False
+        await asyncio.sleep(0.5)
+
+
+def _wait(cond, timeout: float) -> bool:
+    t_end = time.monotonic() + timeout
+    while not cond() and time.monotonic() < t_end:
+        time.sleep(0.05)
+    return cond()
+
+
+def _hand(view, snap) -> np.ndarray:
+    """The right hand's position (m) in the simulator's state of a snapshot."""
+    robot = view.robot
+    data = robot.model.createData()
+    fid = robot.frame_id("right_hand")
+    pin.framesForwardKinematics(robot.model, data, snap.q)
+    return data.oMf[fid].translation.copy()
+
+
+def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
+    from wbc.viz.controls import GIZMO_SCALE
+
+    view, stack, port, root = served
+    gizmos = view.controls.gizmos
+    start_target = stack["right_hand"].target.translation.copy()
+    start_hand = _hand(view, view.latest())
+
+    async def drag():
+        dt = await DevTools.attach(port)
+        for name, g in gizmos.items():          # the left hand's, between the camera and the right hand's
+            g.visible = name == "right_hand"
+        await asyncio.sleep(3.0)                            # meshes and gizmos drawn
+        w, h = await dt.evaluate("[window.innerWidth, window.innerHeight]")
+        # the gizmo sits at the view's centre (the camera looks at the target from 1 m); its x
+        # arrow, GIZMO_SCALE m long, points left: grab it three quarters along
+        px_per_m = (h / 2) / np.tan(np.deg2rad(CAMERA_FOV) / 2)
+        x0, y0 = w / 2 - 0.75 * GIZMO_SCALE * px_per_m, h / 2
+        # sent without waiting for each acknowledgement (headless Chromium acknowledges an input
+        # event once a frame is drawn, which a loaded machine may take long to do)
+        events = [("mouseMoved", x0, 0), ("mousePressed", x0, 1)]
+        events += [("mouseMoved", x0 - 6 * i, 1) for i in range(1, 13)] + [("mouseReleased", x0 - 72, 0)]
+        for kind, x, buttons in events:
+            _send(dt, "Input.dispatchMouseEvent", type=kind, x=x, y=y0, button="left", buttons=buttons,
+                  clickCount=1 if kind in ("mousePressed", "mouseReleased") else 0)
+            await asyncio.sleep(0.1)
+        t_end = time.monotonic() + 60
+        while "right_hand" not in view.controls.dragged and time.monotonic() < t_end:
+            await asyncio.sleep(0.2)
+        await asyncio.sleep(2.0)                            # the rest of the drag
+        await dt.screenshot(root / "dragged.png")
+        for g in gizmos.values():
+            g.visible = True
+        dt.conn.close()
+        return None, (x0, y0)
+
+    _, grabbed = _run(drag())
+    assert "right_hand" in view.controls.dragged, f"the drag at {grabbed} reached no gizmo"
+    view.mailbox.post("step", 2)         # the posted target applies at the start of the next cycle
+    assert _wait(lambda: not np.allclose(stack["right_hand"].target.translation, start_target), 30)
+    moved = stack["right_hand"].target.translation - start_target
+    print(f"gizmo grabbed at {grabbed}: the target moved {moved * 1e3} mm")
+    assert moved[0] > 0.03 and abs(moved[1]) < 0.01 + 0.2 * moved[0] and abs(moved[2]) < 0.01 + 0.2 * moved[0]
+    new_target = stack["right_hand"].target.translation.copy()
+    t0 = view.latest().t
+    view.mailbox.post("step", 600)       # 0.6 s of simulated time
+    assert _wait(lambda: view.latest().t >= t0 + 0.59, 120), "the run did not step on"
+    hand = _hand(view, view.latest())
+    print(f"hand moved {(hand - start_hand) * 1e3} mm towards the target; left "
+          f"{np.linalg.norm(new_target - hand) * 1e3:.1f} mm of {np.linalg.norm(new_target - start_hand) * 1e3:.1f}")
+    assert hand[0] - start_hand[0] > 0.5 * moved[0]
+    assert np.linalg.norm(new_target - hand) < 0.5 * np.linalg.norm(new_target - start_hand)
+
+
+def test_the_kp_slider_sets_the_task_gain_within_its_range(served):
+    from wbc.tasks.tuning import gain_range
+
+    view, stack, port, root = served
+    com = stack["com"]
+    top = gain_range(com, float(com.kp))[1]
+    assert com.kp != top
+
+    async def slide():
+        dt = await DevTools.attach(port)
+        assert await _click(dt, "com"), "no 'com' folder on the page"
+        await asyncio.sleep(1.0)
+        focused = await dt.evaluate(f"""(function () {{ {FIND}
+            var e = wbcFind('com');
+            while (e && !e.querySelector('[role=slider]')) {{ e = e.parentElement; }}
+            if (!e) {{ return null; }}
+            var s = e.querySelector('[role=slider]'); s.focus();
+            return [s.getAttribute('aria-valuenow'), s.getAttribute('aria-valuemax'),
+                    document.activeElement === s]; }})()""")
+        assert focused and focused[2], f"the com folder's kp slider was not focused: {focused}"
+        for kind in ("keyDown", "keyUp"):
+            await dt.call("Input.dispatchKeyEvent", type=kind, key="End", code="End", windowsVirtualKeyCode=35)
+        await asyncio.sleep(1.0)
+        dt.conn.close()
+        return focused
+
+    before = _run(slide())
+    view.mailbox.post("step", 1)
+    assert _wait(lambda: float(com.kp) == top, 30), f"kp {com.kp}, expected the slider's top {top} (was {before})"
+    assert np.isclose(float(np.max(com.kd)), 2.0 * np.sqrt(top))        # still critically damped
+
+
+def test_pause_stops_simulated_time(served):
+    view, stack, port, root = served
+
+    async def toggle(label: str):
+        dt = await DevTools.attach(port)
+        ok = await _click(dt, label)
+        dt.conn.close()
+        return ok
+
+    if view.controls.paused is False and view.latest().paused:      # paused by the fixture, not the page
+        view.mailbox.post("pause", False)
+    assert _wait(lambda: not view.latest().paused, 30)
+    t_run = view.latest().t
+    assert _wait(lambda: view.latest().t > t_run + 0.05, 60), "the run does not advance"
+    assert _run(toggle("Pause")), "no Pause button"
+    assert _wait(lambda: view.latest().paused, 30)
+    t1 = view.latest().t
+    time.sleep(1.0)
+    t2 = view.latest().t
+    assert t2 == t1, f"simulated time moved from {t1} to {t2} while paused"
+    assert _run(toggle("Resume")), "the button does not say Resume"
+    assert _wait(lambda: view.latest().t > t2 + 0.05, 60), "the run did not resume"
