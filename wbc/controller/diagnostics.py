@@ -32,7 +32,9 @@ def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tupl
     (``Task.regularizer``) is never reported as sacrificed: its rows are not meant to be met.
     ``singular``: (the velocity names, a test σ → σ < ε) naming a damped level's singular
     directions and joints (:func:`~wbc.controller.singular.singular_directions`)."""
-    residuals, task_res, diags = [], {}, []
+    residuals: list[float] = []
+    task_res: dict[str, float] = {}
+    diags: list[LevelDiagnostics] = []
     projection, outside = unenforced
     joint_names, threshold_of = singular if singular is not None else (None, None)
     sacrifice_tol, sacrifice_rel = sacrifice
@@ -53,12 +55,14 @@ def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tupl
         with np.errstate(invalid="ignore"):          # a failed cycle's values are inf
             viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
             act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
-        unenforced = 0.0
+        unenforced_norm = 0.0
         if projection and n_gen:
-            unenforced = float(np.linalg.norm(viol[:n_gen]))
+            unenforced_norm = float(np.linalg.norm(viol[:n_gen]))
             viol[:n_gen] = 0.0
         residuals.append(float(np.sqrt(e @ e + viol @ viol)))
-        sacrificed, active, violations = [], {}, {}
+        sacrificed: list[str] = []
+        active: dict[str, int] = {}
+        violations: dict[str, list] = {}
         for name in names:
             r2 = 0.0
             tol = sacrifice_tol
@@ -85,7 +89,7 @@ def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tupl
             if n_act:
                 active["joint_limits"] = n_act
             _violated_rows(violations, "joint_limits", viol[n_gen:], lvl.box[0], sacrifice_tol)
-        sat = list(saturated_torques) if len(diags) == sat_level else []
+        sat = list(saturated_torques) if saturated_torques and len(diags) == sat_level else []
         if sat:
             active["torque_saturation"] = len(sat)
         is_singular = info.damping > 0.0
@@ -102,7 +106,7 @@ def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tupl
             rank=info.rank, sigma_min=info.sigma(), damping=info.damping,
             dof_before=info.dof_before, used_qp=info.used_qp, relaxed=info.relaxed,
             sacrificed=sacrificed, active=active, saturated_joints=list(info.saturated),
-            unenforced_violation=unenforced, qp_status=info.qp_status, saturated_torques=sat,
+            unenforced_violation=unenforced_norm, qp_status=info.qp_status, saturated_torques=sat,
             violations=violations))
     return residuals, task_res, diags
 
