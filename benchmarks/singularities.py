@@ -90,7 +90,9 @@ def main(out: str | None, which: list[str]) -> None:
                    check=True, capture_output=True)
     (tmp / "go2_zero.yaml").write_text(STANDING.format(name="go2_zero", robot=tmp / "go2_init.yaml"))
     (tmp / "go2_bent.yaml").write_text(STANDING.format(name="go2_bent", robot="go2"))
-    bent_g1 = Path("wbc/data/scenarios/g1_straight_legs.yaml").read_text().replace("robot: g1_straight", "robot: g1")
+    bent_g1 = (Path("wbc/data/scenarios/g1_straight_legs.yaml").read_text().replace("robot: g1_straight", "robot: g1")
+               .replace("frame: left_ankle,", "frame: left_ankle_pitch_link,")
+               .replace("frame: right_ankle,", "frame: right_ankle_pitch_link,"))
     (tmp / "g1_bent.yaml").write_text(bent_g1.replace("name: g1_straight_legs", "name: g1_bent"))
     cases = [("panda", "panda_reach_boundary", "panda_reach_boundary", None),
              ("g1", "g1_straight_legs", "g1_straight_legs", 1.5),
