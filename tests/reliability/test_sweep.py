@@ -96,7 +96,9 @@ def test_robot_leaves_replaced_one_at_a_time(robot_documents, tmp_path):
 
 def test_robot_leaves_replaced_one_at_a_time_then_run_in_a_scenario(robot_documents, tmp_path):
     stats = _robot_sweep(robot_documents, tmp_path, 3, target=250)
-    assert stats["ran"] > 30
+    # a floor on coverage (the failures raise above): the stride over the bundled robots' leaves runs
+    # 30-31 of the 250 cases since g1_straight joined them
+    assert stats["ran"] >= 28
 
 
 @pytest.mark.slow

@@ -19,7 +19,8 @@ from wbc.scenario.examples import SCENARIOS_DIR
 from wbc.scenario.loader import load_config
 from wbc.tasks import Frame, Posture
 
-UNITS = {"m", "rad", "N", "N·m", "N|N·m", "rad|m"}
+#: (a manipulability w = √det(J Jᵀ) over p position rows is in m^p: the product of p singular values in m)
+UNITS = {"m", "rad", "N", "N·m", "N|N·m", "rad|m", "unitless", "m^1", "m^2", "m^3"}
 
 
 @pytest.mark.parametrize("name", ["talos", "g1", "tiago"])

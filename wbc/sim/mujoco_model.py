@@ -79,6 +79,11 @@ def _pair_params(params: dict) -> dict:
     return out
 
 
+#: MuJoCo contact bit of the links' collision hulls (``link_geoms``): the environment's bodies have it in
+#: their affinity, the ground and planes do not (bit 1 is the contact points')
+LINK_CONTYPE = 2
+
+
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
                 joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
                 joint_dynamics: bool = False, link_geoms: Sequence = ()) -> mujoco.MjModel:
@@ -138,11 +143,14 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
                        pos=r + POINT_RADIUS * R[:, 2], size=[POINT_RADIUS, 0, 0], **geom)
             if params:
                 paired.append((f"wbc_point_geom_{i}", params))
-    for gname, jname, M, verts in link_geoms:        # chosen links' collision hulls, against the environment
+    # chosen links' collision hulls, against the environment's bodies (boxes, spheres, cylinders): their own
+    # contact bit, so that they never touch the ground or a plane (the robot stands on its contact points)
+    link_geom = dict(robot_geom, contype=LINK_CONTYPE)
+    for gname, jname, M, verts in link_geoms:
         spec.add_mesh(name=f"wbc_mesh_{gname}", uservert=np.asarray(verts, dtype=float).ravel().tolist())
         body_of(m.getJointId(jname)).add_geom(name=f"wbc_link_{gname}", type=mujoco.mjtGeom.mjGEOM_MESH,
                                               meshname=f"wbc_mesh_{gname}", pos=M.translation,
-                                              quat=_quat_wxyz(M.rotation), **robot_geom)
+                                              quat=_quat_wxyz(M.rotation), **link_geom)
     for c in (c for c in robot.contacts.values() if c.kind == "surface"):
         f = m.frames[m.getFrameId(c.frame)]
         M = f.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, SOLE_THICKNESS / 2]))
@@ -150,7 +158,8 @@ def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], point
                                         pos=M.translation, quat=_quat_wxyz(M.rotation),
                                         size=[c.half_length, c.half_width, SOLE_THICKNESS / 2], **robot_geom)
     for k, s in enumerate(environment):
-        env = dict(contype=0, conaffinity=1, condim=3, priority=1, friction=[s.mu, 0.005, 0.0001])
+        env = dict(contype=0, conaffinity=1 if isinstance(s, HalfSpace) else 1 | LINK_CONTYPE, condim=3, priority=1,
+                   friction=[s.mu, 0.005, 0.0001])
         if isinstance(s, HalfSpace):
             spec.worldbody.add_geom(name=f"env_{k}_{s.name}", type=mujoco.mjtGeom.mjGEOM_PLANE, pos=s.point,
                                     quat=_quat_wxyz(s.R), size=[0, 0, 1], **env)
