@@ -81,15 +81,21 @@ def recordings(chromium, tmp_path_factory):
         robot_html = scene.save_html(d / "reach.html")
     finally:
         scene.close()
+    return d, robot_html, empty_replay(sc, d / "empty.html")
+
+
+def empty_replay(sc, path: Path) -> Path:
+    """A replay of ``sc``'s scene with the robot far above the camera: the background."""
+    from wbc.viz import Scene
+
     empty = Scene(sc.robot, sc.environment, record=True)
     try:
         q = sc.robot.q_default.copy()
         q[2] = 200.0                                   # the robot far above the camera: an empty scene
         empty.show(q)
-        empty_html = empty.save_html(d / "empty.html")
+        return empty.save_html(path)
     finally:
         empty.close()
-    return d, robot_html, empty_html
 
 
 def test_recorded_replay_draws_the_robot_and_moves(chromium, recordings):

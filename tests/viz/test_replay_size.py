@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from .test_browser import CHROMIUM, differing_share, replay_screenshots
+from .test_browser import CHROMIUM, differing_share, empty_replay, replay_screenshots
 
 pytestmark = pytest.mark.browser
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,14 +36,7 @@ def test_a_four_second_talos_replay_stays_under_5_mb_and_draws_the_robot(tmp_pat
     assert size <= LIMIT
     if CHROMIUM is None:
         pytest.skip("headless Chromium not installed (apt-get install chromium): size checked, drawing not")
-    empty = Scene(sc.robot, sc.environment, record=True)
-    try:
-        q = sc.robot.q_default.copy()
-        q[2] = 200.0                                   # the robot far above the camera: an empty scene
-        empty.show(q)
-        empty_html = empty.save_html(tmp_path / "empty.html")
-    finally:
-        empty.close()
+    empty_html = empty_replay(sc, tmp_path / "empty.html")
     background = replay_screenshots(CHROMIUM, empty_html.as_uri(), tmp_path / "empty", [0.0])[0.0]
     shots = replay_screenshots(CHROMIUM, html.as_uri() + "#no-diagnostics", tmp_path / "reach", [0.5, 3.9])
     drawn = differing_share(shots[3.9], background)

@@ -42,7 +42,7 @@ from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, FaultPolicy, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
 from wbc.controller.singular import velocity_names
-from wbc.controller.solution import Solution
+from wbc.controller.solution import Solution, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
 from wbc.errors import SolverError
@@ -340,12 +340,7 @@ class Controller:
         tau_full, finite, values, ratio, n_sat = cycle_outputs(
             robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, x, robot.unactuated_idx,
             buf.A, buf.b, buf.C, buf.lo, buf.hi, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
-        relaxed = any(info.relaxed for info in res.levels)
-        status = "ok" if ok else "failed"
-        if ok and relaxed:
-            status = "relaxed"
-        elif ok and res.degraded:
-            status = "degraded"
+        status, relaxed = solve_status(ok, res)
         degraded = ok and bool(res.degraded)
         if not finite:
             status, message = "failed", "non-finite solution"

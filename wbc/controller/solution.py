@@ -192,3 +192,19 @@ class Solution:
     def __repr__(self) -> str:
         return (f"Solution(status={self.status!r}, qp_count={self.qp_count}, "
                 f"residuals={[round(r, 6) for r in self.residuals]})")
+
+
+def solve_status(ok: bool, res) -> tuple[str, bool]:
+    """(status, relaxed) of a solve: ``"failed"`` when not ``ok``, else ``"relaxed"`` when a level
+    was relaxed, ``"degraded"`` when the solver fell back (``res.degraded``), else ``"ok"``.
+
+    Args:
+        ok: whether the solve succeeded and its x is finite.
+        res: the solver's :class:`~wbc.problem.result.SolveResult`.
+    """
+    relaxed = any(info.relaxed for info in res.levels)
+    if not ok:
+        return "failed", relaxed
+    if relaxed:
+        return "relaxed", relaxed
+    return ("degraded" if res.degraded else "ok"), relaxed

@@ -34,7 +34,7 @@ import pinocchio as pin
 
 from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, FaultPolicy
-from wbc.controller.solution import Solution
+from wbc.controller.solution import Solution, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.errors import ConfigError, SolverError
 from wbc.problem.buffer import RowBuffer, row_values
@@ -188,12 +188,7 @@ class VelocityController:
         ok, message = res.ok, res.message
         if not np.all(np.isfinite(qd)):
             ok, message = False, "non-finite solution"
-        relaxed = any(info.relaxed for info in res.levels)
-        status = "ok" if ok else "failed"
-        if ok and relaxed:
-            status = "relaxed"
-        elif ok and res.degraded:
-            status = "degraded"
+        status, relaxed = solve_status(ok, res)
         if not ok:
             qd = np.zeros(nv)
         values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
