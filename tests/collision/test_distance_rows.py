@@ -156,3 +156,27 @@ def test_exact_drift_predicts_the_distance_along_a_coasting_motion():
         assert err_exact < 2e-4                         # m, over 20 ms at ~1 m/s: third-order terms
         wins += err_exact < err_rigid
     assert wins >= 8
+
+
+def test_broad_phase_keeps_exactly_the_pairs_within_the_influence_distance():
+    """The broad phase (bounding spheres and each pair's bound from its last exact distance
+    and how far its geometries moved since) leaves out no pair closer than d_i: along a
+    smooth motion, then jumps, then back, the near pairs and their distances are those of
+    coal on all monitored pairs."""
+    robot = load_robot("talos")
+    cm = CollisionModel(robot)
+    rng = np.random.default_rng(4)
+    q0 = robot.random_configuration(rng, margin=0.1)
+    dq = rng.uniform(-1.0, 1.0, robot.nv)
+    qs = [pin.integrate(robot.model, q0, t * dq) for t in np.linspace(0.0, 0.6, 40)]
+    qs += [robot.random_configuration(rng, margin=0.1) for _ in range(8)] + qs[::-7]
+    influence, checked = 0.05, 0
+    for q in qs:
+        robot.update(q, np.zeros(robot.nv))
+        rows = cm.distance_rows(robot, influence)
+        truth = cm.all_distances(q)
+        want = np.flatnonzero(truth < influence)
+        assert sorted(rows.pairs.tolist()) == want.tolist()
+        np.testing.assert_allclose(rows.d, truth[rows.pairs], atol=1e-5)     # EPA in penetration
+        checked += len(want)
+    assert checked > 100

@@ -203,6 +203,18 @@ class CollisionModel:
         self._all_map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         if len(self.pairs):
             self._all_map[self.pairs[:, 0], self.pairs[:, 1]] = True
+        for req in self.geometry_data.distanceRequests:     # as the drift's: d(q) is shared with it
+            req.gjk_tolerance = 1e-8
+        # broad phase, precomputed per pair (module docstring, step 1)
+        self._pa, self._pb = self.pairs[:, 0].copy(), self.pairs[:, 1].copy()
+        self._rsum = self.radii[self._pa] + self.radii[self._pb]
+        self._plane_pairs = np.flatnonzero(~np.isfinite(self._rsum))
+        # temporal bound: each pair's last exact distance and both bounding spheres' poses then
+        npairs = len(self.pairs)
+        self._d0 = np.full(npairs, -np.inf)
+        self._c0 = np.zeros((npairs, 2, 3))
+        self._R0 = np.tile(np.eye(3), (npairs, 2, 1, 1))
+        self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
@@ -227,17 +239,22 @@ class CollisionModel:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"
 
+    def _world_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each geometry's rotation (n × 3 × 3) and bounding-sphere centre (n × 3, m) in the
+        world, from ``oMg``."""
+        H = np.array([M.homogeneous for M in self.geometry_data.oMg])
+        R = H[:, :3, :3]
+        return R, np.einsum("kab,kb->ka", R, self.centres) + H[:, :3, 3]
+
     def _world_centres(self) -> np.ndarray:
         """Each geometry's bounding-sphere centre in the world (n × 3, m), from ``oMg``."""
-        oMg = self.geometry_data.oMg
-        H = np.array([oMg[i].homogeneous for i in range(len(self.centres))])
-        return np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
+        return self._world_poses()[1]
 
     def _broad_gaps(self, W: np.ndarray) -> np.ndarray:
         """The broad phase's lower bound of each pair's distance (m)."""
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
-        gaps = np.linalg.norm(W[a] - W[b], axis=1) - self.radii[a] - self.radii[b]
-        for k in np.flatnonzero(~np.isfinite(gaps)):
+        diff = W[self._pa] - W[self._pb]
+        gaps = np.sqrt(np.einsum("ka,ka->k", diff, diff)) - self._rsum
+        for k in self._plane_pairs:
             i, j = self.pairs[k]
             (n, off), c, r = (self.planes[j], W[i], self.radii[i]) if j in self.planes else (self.planes[i], W[j],
                                                                                               self.radii[j])
@@ -343,16 +360,48 @@ class CollisionModel:
     def witness(self, influence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Broad then exact phase on the placements already updated: (pair indices, d, p1,
         p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
-        W = self._world_centres()
-        near = np.flatnonzero(self._broad_gaps(W) < influence)
-        self._compute(near)
-        res = self.geometry_data.distanceResults
-        out = [(int(k), *self.witness_of(int(k))) for k in near if res[int(k)].min_distance < influence]
-        m = len(out)
-        ks = np.array([o[0] for o in out], dtype=np.int64)
-        d = np.array([o[1] for o in out], dtype=float)
-        P1, P2, N = (np.array([o[i] for o in out], dtype=float).reshape(m, 3) for i in (2, 3, 4))
-        return ks, d, P1, P2, N
+        R, W = self._world_poses()
+        bound = np.maximum(self._broad_gaps(W), self._moved_bound(R, W))
+        near = np.flatnonzero(bound < influence)
+        gm, gd = self.geometry_model, self.geometry_data
+        cmap = self._map
+        cmap[:] = False
+        cmap[self._pa[near], self._pb[near]] = True
+        gd.setActiveCollisionPairs(gm, cmap)
+        pin.computeDistances(gm, gd)
+        res = gd.distanceResults
+        results = [res[k] for k in near.tolist()]
+        dist = np.array([r.min_distance for r in results])
+        self._d0[near] = dist                       # the temporal bound's new references
+        self._c0[near, 0], self._c0[near, 1] = W[self._pa[near]], W[self._pb[near]]
+        self._R0[near, 0], self._R0[near, 1] = R[self._pa[near]], R[self._pb[near]]
+        inside = np.flatnonzero(dist < influence)
+        kept = [results[i] for i in inside.tolist()]
+        m = len(kept)
+        P1 = np.array([r.getNearestPoint1() for r in kept], dtype=float).reshape(m, 3)
+        P2 = np.array([r.getNearestPoint2() for r in kept], dtype=float).reshape(m, 3)
+        N = np.array([r.normal for r in kept], dtype=float).reshape(m, 3)
+        return near[inside].astype(np.int64), dist[inside], P1, P2, N
+
+    def _moved_bound(self, R: np.ndarray, W: np.ndarray) -> np.ndarray:
+        """Each pair's lower bound from its last exact distance d₀ (m): every point of a geometry
+        lies within its bounding sphere (c, ρ), so since then it moved at most ‖c − c₀‖ + ρ θ
+        (θ the rotation angle of R R₀ᵀ; ‖(R − R₀) r‖ = 2 sin(θ/2) ‖r‖ ≤ θ ρ), and the distance
+        between two sets falls at most by the sum of their points' largest displacements:
+        d ≥ d₀ − Σ (‖Δc‖ + ρ θ). −∞ for a pair never computed; exact, so a pair left out is
+        farther than the bound says."""
+        out = np.empty(len(self.pairs))
+        moved = np.zeros(len(self.pairs))
+        for side, g in ((0, self._pa), (1, self._pb)):
+            c0, R0 = self._c0[:, side], self._R0[:, side]
+            dc = W[g] - c0
+            cos = 0.5 * (np.einsum("kab,kab->k", R[g], R0) - 1.0)
+            theta = np.arccos(np.clip(cos, -1.0, 1.0))
+            rho = self.radii[g]
+            moved += np.sqrt(np.einsum("ka,ka->k", dc, dc)) + np.where(theta > 0.0, rho * theta, 0.0)
+        np.subtract(self._d0, moved, out=out)
+        out[np.isnan(out)] = -np.inf                # a half-space (ρ = ∞) turned: no bound
+        return out
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
         """The pairs closer than ``influence`` (m) at the robot's current cached state, with
@@ -382,36 +431,43 @@ class CollisionModel:
                 if not self.exact_drift:
                     drift += sign * self._point_drift(data, jid, P, N)
         if m and self.exact_drift:
-            drift = self._curvature_drift(robot, ks)
+            drift = self._curvature_drift(robot, ks, d)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
 
-    def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
+    def _curvature_drift(self, robot, ks: np.ndarray, d: np.ndarray) -> np.ndarray:
         """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance
         along q̈ = 0, d̈ = [d(q ⊕ εv) − 2 d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at
-        1e-10 m), which holds the terms the witness-point drift leaves out: the normal's turn
+        1e-8 m; d(q) is the cycle's own ``d``, so two evaluations, not three), which holds the
+        terms the witness-point drift leaves out: the normal's turn
         and the witness points sliding over curved or rotating surfaces (a hand hull sliding
         round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into
         a steady violation of 1.75/ω² = 3.5 mm). ε = 10 ms, not less: between two hulls the
         distance is C¹ but not C² (the closest features switch), and a 1 ms difference turned
         each switch into a −12 to −34 m/s² spike (Talos's torso against an upper arm) that made
         level 0 infeasible; over ±10 ms the switch is spread ten times thinner, and a smooth
-        curvature (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %."""
+        curvature (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %.
+
+        Args:
+            robot: the robot at the cycle's state (q, q̇).
+            ks: the pairs (indices into :attr:`pairs`).
+            d: their distances at q (m), from the cycle's exact phase.
+        """
         model, gm, gd, data = robot.model, self.geometry_model, self._fd_gd, self._fd_data
-        n = gm.ngeoms
-        cmap = np.zeros((n, n), dtype=bool)
-        cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
+        cmap = self._map
+        cmap[:] = False
+        cmap[self._pa[ks], self._pb[ks]] = True
         gd.setActiveCollisionPairs(gm, cmap)
         eps = self.drift_step
-        out = np.zeros(len(ks))
-        for step, w in ((0.0, -2.0), (eps, 1.0), (-eps, 1.0)):
-            q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
-            pin.forwardKinematics(model, data, q)
+        out = -2.0 * d                      # d(q): the cycle's own, at the same GJK tolerance
+        idx = ks.tolist()
+        for step in (eps, -eps):
+            pin.forwardKinematics(model, data, pin.integrate(model, robot.q, step * robot.v))
             pin.updateGeometryPlacements(model, data, gm, gd)
             pin.computeDistances(gm, gd)
             res = gd.distanceResults
-            out += w * np.array([res[int(k)].min_distance for k in ks])
+            out += np.array([res[k].min_distance for k in idx])
         return out / (eps * eps)
 
     def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
