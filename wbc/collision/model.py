@@ -13,9 +13,13 @@ robot geometries of the chosen links.
 Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that
 ``RobotModel.update`` computed (nothing is recomputed when asked twice in one cycle):
 
-1. broad phase: each geometry's bounding sphere (centre c, radius ρ, in its joint's frame)
-   placed in the world; a pair is *near* when ‖c₁ − c₂‖ − ρ₁ − ρ₂ < d_i (a plane: its
-   signed distance to c minus ρ);
+1. broad phase: each pair's last exact distance d₀ minus a bound on how far the joints moved
+   its two geometries since (:func:`motion_weights`, accumulated cycle to cycle from
+   ``pin.difference``); a pair is *near* when that lower bound is < d_i (exact: a pair left
+   out is farther; a pair never computed is near). The monitor's
+   :meth:`CollisionModel.smallest_distances` orders pairs by their bounding spheres instead
+   (centre c, radius ρ in the joint's frame: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d; a plane: its signed
+   distance to c minus ρ);
 2. exact phase: coal's distance on the near pairs only: d, witness points p₁ (on the
    first geometry) and p₂, normal n = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays
    defined in penetration, d < 0);
@@ -99,6 +103,61 @@ def _vertices(geometry) -> np.ndarray:
                 if isinstance(geometry, coal.Capsule) else [])
         return np.vstack([ring + [0, 0, h], ring - [0, 0, h], *caps])
     raise TypeError(f"no vertices for a {type(geometry).__name__}")
+
+
+_CONSTANT_S = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
+               "JointModelRUBX", "JointModelRUBY", "JointModelRUBZ", "JointModelRevoluteUnboundedUnaligned",
+               "JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned",
+               "JointModelFreeFlyer", "JointModelPlanar", "JointModelSpherical"}
+
+
+def motion_weights(model, gm, pairs: np.ndarray, spheres: list[tuple[np.ndarray, float]]) -> np.ndarray:
+    """(pairs × nv) weights w with |ḋₖ| ≤ Σⱼ wₖⱼ |q̇ⱼ| in every configuration (q̇ in the joints'
+    own frames, as ``pin.difference`` gives it; m per unit of q̇ⱼ).
+
+    A joint moving both geometries of a pair (a common ancestor) moves them as one rigid
+    body: ∂d/∂qⱼ = 0. Any other joint j on geometry g's chain moves g's points with the
+    velocity S_lin + S_ang × r per unit, r from joint j's origin to the point, so
+    wⱼ = ‖S_lin‖ + ‖S_ang‖ Lⱼ with Lⱼ ≥ ‖r‖ for every configuration: the sum of the
+    placements' offsets from j to g's joint, plus each prismatic joint's largest travel in
+    between, plus ‖placement · c‖ + ρ of g's bounding sphere (c, ρ). Joints whose motion
+    subspace S is not constant in their frame get an infinite weight (the pair is computed
+    every cycle)."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    nv = model.nv
+    reach_of_joint = np.zeros(model.njoints)       # a joint's own largest translation
+    cols: list[list[tuple[int, float, float]]] = [[] for _ in range(model.njoints)]
+    for j in range(1, model.njoints):
+        jm = model.joints[j]
+        S = (np.asarray(data.joints[j].S).reshape(6, jm.nv) if jm.shortname() in _CONSTANT_S
+             else np.full((6, jm.nv), np.inf))
+        for c in range(jm.nv):
+            cols[j].append((jm.idx_v + c, float(np.linalg.norm(S[:3, c])), float(np.linalg.norm(S[3:, c]))))
+        if jm.shortname() in ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"):
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            reach_of_joint[j] = max(abs(float(lo)), abs(float(hi)))
+    offset = np.array([np.linalg.norm(model.jointPlacements[j].translation) for j in range(model.njoints)])
+    geo = []                                        # per geometry: {joint j: w per v index}
+    for g, (centre, rho) in zip(gm.geometryObjects, spheres):
+        i = g.parentJoint
+        tail = float(np.linalg.norm(g.placement.act(centre))) + rho
+        chain = [j for j in model.supports[i] if j > 0]             # root first
+        w: dict[int, float] = {}
+        for n, j in enumerate(chain):
+            L = tail + sum(offset[t] + reach_of_joint[t] for t in chain[n + 1:])
+            for idx, lin, ang in cols[j]:
+                w[idx] = lin + (ang * L if ang > 0.0 else 0.0)
+        geo.append((set(chain), w))
+    out = np.zeros((len(pairs), nv))
+    for k, (a, b) in enumerate(pairs):
+        (sa, wa), (sb, wb) = geo[int(a)], geo[int(b)]
+        common = sa & sb
+        for j in (sa | sb) - common:
+            jm = model.joints[j]
+            for idx in range(jm.idx_v, jm.idx_v + jm.nv):
+                out[k, idx] = wa.get(idx, 0.0) + wb.get(idx, 0.0)
+    return out
 
 
 def bounding_sphere(geometry) -> tuple[np.ndarray, float]:
@@ -209,11 +268,11 @@ class CollisionModel:
         self._pa, self._pb = self.pairs[:, 0].copy(), self.pairs[:, 1].copy()
         self._rsum = self.radii[self._pa] + self.radii[self._pb]
         self._plane_pairs = np.flatnonzero(~np.isfinite(self._rsum))
-        # temporal bound: each pair's last exact distance and both bounding spheres' poses then
-        npairs = len(self.pairs)
-        self._d0 = np.full(npairs, -np.inf)
-        self._c0 = np.zeros((npairs, 2, 3))
-        self._R0 = np.tile(np.eye(3), (npairs, 2, 1, 1))
+        # the pairs' bound from their last exact distance and the joints' motion since (_moved_bound)
+        self._weights = motion_weights(model, gm, self.pairs, spheres)
+        self._d0 = np.full(len(self.pairs), -np.inf)
+        self._moved = np.zeros(len(self.pairs))
+        self._q_last: np.ndarray | None = None
         self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
 
     # ------------------------------------------------------------ queries
@@ -238,17 +297,6 @@ class CollisionModel:
     def pair_name(self, k: int) -> str:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"
-
-    def _world_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        """Each geometry's rotation (n × 3 × 3) and bounding-sphere centre (n × 3, m) in the
-        world, from ``oMg``."""
-        H = np.array([M.homogeneous for M in self.geometry_data.oMg])
-        R = H[:, :3, :3]
-        return R, np.einsum("kab,kb->ka", R, self.centres) + H[:, :3, 3]
-
-    def _world_centres(self) -> np.ndarray:
-        """Each geometry's bounding-sphere centre in the world (n × 3, m), from ``oMg``."""
-        return self._world_poses()[1]
 
     def _broad_gaps(self, W: np.ndarray) -> np.ndarray:
         """The broad phase's lower bound of each pair's distance (m)."""
@@ -315,7 +363,7 @@ class CollisionModel:
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
         oMg = gd.oMg
-        H = np.array([oMg[i].homogeneous for i in range(len(self.centres))])
+        H = np.array([M.homogeneous for M in oMg])
         W = np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
         bound = self._broad_gaps(W)
         order = np.argsort(bound)
@@ -357,12 +405,11 @@ class CollisionModel:
         return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
                 np.array(res.normal))
 
-    def witness(self, influence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Broad then exact phase on the placements already updated: (pair indices, d, p1,
-        p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
-        R, W = self._world_poses()
-        bound = np.maximum(self._broad_gaps(W), self._moved_bound(R, W))
-        near = np.flatnonzero(bound < influence)
+    def witness(self, influence: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                                 np.ndarray]:
+        """Broad then exact phase on the placements already updated for ``q``: (pair indices,
+        d, p1, p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
+        near = np.flatnonzero(self._moved_bound(q) < influence)
         gm, gd = self.geometry_model, self.geometry_data
         cmap = self._map
         cmap[:] = False
@@ -372,9 +419,8 @@ class CollisionModel:
         res = gd.distanceResults
         results = [res[k] for k in near.tolist()]
         dist = np.array([r.min_distance for r in results])
-        self._d0[near] = dist                       # the temporal bound's new references
-        self._c0[near, 0], self._c0[near, 1] = W[self._pa[near]], W[self._pb[near]]
-        self._R0[near, 0], self._R0[near, 1] = R[self._pa[near]], R[self._pb[near]]
+        self._d0[near] = dist                       # the bound's new references
+        self._moved[near] = 0.0
         inside = np.flatnonzero(dist < influence)
         kept = [results[i] for i in inside.tolist()]
         m = len(kept)
@@ -383,25 +429,21 @@ class CollisionModel:
         N = np.array([r.normal for r in kept], dtype=float).reshape(m, 3)
         return near[inside].astype(np.int64), dist[inside], P1, P2, N
 
-    def _moved_bound(self, R: np.ndarray, W: np.ndarray) -> np.ndarray:
-        """Each pair's lower bound from its last exact distance d₀ (m): every point of a geometry
-        lies within its bounding sphere (c, ρ), so since then it moved at most ‖c − c₀‖ + ρ θ
-        (θ the rotation angle of R R₀ᵀ; ‖(R − R₀) r‖ = 2 sin(θ/2) ‖r‖ ≤ θ ρ), and the distance
-        between two sets falls at most by the sum of their points' largest displacements:
-        d ≥ d₀ − Σ (‖Δc‖ + ρ θ). −∞ for a pair never computed; exact, so a pair left out is
-        farther than the bound says."""
-        out = np.empty(len(self.pairs))
-        moved = np.zeros(len(self.pairs))
-        for side, g in ((0, self._pa), (1, self._pb)):
-            c0, R0 = self._c0[:, side], self._R0[:, side]
-            dc = W[g] - c0
-            cos = 0.5 * (np.einsum("kab,kab->k", R[g], R0) - 1.0)
-            theta = np.arccos(np.clip(cos, -1.0, 1.0))
-            rho = self.radii[g]
-            moved += np.sqrt(np.einsum("ka,ka->k", dc, dc)) + np.where(theta > 0.0, rho * theta, 0.0)
-        np.subtract(self._d0, moved, out=out)
-        out[np.isnan(out)] = -np.inf                # a half-space (ρ = ∞) turned: no bound
-        return out
+    def _moved_bound(self, q: np.ndarray) -> np.ndarray:
+        """Each pair's lower bound (m) from its last exact distance d₀ and the joints' motion
+        since: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
+        (:func:`motion_weights`), so d(q) ≥ d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one
+        cycle to the next (one ``pin.difference`` and one (pairs × nv) product). −∞ for a pair
+        never computed. Exact: a pair it leaves out is farther than ``influence``, whatever
+        the order or size of the steps between calls (an infinite weight times a zero step
+        gives NaN: that pair's bound is −∞ until it is computed again)."""
+        if self._q_last is not None:
+            step = np.abs(pin.difference(self.robot.model, self._q_last, q))
+            self._moved += self._weights @ step
+        self._q_last = q.copy()
+        bound = self._d0 - self._moved
+        bound[np.isnan(bound)] = -np.inf
+        return bound
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
         """The pairs closer than ``influence`` (m) at the robot's current cached state, with
@@ -419,7 +461,7 @@ class CollisionModel:
             return self._rows
         model, data = robot.model, robot.data
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
-        ks, d, P1, P2, N = self.witness(influence)
+        ks, d, P1, P2, N = self.witness(influence, robot.q)
         m = len(ks)
         J, drift = np.zeros((m, robot.nv)), np.zeros(m)
         if m:
