@@ -274,6 +274,8 @@ class CollisionModel:
         self._moved = np.zeros(len(self.pairs))
         self._q_last: np.ndarray | None = None
         self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
+        self.computed = 0
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
@@ -410,6 +412,7 @@ class CollisionModel:
         """Broad then exact phase on the placements already updated for ``q``: (pair indices,
         d, p1, p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
         near = np.flatnonzero(self._moved_bound(q) < influence)
+        self.computed = len(near)
         gm, gd = self.geometry_model, self.geometry_data
         cmap = self._map
         cmap[:] = False
