@@ -262,8 +262,8 @@ class CollisionModel:
         self._all_map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         if len(self.pairs):
             self._all_map[self.pairs[:, 0], self.pairs[:, 1]] = True
-        for req in self.geometry_data.distanceRequests:     # as the drift's: d(q) is shared with it
-            req.gjk_tolerance = 1e-8
+        for req in self.geometry_data.distanceRequests:     # coal's default, said here: d(q) feeds the drift
+            req.gjk_tolerance = 1e-6
         # broad phase, precomputed per pair (module docstring, step 1)
         self._pa, self._pb = self.pairs[:, 0].copy(), self.pairs[:, 1].copy()
         self._rsum = self.radii[self._pa] + self.radii[self._pb]
@@ -484,7 +484,8 @@ class CollisionModel:
     def _curvature_drift(self, robot, ks: np.ndarray, d: np.ndarray) -> np.ndarray:
         """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance
         along q̈ = 0, d̈ = [d(q ⊕ εv) − 2 d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at
-        1e-8 m; d(q) is the cycle's own ``d``, so two evaluations, not three), which holds the
+        1e-8 m; d(q) is the cycle's own ``d``, at 1e-6 m: ≤ 2e-6/ε² = 0.02 m/s² off, for two
+        evaluations instead of three), which holds the
         terms the witness-point drift leaves out: the normal's turn
         and the witness points sliding over curved or rotating surfaces (a hand hull sliding
         round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into
@@ -505,7 +506,7 @@ class CollisionModel:
         cmap[self._pa[ks], self._pb[ks]] = True
         gd.setActiveCollisionPairs(gm, cmap)
         eps = self.drift_step
-        out = -2.0 * d                      # d(q): the cycle's own, at the same GJK tolerance
+        out = -2.0 * d                      # d(q): the cycle's own
         idx = ks.tolist()
         for step in (eps, -eps):
             pin.forwardKinematics(model, data, pin.integrate(model, robot.q, step * robot.v))
