@@ -10,8 +10,8 @@
    (A B, B A, ...), ``--rounds`` passes; per round the median of each, and the ratio A/B.
 3. The distance phase alone (``CollisionModel.distance_rows``: broad phase, coal on the near
    pairs, rows d, J_d, J̇_d q̇) on the same states, with the drift from the exact second
-   difference (the default) and from the witness points' rigid motion only, and how many pairs
-   the broad phase kept.
+   difference (the default) and from the witness points' rigid motion only, how many pairs
+   are within the influence distance (rows) and how many the broad phase passed to coal.
 
 Reports ranges over the rounds with ``uptime``'s load (the machine is shared): numbers for
 benchmarks/collisions.md, not asserted anywhere.
@@ -90,7 +90,8 @@ def main() -> None:
         rounds.append({"with_ms": ma * 1e3, "without_ms": mb * 1e3, "ratio": ma / mb, "load": _load()})
     model = coll.model
     phase = {}
-    near = []
+    near: list[int] = []
+    computed: list[int] = []
     for exact in (True, False):
         model.exact_drift = exact
         times = []
@@ -102,11 +103,13 @@ def main() -> None:
                 times.append(time.perf_counter() - t0)
                 if exact:
                     near.append(len(rows.d))
+                    computed.append(getattr(model, "computed", -1))
         phase["exact_drift" if exact else "witness_drift"] = {
             "median_ms": float(np.median(times)) * 1e3, "p90_ms": float(np.percentile(times, 90)) * 1e3}
     model.exact_drift = True
     out = {"states": len(states), "pairs": len(model.pairs), "geometries": model.geometry_model.ngeoms,
            "near_pairs": {"median": float(np.median(near)), "max": int(max(near))},
+           "computed_pairs": {"median": float(np.median(computed)), "max": int(max(computed))},
            "collision_distance_min": metrics.get("collision_distance_min"),
            "collision_closest_pair": metrics.get("collision_closest_pair"),
            "cycle": rounds, "distance_phase": phase, "load_end": _load()}

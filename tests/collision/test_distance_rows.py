@@ -156,3 +156,39 @@ def test_exact_drift_predicts_the_distance_along_a_coasting_motion():
         assert err_exact < 2e-4                         # m, over 20 ms at ~1 m/s: third-order terms
         wins += err_exact < err_rigid
     assert wins >= 8
+
+
+def _broad_case(name):
+    robot = load_robot(name)
+    if name != "tiago":
+        return robot, CollisionModel(robot)
+    probe = CollisionModel(robot, self_collision=False)      # a box at the tool, and a half-space
+    pin.updateGeometryPlacements(robot.model, robot.data, probe.geometry_model, probe.geometry_data)
+    tip = probe.geometry_data.oMg[probe.names.index("wrist_ft_tool_link_0")].translation.copy()
+    box = Obstacle("table", coal.Box(0.3, 0.3, 0.02), pin.SE3(np.eye(3), tip + np.array([0.0, 0.0, -0.05])))
+    wall = Obstacle("wall", coal.Halfspace(np.array([-1.0, 0.0, 0.0]), -(tip[0] + 0.05)), pin.SE3.Identity())
+    return robot, CollisionModel(robot, obstacles=[box, wall])
+
+
+@pytest.mark.parametrize("name", ["talos", "tiago"])
+def test_broad_phase_keeps_exactly_the_pairs_within_the_influence_distance(name):
+    """The broad phase (each pair's last exact distance minus a bound on how far the joints
+    moved its geometries since) leaves out no pair closer than d_i: along a smooth motion
+    (base, prismatic torso and arms), then jumps, then back, the near pairs and their
+    distances are those of coal on all monitored pairs."""
+    robot, cm = _broad_case(name)
+    rng = np.random.default_rng(4)
+    q0 = robot.q.copy() if name == "tiago" else robot.random_configuration(rng, margin=0.1)
+    dq = rng.uniform(-1.0, 1.0, robot.nv)
+    qs = [pin.integrate(robot.model, q0, t * dq) for t in np.linspace(0.0, 0.6, 40)]
+    qs += [robot.random_configuration(rng, margin=0.1) for _ in range(8)] + qs[::-7]
+    influence, checked = 0.05, 0
+    for q in qs:
+        robot.update(q, np.zeros(robot.nv))
+        rows = cm.distance_rows(robot, influence)
+        truth = cm.all_distances(q)
+        want = np.flatnonzero(truth < influence)
+        assert sorted(rows.pairs.tolist()) == want.tolist()
+        np.testing.assert_allclose(rows.d, truth[rows.pairs], atol=1e-5)     # EPA in penetration
+        checked += len(want)
+    assert checked > 40

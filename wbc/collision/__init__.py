@@ -1,6 +1,7 @@
 """Collision geometry and distances: the robot's collision model (pinocchio GeometryModel and
-coal, meshes as cached convex hulls, :mod:`.model`), its self pairs (:mod:`.pairs`,
-:mod:`.sampling`), the environment's obstacles (:mod:`.shapes`) and the run's monitor of every
+coal, meshes as cached convex hulls, :mod:`.model`; its broad phase's motion bound,
+:mod:`.motion`), its self pairs (:mod:`.pairs`, :mod:`.sampling`), the environment's obstacles
+(:mod:`.shapes`) and the run's monitor of every
 pair's distance (:mod:`.monitor`). The :class:`~wbc.tasks.CollisionAvoidance` task turns the
 distance rows into constraints.
 

@@ -13,9 +13,13 @@ robot geometries of the chosen links.
 Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that
 ``RobotModel.update`` computed (nothing is recomputed when asked twice in one cycle):
 
-1. broad phase: each geometry's bounding sphere (centre c, radius ρ, in its joint's frame)
-   placed in the world; a pair is *near* when ‖c₁ − c₂‖ − ρ₁ − ρ₂ < d_i (a plane: its
-   signed distance to c minus ρ);
+1. broad phase: each pair's last exact distance d₀ minus a bound on how far the joints moved
+   its two geometries since (:func:`wbc.collision.motion.motion_weights`, accumulated cycle to cycle from
+   ``pin.difference``); a pair is *near* when that lower bound is < d_i (exact: a pair left
+   out is farther; a pair never computed is near). The monitor's
+   :meth:`CollisionModel.smallest_distances` orders pairs by their bounding spheres instead
+   (centre c, radius ρ in the joint's frame: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d; a plane: its signed
+   distance to c minus ρ);
 2. exact phase: coal's distance on the near pairs only: d, witness points p₁ (on the
    first geometry) and p₂, normal n = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays
    defined in penetration, d < 0);
@@ -42,6 +46,7 @@ import pinocchio as pin
 
 from ..errors import RobotDefinitionError
 from .hulls import convex_hull
+from .motion import motion_weights
 from .shapes import Obstacle
 
 
@@ -203,6 +208,18 @@ class CollisionModel:
         self._all_map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         if len(self.pairs):
             self._all_map[self.pairs[:, 0], self.pairs[:, 1]] = True
+        # broad phase, precomputed per pair (module docstring, step 1)
+        self._pa, self._pb = self.pairs[:, 0].copy(), self.pairs[:, 1].copy()
+        self._rsum = self.radii[self._pa] + self.radii[self._pb]
+        self._plane_pairs = np.flatnonzero(~np.isfinite(self._rsum))
+        # the pairs' bound from their last exact distance and the joints' motion since (_moved_bound)
+        self._weights = motion_weights(model, gm, self.pairs, spheres)
+        self._d0 = np.full(len(self.pairs), -np.inf)
+        self._moved = np.zeros(len(self.pairs))
+        self._q_last: np.ndarray | None = None
+        self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
+        self.computed = 0
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
@@ -227,17 +244,11 @@ class CollisionModel:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"
 
-    def _world_centres(self) -> np.ndarray:
-        """Each geometry's bounding-sphere centre in the world (n × 3, m), from ``oMg``."""
-        oMg = self.geometry_data.oMg
-        H = np.array([oMg[i].homogeneous for i in range(len(self.centres))])
-        return np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
-
     def _broad_gaps(self, W: np.ndarray) -> np.ndarray:
         """The broad phase's lower bound of each pair's distance (m)."""
-        a, b = self.pairs[:, 0], self.pairs[:, 1]
-        gaps = np.linalg.norm(W[a] - W[b], axis=1) - self.radii[a] - self.radii[b]
-        for k in np.flatnonzero(~np.isfinite(gaps)):
+        diff = W[self._pa] - W[self._pb]
+        gaps = np.sqrt(np.einsum("ka,ka->k", diff, diff)) - self._rsum
+        for k in self._plane_pairs:
             i, j = self.pairs[k]
             (n, off), c, r = (self.planes[j], W[i], self.radii[i]) if j in self.planes else (self.planes[i], W[j],
                                                                                               self.radii[j])
@@ -298,7 +309,7 @@ class CollisionModel:
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
         oMg = gd.oMg
-        H = np.array([oMg[i].homogeneous for i in range(len(self.centres))])
+        H = np.array([M.homogeneous for M in oMg])
         W = np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
         bound = self._broad_gaps(W)
         order = np.argsort(bound)
@@ -340,19 +351,46 @@ class CollisionModel:
         return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
                 np.array(res.normal))
 
-    def witness(self, influence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Broad then exact phase on the placements already updated: (pair indices, d, p1,
-        p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
-        W = self._world_centres()
-        near = np.flatnonzero(self._broad_gaps(W) < influence)
-        self._compute(near)
-        res = self.geometry_data.distanceResults
-        out = [(int(k), *self.witness_of(int(k))) for k in near if res[int(k)].min_distance < influence]
-        m = len(out)
-        ks = np.array([o[0] for o in out], dtype=np.int64)
-        d = np.array([o[1] for o in out], dtype=float)
-        P1, P2, N = (np.array([o[i] for o in out], dtype=float).reshape(m, 3) for i in (2, 3, 4))
-        return ks, d, P1, P2, N
+    def witness(self, influence: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                                 np.ndarray]:
+        """Broad then exact phase on the placements already updated for ``q``: (pair indices,
+        d, p1, p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
+        near = np.flatnonzero(self._moved_bound(q) < influence)
+        self.computed = len(near)
+        gm, gd = self.geometry_model, self.geometry_data
+        cmap = self._map
+        cmap[:] = False
+        cmap[self._pa[near], self._pb[near]] = True
+        gd.setActiveCollisionPairs(gm, cmap)
+        pin.computeDistances(gm, gd)
+        res = gd.distanceResults
+        results = [res[k] for k in near.tolist()]
+        dist = np.array([r.min_distance for r in results])
+        self._d0[near] = dist                       # the bound's new references
+        self._moved[near] = 0.0
+        inside = np.flatnonzero(dist < influence)
+        kept = [results[i] for i in inside.tolist()]
+        m = len(kept)
+        P1 = np.array([r.getNearestPoint1() for r in kept], dtype=float).reshape(m, 3)
+        P2 = np.array([r.getNearestPoint2() for r in kept], dtype=float).reshape(m, 3)
+        N = np.array([r.normal for r in kept], dtype=float).reshape(m, 3)
+        return near[inside].astype(np.int64), dist[inside], P1, P2, N
+
+    def _moved_bound(self, q: np.ndarray) -> np.ndarray:
+        """Each pair's lower bound (m) from its last exact distance d₀ and the joints' motion
+        since: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
+        (:func:`wbc.collision.motion.motion_weights`), so d(q) ≥ d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one
+        cycle to the next (one ``pin.difference`` and one (pairs × nv) product). −∞ for a pair
+        never computed. Exact: a pair it leaves out is farther than ``influence``, whatever
+        the order or size of the steps between calls (an infinite weight times a zero step
+        gives NaN: that pair's bound is −∞ until it is computed again)."""
+        if self._q_last is not None:
+            step = np.abs(pin.difference(self.robot.model, self._q_last, q))
+            self._moved += self._weights @ step
+        self._q_last = q.copy()
+        bound = self._d0 - self._moved
+        bound[np.isnan(bound)] = -np.inf
+        return bound
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
         """The pairs closer than ``influence`` (m) at the robot's current cached state, with
@@ -370,7 +408,7 @@ class CollisionModel:
             return self._rows
         model, data = robot.model, robot.data
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
-        ks, d, P1, P2, N = self.witness(influence)
+        ks, d, P1, P2, N = self.witness(influence, robot.q)
         m = len(ks)
         J, drift = np.zeros((m, robot.nv)), np.zeros(m)
         if m:
@@ -390,28 +428,37 @@ class CollisionModel:
     def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
         """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance
         along q̈ = 0, d̈ = [d(q ⊕ εv) − 2 d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at
-        1e-10 m), which holds the terms the witness-point drift leaves out: the normal's turn
+        1e-8 m, all three on this pass's own data: d(q) taken from the cycle's exact phase instead
+        moved ``tiago_table_reach``'s closest approach by 0.75 mm, the two GJK runs differing by
+        far more than their tolerance), which holds the
+        terms the witness-point drift leaves out: the normal's turn
         and the witness points sliding over curved or rotating surfaces (a hand hull sliding
         round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into
         a steady violation of 1.75/ω² = 3.5 mm). ε = 10 ms, not less: between two hulls the
         distance is C¹ but not C² (the closest features switch), and a 1 ms difference turned
         each switch into a −12 to −34 m/s² spike (Talos's torso against an upper arm) that made
         level 0 infeasible; over ±10 ms the switch is spread ten times thinner, and a smooth
-        curvature (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %."""
+        curvature (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %.
+
+        Args:
+            robot: the robot at the cycle's state (q, q̇).
+            ks: the pairs (indices into :attr:`pairs`).
+        """
         model, gm, gd, data = robot.model, self.geometry_model, self._fd_gd, self._fd_data
-        n = gm.ngeoms
-        cmap = np.zeros((n, n), dtype=bool)
-        cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
+        cmap = self._map
+        cmap[:] = False
+        cmap[self._pa[ks], self._pb[ks]] = True
         gd.setActiveCollisionPairs(gm, cmap)
         eps = self.drift_step
         out = np.zeros(len(ks))
+        idx = ks.tolist()
         for step, w in ((0.0, -2.0), (eps, 1.0), (-eps, 1.0)):
             q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
             pin.forwardKinematics(model, data, q)
             pin.updateGeometryPlacements(model, data, gm, gd)
             pin.computeDistances(gm, gd)
             res = gd.distanceResults
-            out += w * np.array([res[int(k)].min_distance for k in ks])
+            out += w * np.array([res[k].min_distance for k in idx])
         return out / (eps * eps)
 
     def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
