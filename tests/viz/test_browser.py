@@ -287,13 +287,15 @@ def test_live_server_page_draws_the_robot_while_a_run_is_served(chromium, tmp_pa
         background, first, second, hud, _ = asyncio.run(asyncio.wait_for(drive(), 55))
         hud_box = scene.hud_box
     finally:
-        if proc is not None:
-            _kill(proc)
-        # the scene's transport is not thread-safe: closing it while the run still draws aborts
-        # the process (zmq), so the run is stopped and joined first, however slow the machine
+        # the run is stopped and joined first, while the page is still open: meshcat's bridge
+        # answers a drawing command only after forwarding it to the page (a page killed mid-send
+        # leaves the run's zmq request waiting forever), and closing the scene's transport while
+        # the run still draws aborts the process (zmq)
         stop.set()
         for th in started:
             th.join()
+        if proc is not None:
+            _kill(proc)
         scene.close()
     h, w = first.shape[:2]
     # the diagnostics panel's pixels (its box in camera units at depth 1: view height 2 tan(fov/2))
