@@ -30,4 +30,5 @@ def weight_range(task) -> tuple[float, float]:
 
 def adjustable(task) -> bool:
     """A task the page gives sliders: a gain ``kp`` (a number) and ``set_gains``."""
-    return hasattr(task, "set_gains") and np.ndim(getattr(task, "kp", None)) == 0
+    kp = getattr(task, "kp", None)
+    return hasattr(task, "set_gains") and kp is not None and np.ndim(kp) == 0
