@@ -432,7 +432,7 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
     solver = RecursiveProjection()
     d = solver.damping
     rng = np.random.default_rng(7)
-    saturations = scaled = 0
+    saturations = scaled = kept_rows = 0
     for trial in range(1000):
         # one-row levels (half the trials) make refused saturations, hence scaling, common
         nv, L = int(rng.integers(5, 10)), int(rng.integers(2, 5))
@@ -447,8 +447,14 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
         x0 = np.clip(np.zeros(nv), lo, hi)
         tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * L).T.copy()
         hints_c, hints_p = hint_table(), hint_table()
+        # general rows kept by scaling below level 0 (the torque limits) in a third of the trials,
+        # feasible at x0 (inside by a random slack), else none
+        ng = int(rng.integers(1, 4)) if trial % 3 == 0 else 0
+        gC = rng.standard_normal((ng, nv))
+        g_mid = gC @ x0
+        g = (gC, g_mid - rng.uniform(0.2, 2.0, ng), g_mid + rng.uniform(0.2, 2.0, ng))
         out = projection_prefix(A, b, rows, nv, x0, idx, lo, hi, np.zeros((0, 0)), False, hints_c, tols[0],
-                                tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol)
+                                tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol, *g)
         fast, cas_c = [], Cascade(nv, hints_c)
         levels = [SimpleNamespace(index=k) for k in range(L)]
         assert adopt_run(levels, cas_c, fast, 0, out)[0] == L
@@ -457,17 +463,24 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
         for k in range(L):
             info = LevelInfo(k, dof_before=cas.dof)
             r0, r1 = rows[k]
-            step = sns_level(solver, cas, A[r0:r1], b[r0:r1], (idx, lo, hi), None, info, scale=k > 0)
+            over = np.maximum(np.maximum(g[1] - gC @ cas.x, gC @ cas.x - g[2]), 0.0)
+            step = sns_level(solver, cas, A[r0:r1], b[r0:r1], (idx, lo, hi), None, info, scale=k > 0, g=g)
+            if k:           # below level 0 the general rows get no worse (inside stays inside)
+                after = np.maximum(np.maximum(g[1] - gC @ cas.x, gC @ cas.x - g[2]), 0.0)
+                assert np.all(after <= over + 1e-9)
             info.rank = step.rank
             a = fast[k]
             assert (a.saturated, a.dof_before, a.rank) == (info.saturated, info.dof_before, info.rank)
             assert a.scale == pytest.approx(info.scale, rel=1e-12, abs=1e-12)
             saturations += len(info.saturated)
             scaled += info.scale < 1.0
+            kept_rows += ng > 0 and info.scale < 1.0
         np.testing.assert_allclose(cas_c.x, cas.x, rtol=0, atol=1e-9 * (1 + np.abs(cas.x).max()))
+
         assert cas_c.calls == cas.calls
         np.testing.assert_array_equal(hints_c, hints_p)
-    print(f"\n{saturations} saturations, {scaled} scaled levels")
+    print(f"\n{saturations} saturations, {scaled} scaled levels ({kept_rows} by the general rows)")
+    assert kept_rows > 20
     assert saturations > 1000 and scaled > 40
 
 

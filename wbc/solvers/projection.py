@@ -37,7 +37,18 @@ When q̈ asks more than the cones allow, the unactuated rows are not met: the
 status is "relaxed" and the robot will not follow q̈ exactly (this solver chooses
 q̈ blind to the cones; the HQP does not have that weakness).
 
-Torque limits are not enforced by this solver: their rows' violation by the plan is
+Torque limits: without contacts (τ = S_a (M q̈ + h), linear in q̈ alone), level 0's
+torque-limit rows are kept by task scaling: each lower level's step, once the SNS has kept
+the joint box, is scaled by the largest s ∈ [0, 1] with every row's τ inside ±τ_max (or no
+further outside than before the step). This is what keeps level 0's joint velocity limits
+near a singularity: there a damped step asks up to 1/ε times its residual, the joint box
+lets a joint reach its velocity limit in one period, and braking it later needs more than
+τ_max; the controller's clipping then let the plant's q̇ overshoot v_max (the Panda at its
+workspace boundary: 288 cycles over a velocity limit). Scaling, not a saturation of one
+torque row as an equality in the null space: a torque row couples every joint, so
+saturating it fixes a direction of q̈ the level may need, and the scaled step is what the
+task can have with the τ level 0 allows. With contacts the torques depend on the forces the
+distribution picks after q̈: their rows are not enforced, their violation by the plan is
 reported (``LevelDiagnostics.unenforced_violation``) and the controller's final step
 saturates τ at ±τ_max, with the status ``"saturated"`` and the clipped joints in the
 diagnostics (:class:`~wbc.Controller`).
@@ -143,12 +154,32 @@ class RecursiveProjection:
         T, cas, box = self._start(levels, problem, nv)
         A, b, rows, tols = self._motion(levels, T, nv, problem.rows, layout.nf > 0)
         b_idx, b_lo, b_hi = box
+        g_C, g_lo, g_hi = self.torque_rows(levels, layout)
         out = projection_prefix(A, b, rows, nv, cas.x, b_idx, b_lo, b_hi, _NO_T if T is None else T, T is not None,
                                 self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.box_tol,
-                                NO_DAMPING.rank_tol)
+                                NO_DAMPING.rank_tol, g_C, g_lo, g_hi)
         infos: list = []
         adopt_run(levels, cas, infos, 0, out)
         return SolveResult(cas.x if T is None else T @ cas.x, infos)
+
+    @staticmethod
+    def torque_rows(levels: list[Level], layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(C, lo, hi) of level 0's torque-limit rows on q̈ (N·m or N), lo ≤ C q̈ ≤ hi, when
+        q̈ alone gives τ (no contact forces: τ = S_a (M q̈ + h)); no rows otherwise. The
+        cascade scales each lower level's step to keep them (module docstring)."""
+        if layout.nf or not levels:
+            return _NO_ROWS
+        lvl = levels[0]
+        Cs, los, his = [], [], []
+        for name, kind in zip(lvl.names, lvl.kinds):
+            sl = lvl.in_slices.get(name)
+            if kind == "torque_limits" and sl is not None and sl.stop > sl.start:
+                Cs.append(lvl.C[sl, :layout.nv])
+                los.append(lvl.lo[sl])
+                his.append(lvl.hi[sl])
+        if not Cs:
+            return _NO_ROWS
+        return np.ascontiguousarray(np.vstack(Cs)), np.concatenate(los), np.concatenate(his)
 
     def _start(self, levels: list[Level], problem: Problem, nv: int) -> tuple:
         """(T, the cascade at its starting point, the joint-acceleration box (b_idx, b_lo,
@@ -295,6 +326,8 @@ class _MotionPlan(NamedTuple):
 
 #: stands for T with the identity weighting (the compiled run then reads q̈ = y)
 _NO_T = np.zeros((0, 0))
+#: no general rows for the cascade to keep (:meth:`RecursiveProjection.torque_rows`)
+_NO_ROWS = (np.zeros((0, 0)), np.zeros(0), np.zeros(0))
 
 
 class _ForcePlan:

@@ -70,6 +70,27 @@ def box_excess_max(x, x_new, idx, lo, hi) -> float:
 
 
 @nb.njit(cache=True)
+def rows_scale(C, lo, hi, qa, qb, tol):
+    """The largest s ∈ [0, 1] with every row of C (qa + s (qb − qa)) inside
+    [min(lo_i, C_i qa), max(hi_i, C_i qa)] (a row already violated at qa may not get worse),
+    1 when every row of C qb is inside up to ``tol``: the projection solver's task scaling on
+    level 0's torque-limit rows."""
+    s = 1.0
+    for i in range(C.shape[0]):
+        a = 0.0
+        e = 0.0
+        for j in range(C.shape[1]):
+            a += C[i, j] * qa[j]
+            e += C[i, j] * qb[j]
+        d = e - a
+        if d > 0.0 and e > hi[i] + tol:
+            s = min(s, (max(hi[i], a) - a) / d)
+        elif d < 0.0 and e < lo[i] - tol:
+            s = min(s, (min(lo[i], a) - a) / d)
+    return max(s, 0.0)
+
+
+@nb.njit(cache=True)
 def higher_rows(Ca, la, ha, x, Z, identity, margin):
     """Higher levels' inequality rows l ≤ C x ≤ u in the free directions z of x = x̂ + Z z:
     (C Z, lo, hi) over the rows Z has a say on (some |(CZ)_ij| > 1e-12), with bounds

@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 from .factorizations import level_step
-from .qp_rows import box_excess_max, box_violation
+from .qp_rows import box_excess_max, box_violation, rows_scale
 from .records import (
     LEVEL_FLOATS,
     SATURATED,
@@ -50,7 +50,7 @@ def sns_box(idx, lo, hi, margin, nv):
 
 @nb.njit(cache=True)
 def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints, rank_tol, threshold,
-                      max_damping, gram_min_ratio, box_tol, saturation_rank_tol):
+                      max_damping, gram_min_ratio, box_tol, saturation_rank_tol, g_C, g_lo, g_hi):
     """The projection solver's levels in q̈, one after the other, each with Saturation in
     the Null Space where a joint limit is in the way (the steps of
     :class:`~wbc.solvers.projection.RecursiveProjection`; ``tests/helpers/reference_projection.py``
@@ -63,10 +63,12 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
     b_hi, on q̈) is violated more than before by ``box_tol``. Otherwise the joint whose
     violation would grow most is moved to the bound it crosses by a step of its own
     (a unit row of q̈, undamped, rank tolerance ``saturation_rank_tol``), kept if it makes no
-    bound worse, and the level is solved again in what is left; when no joint is left to
+    bound and (below level 0) no general row worse, and the level is solved again in what is left; when no joint is left to
     saturate, the step is scaled by the largest s ∈ [0, 1] that keeps every bound (level 0
-    is never scaled). Returns as :func:`cascade_prefix` (the stop level, if any, with no
-    step taken there)."""
+    is never scaled). Then, below level 0, the step kept is scaled by the largest s ∈ [0, 1]
+    that keeps the general rows g_lo ≤ g_C q̈ ≤ g_hi (:func:`.qp_rows.rows_scale`: level 0's
+    torque limits when q̈ alone gives τ; no rows: nothing done). Returns as
+    :func:`cascade_prefix` (the stop level, if any, with no step taken there)."""
     L = rows.shape[0]
     nb = b_idx.shape[0]
     x = x0.copy()
@@ -84,6 +86,7 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
     unit = np.zeros((1, nv))
     target = np.zeros(1)
     blocked = np.zeros(nb, dtype=np.bool_)
+    ng = g_C.shape[0]
     for k in range(L):
         m = rows[k, 1] - rows[k, 0] if rows[k, 0] >= 0 else 0
         dof = nv if identity else Z.shape[1]
@@ -110,6 +113,11 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
                 qx = T @ x if weighted else x           # q̈ before the step and after it
                 qn = T @ x_next if weighted else x_next
                 if not nb or box_excess_max(qx, qn, b_idx, b_lo, b_hi) <= box_tol:
+                    if ng and k > 0:
+                        sg = rows_scale(g_C, g_lo, g_hi, qx, qn, box_tol)
+                        if sg < 1.0:
+                            set_scale(floats, k, sg)
+                            x_next = x + sg * (x_next - x)
                     x, Z, identity = x_next, Z_next, False
                     break
                 # the joint whose violation would grow most, not saturated yet in this level
@@ -134,9 +142,15 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
                             elif d < 0:
                                 s = min(s, (min(b_lo[i], a) - a) / d)
                         s = min(max(s, 0.0), 1.0)
-                        set_scale(floats, k, s)
                         z = packed[:dof] * s
-                        x = x + (z if identity else Z @ z)
+                        x_s = x + (z if identity else Z @ z)
+                        if ng:
+                            sg = rows_scale(g_C, g_lo, g_hi, qx, T @ x_s if weighted else x_s, box_tol)
+                            if sg < 1.0:
+                                s *= sg
+                                x_s = x + sg * (x_s - x)
+                        set_scale(floats, k, s)
+                        x = x_s
                     else:
                         x = x_next
                     Z, identity = Z_next, False
@@ -163,6 +177,8 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
                                 box_violation(qx[b_idx[i]], b_lo[i], b_hi[i]) + box_tol:
                             keeps = False
                             break
+                    if keeps and ng and k > 0 and rows_scale(g_C, g_lo, g_hi, qx, qs, box_tol) < 1.0:
+                        keeps = False       # a saturation that would push τ past a limit
                     if keeps:
                         x, Z, identity = x_sat, Z_sat, False
                         ints[sat_at] = b_idx[j]
