@@ -46,10 +46,17 @@ stack:
 """
 
 
-def _outside_cone(sol, mu: dict) -> bool:
+def _outside_cone(sol, cones: dict) -> bool:
+    """Some planned force is outside its contact's own cone (friction pyramid with the
+    contact's μ, the surface's when the task gives none; CoP rectangle; normal-force
+    bounds): f − f₀ not a non-negative combination of the cone's generators V (NNLS
+    residual above 1e-6 (1 + |f|) N)."""
+    from scipy.optimize import nnls
+
     for name, f in sol.forces.items():
-        fz = f[2]
-        if fz < -1e-6 or np.hypot(f[0], f[1]) > mu[name] * max(fz, 0.0) + 1e-6:
+        f0, V = cones[name]()
+        _, res = nnls(V, f - f0)
+        if res > 1e-6 * (1.0 + float(np.linalg.norm(f))):
             return True
     return False
 
@@ -60,15 +67,14 @@ def one(path, solver: str, sim: str, duration: float | None = None) -> dict:
 
     sc = load_config(path)
     r = ScenarioRun(sc, solver=solver, simulator=sim, progress=False, duration=duration)
-    mu = {t.name: (getattr(t.contact_data(), "mu", None) or 0.7)
-          for t in r.stack if t.kind == "contact"}
+    cones = {t.name: t.generators for t in r.stack if t.kind == "contact"}
     qdd_max, bad_cone = 0.0, 0
     for k in range(r.n):
         ok = r.cycle(k)
         sol = r.last_sol
         if sol is not None and sol.ok:
             qdd_max = max(qdd_max, float(np.abs(sol.qdd).max()))
-            if sol.status in ("ok", "saturated") and mu and _outside_cone(sol, mu):
+            if sol.status in ("ok", "saturated") and cones and _outside_cone(sol, cones):
                 bad_cone += 1
         if not ok:
             break

@@ -253,6 +253,13 @@ class HierarchicalQP:
                 z, status = self._nearest_feasible(cas, (C, lo, hi), (Ca, la, ha), f"{key}{lvl.index}h", margin)
                 w = np.zeros(len(lo))
                 if z is None:
+                    # relaxed: the contact cones first, hard (the other rows take the slack)
+                    hard = _cone_rows(lvl)
+                    if len(hard):
+                        used += 2
+                        z, w, status = self._relax_around(cas, (C, lo, hi), hard, (Ca, la, ha),
+                                                          f"{key}{lvl.index}", margin)
+                if z is None:
                     used += 1
                     z, w, status = self._qp(cas, None, (C, lo, hi), (Ca, la, ha), f"{key}{lvl.index}i", margin)
                 info.qp_status = status
@@ -264,6 +271,36 @@ class HierarchicalQP:
                     w = np.where(np.abs(w) > tol, w, 0.0)
                 info.relaxed = bool(np.any(w != 0.0))
         return info, used, failed, w
+
+    def _relax_around(self, cas: Cascade, rows: tuple, hard: np.ndarray, higher: tuple, key: str,
+                      margin: float) -> tuple:
+        """A relaxed level whose ``hard`` rows (indices into ``rows`` = (C, l, u): its contact
+        cones) must hold: first the point nearest x̂ that meets them (and the ``higher`` rows),
+        then, with them joined to the higher rows (held where they are), the least-squares
+        slack of the level's other rows. Returns (z from x̂, the slack of every row, zero on
+        the hard ones, status), or (None, None, status) when the hard rows cannot hold (the
+        caller then relaxes every row)."""
+        C, lo, hi = rows
+        Ca, la, ha = higher
+        za, status = self._nearest_feasible(cas, (C[hard], lo[hard], hi[hard]), higher, f"{key}c", margin)
+        if za is None:
+            return None, None, status
+        soft = np.ones(len(lo), dtype=bool)
+        soft[hard] = False
+        x0 = cas.x
+        cas.x = x0 + cas.Z @ za
+        try:
+            Ch = np.vstack([Ca, C[hard]])
+            zb, wb, status = self._qp(cas, None, (C[soft], lo[soft], hi[soft]),
+                                      (Ch, np.concatenate([la, lo[hard]]), np.concatenate([ha, hi[hard]])),
+                                      f"{key}s", margin)
+        finally:
+            cas.x = x0
+        if zb is None:
+            return None, None, status
+        w = np.zeros(len(lo))
+        w[soft] = wb
+        return za + zb, w, status
 
     def _nearest_feasible(self, cas: Cascade, rows: tuple, higher: tuple, key, margin: float | None = None):
         """min ½‖z‖² s.t. l ≤ C(x̂ + Zz) ≤ u (``rows`` = (C, l, u)) and the ``higher`` rows
@@ -449,6 +486,18 @@ class _StackPlan(NamedTuple):
     hi: np.ndarray
     from_stacked: bool
 
+
+
+def _cone_rows(lvl: Level) -> np.ndarray:
+    """The level's inequality rows (general rows first, as :meth:`Level.inequalities`) of its
+    contact tasks: their friction/CoP cones and normal-force bounds, what a relaxed level
+    must still keep (a force the ground cannot give is never planned)."""
+    idx: list[int] = []
+    for name, kind in zip(lvl.names, lvl.kinds):
+        sl = lvl.in_slices.get(name)
+        if kind == "contact" and sl is not None:
+            idx.extend(range(sl.start, sl.stop))
+    return np.asarray(idx, dtype=np.int64)
 
 class _LevelRows:
     """Every level's rows for the compiled run (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`):
