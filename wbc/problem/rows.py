@@ -173,6 +173,18 @@ class Level:
     def n_in(self) -> int:
         return self.C.shape[0] + (0 if self.box is None else len(self.box[0]))
 
+    def contact_rows(self) -> np.ndarray:
+        """Indices, among :meth:`inequalities`' rows (general rows first), of the level's
+        contact tasks' rows (``kind`` "contact"): their friction/CoP cones and normal-force
+        bounds, what a relaxed level still keeps (a force the ground cannot give is never
+        planned)."""
+        idx: list[int] = []
+        for name, kind in zip(self.names, self.kinds):
+            sl = self.in_slices.get(name)
+            if kind == "contact" and sl is not None:
+                idx.extend(range(sl.start, sl.stop))
+        return np.asarray(idx, dtype=np.int64)
+
     def inequalities(self, nx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """All inequality rows (general rows, then box bounds as unit rows): C, lo, hi.
         Built once per level and cycle (the solver and the diagnostics both read it)."""

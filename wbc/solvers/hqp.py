@@ -9,8 +9,13 @@ its inequalities, while every higher level keeps its optimum:
                                                     the slack they needed, if any).
 
 Inside one level the equalities come first: a contact's zero acceleration is
-kept even if that forces a torque or friction bound of the same level to be
-relaxed (the relaxation is reported, never hidden).
+kept even if that forces a torque or joint-limit bound of the same level to be
+relaxed (the relaxation is reported, never hidden). A relaxed level keeps its contact
+cones (:meth:`~wbc.problem.rows.Level.contact_rows`) hard where they can hold: the point
+nearest the least-squares one that meets them, then the least-squares slack of the
+level's other rows with the cones held (a force outside its cone, a foot pulling on the
+ground, is no way to make up for a joint limit the start is already past); every row
+takes slack only when the cones cannot hold with the level's equalities.
 
 Equalities never reach the QP: they are eliminated by the null-space cascade
 (:mod:`wbc.solvers.cascade`), so each QP lives in the free directions z of
@@ -254,7 +259,7 @@ class HierarchicalQP:
                 w = np.zeros(len(lo))
                 if z is None:
                     # relaxed: the contact cones first, hard (the other rows take the slack)
-                    hard = _cone_rows(lvl)
+                    hard = lvl.contact_rows()
                     if len(hard):
                         used += 2
                         z, w, status = self._relax_around(cas, (C, lo, hi), hard, (Ca, la, ha),
@@ -488,16 +493,6 @@ class _StackPlan(NamedTuple):
 
 
 
-def _cone_rows(lvl: Level) -> np.ndarray:
-    """The level's inequality rows (general rows first, as :meth:`Level.inequalities`) of its
-    contact tasks: their friction/CoP cones and normal-force bounds, what a relaxed level
-    must still keep (a force the ground cannot give is never planned)."""
-    idx: list[int] = []
-    for name, kind in zip(lvl.names, lvl.kinds):
-        sl = lvl.in_slices.get(name)
-        if kind == "contact" and sl is not None:
-            idx.extend(range(sl.start, sl.stop))
-    return np.asarray(idx, dtype=np.int64)
 
 class _LevelRows:
     """Every level's rows for the compiled run (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`):

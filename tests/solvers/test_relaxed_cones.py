@@ -1,0 +1,76 @@
+"""A relaxed level 0 keeps its contact cones (wbc.solvers.hqp's module doc): the go2 with
+its calves at 0 rad (outside their range [−2.72, −0.84] rad: the start of a `wbc robot init`
+go2 at its zero posture) and moving further out cannot meet its joint-limit box with its
+torques: level 0 is relaxed, the slack goes to the joint-limit and torque rows, and every
+planned contact force stays inside its own cone (f − f₀ a non-negative combination of the
+cone's generators), with hqp and weighted (which shares the hqp's level 0). Relaxing every
+row as one planned feet pulling on the ground."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import nnls
+
+import wbc
+from wbc.problem.rows import Level
+from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture, TorqueLimits
+
+FEET = ("fl_foot", "fr_foot", "rl_foot", "rr_foot")
+
+
+@pytest.fixture(scope="module")
+def go2() -> wbc.RobotModel:
+    return wbc.load_robot("go2")
+
+
+def _states(robot, n):
+    m = robot.model
+    rng = np.random.default_rng(0)
+    calves = [j for j in range(2, m.njoints) if "calf" in m.names[j]]
+    for _ in range(n):
+        q, v = robot.q_default.copy(), np.zeros(robot.nv)
+        for j in calves:
+            q[m.joints[j].idx_q] = rng.uniform(-0.1, 0.0)
+            v[m.joints[j].idx_v] = rng.uniform(0.5, 3.0)
+        yield q, v
+
+
+def _outside(sol, contacts) -> int:
+    n = 0
+    for c in contacts:
+        f0, V = c.generators()
+        f = sol.forces[c.name]
+        n += nnls(V, f - f0)[1] > 1e-6 * (1.0 + np.linalg.norm(f))
+    return n
+
+
+def _relaxed_runs(go2, solver):
+    """(solution, contacts) per state, the standing stack of benchmarks/singularities.py."""
+    for q, v in _states(go2, 5):
+        cs = [Contact(f) for f in FEET]
+        stack = wbc.Stack([[JointLimits(), TorqueLimits(), *cs], [CoM()], [Frame("base", mask="orientation")],
+                           [Posture()]])
+        ctrl = wbc.Controller(go2, stack, solver=solver)
+        yield ctrl.solve(q, v), cs
+
+
+@pytest.mark.parametrize("solver", ["hqp", "weighted"])
+def test_a_relaxed_level_0_plans_no_force_outside_its_cone(go2, solver):
+    relaxed = 0
+    for sol, cs in _relaxed_runs(go2, solver):
+        assert sol.ok and np.all(np.isfinite(sol.tau))
+        assert _outside(sol, cs) == 0
+        if sol.relaxed:
+            relaxed += 1
+            assert "relaxed" in sol.conditions
+            assert not any(c.name in sol.diagnostics[0].violations for c in cs)      # slack elsewhere
+            assert "joint_limits" in sol.diagnostics[0].violations
+    assert relaxed >= 4
+
+
+def test_relaxing_every_row_alike_pulls_on_the_ground(go2, monkeypatch):
+    """The same states with no row kept hard (the rule before): forces outside the cones,
+    so the test above can tell."""
+    monkeypatch.setattr(Level, "contact_rows", lambda self: np.zeros(0, dtype=np.int64))
+    assert sum(_outside(sol, cs) > 0 for sol, cs in _relaxed_runs(go2, "hqp")) >= 3
