@@ -20,7 +20,9 @@ loads is one the runner can run (``wbc validate`` and ``wbc run`` go through the
 - ``faults`` (the run-time fault policy, :class:`wbc.controller.faults.FaultPolicy`): ``max_hold_cycles``
   an integer in [0, 10⁴], ``damping`` in [0, 1000] 1/s, ``solve_timeout`` in [1e-6, 1] s;
 - ``solver``: ``type`` hqp | projection | weighted, ``backend`` a QP back-end that is
-  installed, ``weighting`` identity | inertia, ``level_weight`` in (0, 1].
+  installed, ``weighting`` identity | inertia, ``level_weight`` in (0, 1], ``damping``
+  ``{threshold, max_damping}`` each in [0, 1] (the singularity damping ε and λ_max,
+  :class:`~wbc.solvers.cascade.Damping`).
 
 Errors are :class:`~wbc.errors.ConfigError` with the key path (no file: the caller adds it).
 """
@@ -58,7 +60,7 @@ _SHAPE_REQUIRED = {"box": ("center", "size"), "plane": ("point", "normal"), "sph
 def solver_section(spec: Any) -> dict:
     """``solver:`` -> the Controller's keyword arguments plus ``type`` (default hqp)."""
     spec = mapping(spec if spec is not None else {"type": "hqp"}, "solver",
-                   allowed={"type", "backend", "weighting", "level_weight"})
+                   allowed={"type", "backend", "weighting", "level_weight", "damping"})
     out: dict = {"type": text(spec.get("type", "hqp"), "solver.type", choices=SOLVERS)}
     if "backend" in spec:
         name = text(spec["backend"], "solver.backend", what="a QP back-end name (daqp, proxqp, ...)")
@@ -73,9 +75,27 @@ def solver_section(spec: Any) -> dict:
         out["weighting"] = text(spec["weighting"], "solver.weighting", choices=WEIGHTINGS)
     if "level_weight" in spec:
         out["level_weight"] = number(spec["level_weight"], "solver.level_weight", gt=0, le=1, unit="unitless")
+    if "damping" in spec:
+        out["damping"] = damping_value(spec["damping"])
     check_options(out["type"], SOLVER_OPTIONS[out["type"]], {k: v for k, v in out.items() if k != "type"},
                   SOLVER_OPTIONS)
     return out
+
+
+def damping_value(spec: Any):
+    """``solver.damping: {threshold: ε, max_damping: λ_max}`` -> :class:`~wbc.solvers.cascade.Damping`
+    (each in [0, 1], units of the level's projected Jacobian; a key left out keeps its default,
+    0.01)."""
+    from wbc.solvers.cascade import Damping
+
+    spec = mapping(spec, "solver.damping", allowed={"threshold", "max_damping"},
+                   what="a mapping {threshold: ε, max_damping: λ_max}")
+    d = Damping()
+    unit = "units of the projected Jacobian (m/rad for a position row)"
+    return Damping(threshold=number(spec.get("threshold", d.threshold), "solver.damping.threshold", ge=0, le=1,
+                                    unit=unit),
+                   max_damping=number(spec.get("max_damping", d.max_damping), "solver.damping.max_damping", ge=0,
+                                      le=1, unit=unit))
 
 
 def control_section(spec: Any) -> tuple[float, int]:
