@@ -42,8 +42,6 @@ answer is computed, not the answer (the fallback back-end is not warm-started).
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
 from ..problem.problem import Problem
@@ -51,6 +49,7 @@ from ..problem.result import CERTIFIED, LevelInfo, SolveResult
 from ..problem.rows import Level, StackedRows
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
+from .hqp_rows import LevelRows, StackPlan
 from .kernels import prepare
 from .kernels.active_set import certified_active_set, certified_from
 from .kernels.cascade_run import cascade_prefix
@@ -108,7 +107,7 @@ class HierarchicalQP:
         self._fb: Backend | None = None
         #: the arrays levels not all of the problem's own rows are copied into
         #: (:meth:`_stacked_rows`), and the damping tolerances per level of the last run
-        self._stack_plan: _StackPlan | None = None
+        self._stack_plan: StackPlan | None = None
         self._tols: tuple | None = None
         prepare()
 
@@ -172,7 +171,7 @@ class HierarchicalQP:
         return res
 
     def _rows(self, levels: list[Level], nx: int, dampings: dict, stacked: StackedRows | None,
-              own: int) -> _LevelRows:
+              own: int) -> LevelRows:
         """Every level's rows as the compiled run reads them: the problem's stacked arrays
         when every level is one of its own, in order, else the levels' rows stacked afresh
         (the weighted QP's folded level, levels built outside a stack)."""
@@ -188,11 +187,11 @@ class HierarchicalQP:
         tols = got[1]
         if stacked is None or own < n:
             return self._stacked_rows(levels, nx, key, tols, stacked, 0 if stacked is None else own)
-        return _LevelRows((stacked.A, stacked.b, stacked.eq_end[:n]),
+        return LevelRows((stacked.A, stacked.b, stacked.eq_end[:n]),
                           (stacked.C, stacked.lo, stacked.hi, stacked.ineq_end[:n]), tols, True)
 
     def _stacked_rows(self, levels: list[Level], nx: int, key: tuple, tols: np.ndarray,
-                      stacked: StackedRows | None, own: int) -> _LevelRows:
+                      stacked: StackedRows | None, own: int) -> LevelRows:
         """The levels' rows copied into one set of arrays, laid out as the stacked rows; the
         arrays are kept and refilled while the levels come with the same shapes (the
         weighted QP's folded level), else made afresh. When only the problem's own leading
@@ -206,7 +205,7 @@ class HierarchicalQP:
             e_end = np.cumsum([0] + [me for me, _ in shapes], dtype=np.int64)
             i_end = np.cumsum([0] + [mi for _, mi in shapes], dtype=np.int64)
             ne, ni = int(e_end[-1]), (0 if from_stacked else int(i_end[-1]))
-            plan = self._stack_plan = _StackPlan(key, shapes, nx, e_end, i_end, np.zeros((ne, nx)), np.zeros(ne),
+            plan = self._stack_plan = StackPlan(key, shapes, nx, e_end, i_end, np.zeros((ne, nx)), np.zeros(ne),
                                                  np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni), from_stacked)
         e_end, i_end, A, b, C, lo, hi = plan.e_end, plan.i_end, plan.A, plan.b, plan.C, plan.lo, plan.hi
         for k, lvl in enumerate(levels):
@@ -216,10 +215,10 @@ class HierarchicalQP:
             if i1 > i0 and not from_stacked:
                 C[i0:i1], lo[i0:i1], hi[i0:i1] = lvl.inequalities(nx)
         if stacked is not None and from_stacked:     # the problem's own levels' rows, where the rest add none
-            return _LevelRows((A, b, e_end[1:]), (stacked.C, stacked.lo, stacked.hi, i_end[1:]), tols, True)
-        return _LevelRows((A, b, e_end[1:]), (C, lo, hi, i_end[1:]), tols, False)
+            return LevelRows((A, b, e_end[1:]), (stacked.C, stacked.lo, stacked.hi, i_end[1:]), tols, True)
+        return LevelRows((A, b, e_end[1:]), (C, lo, hi, i_end[1:]), tols, False)
 
-    def _backend_level(self, lvl: Level, step, rows: _LevelRows, k: int, cas: Cascade, key: str,
+    def _backend_level(self, lvl: Level, step, rows: LevelRows, k: int, cas: Cascade, key: str,
                        degraded: list, margin: float) -> tuple:
         """Level k, where the compiled run stopped: the QPs its certificates did not settle
         (or all, without ``certify``) go to the back-end; ``step`` the level's least-squares
@@ -470,51 +469,4 @@ class HierarchicalQP:
                 res2 = res3
             res = res2
         return res.z[:r], res.z[r:], res.status
-
-
-class _StackPlan(NamedTuple):
-    """The arrays :meth:`HierarchicalQP._stacked_rows` copies levels into, for one damping
-    ``key``, level ``shapes`` ((equality rows, inequality rows) per level) and ``nx``:
-    level k's equalities rows [e_end[k], e_end[k+1]) of (A, b), its inequalities rows
-    [i_end[k], i_end[k+1]) of (C, lo, hi) (empty when ``from_stacked``: read from the
-    problem's own arrays)."""
-
-    key: tuple
-    shapes: list
-    nx: int
-    e_end: np.ndarray
-    i_end: np.ndarray
-    A: np.ndarray
-    b: np.ndarray
-    C: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    from_stacked: bool
-
-
-
-
-class _LevelRows:
-    """Every level's rows for the compiled run (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`):
-    level k's equalities rows [e_end[k−1], e_end[k]) of (A, b), its inequalities rows
-    [i_end[k−1], i_end[k]) of (C, lo, hi), its damping (rank_tol, threshold, max_damping);
-    ``shared``: lo and hi are the row buffer's (copied before a relaxation changes them)."""
-
-    __slots__ = ("A", "b", "e_end", "C", "lo", "hi", "i_end", "rank_tol", "threshold", "max_damping", "shared")
-
-    def __init__(self, eq: tuple, ineq: tuple, tols: np.ndarray, shared: bool) -> None:
-        """``eq`` = (A, b, e_end), ``ineq`` = (C, lo, hi, i_end), ``tols`` the 3 × levels
-        damping tolerances."""
-        (self.A, self.b, self.e_end), (self.C, self.lo, self.hi, self.i_end) = eq, ineq
-        self.rank_tol, self.threshold, self.max_damping = tols[0], tols[1], tols[2]
-        self.shared = shared
-
-    def relax(self, k: int, w: np.ndarray) -> None:
-        """Level k's inequality bounds relaxed by its slack w (l − w ≤ C x ≤ u − w), as the
-        lower levels keep them."""
-        if self.shared:
-            self.lo, self.hi, self.shared = self.lo.copy(), self.hi.copy(), False
-        i0, i1 = self.i_end[k - 1] if k else 0, self.i_end[k]
-        self.lo[i0:i1] = self.lo[i0:i1] - w
-        self.hi[i0:i1] = self.hi[i0:i1] - w
 
