@@ -74,3 +74,52 @@ def test_relaxing_every_row_alike_pulls_on_the_ground(go2, monkeypatch):
     so the test above can tell."""
     monkeypatch.setattr(Level, "contact_rows", lambda self: np.zeros(0, dtype=np.int64))
     assert sum(_outside(sol, cs) > 0 for sol, cs in _relaxed_runs(go2, "hqp")) >= 3
+
+
+STANDING = """name: go2_zero
+robot: {robot}
+solver: {{type: hqp, backend: daqp}}
+control: {{dt: 0.001}}
+duration: 1.5
+environment:
+  - {{type: ground, mu: 0.8}}
+stack:
+  - - {{type: joint_limits}}
+    - {{type: torque_limits}}
+    - {{type: contact, contact: fl_foot}}
+    - {{type: contact, contact: fr_foot}}
+    - {{type: contact, contact: rl_foot}}
+    - {{type: contact, contact: rr_foot}}
+  - - {{type: com}}
+  - - {{type: frame, frame: base, mask: orientation}}
+  - - {{type: posture}}
+"""
+
+
+@pytest.mark.parametrize("duration", [pytest.param(1.5, marks=pytest.mark.slow), 0.4])
+@pytest.mark.parametrize("solver", ["hqp", "weighted"])
+def test_the_go2_of_robot_init_stands_in_mujoco(tmp_path, capsys, go2, solver, duration):
+    """The go2 of `wbc robot init` at its zero posture (calves at 0 rad, past their range)
+    standing in MuJoCo: with every row relaxed alike it planned negative normal forces from
+    cycle 7 and fell at 0.18 s; now it stands and no solution reported ok or saturated plans
+    a force outside its cone (short default 0.4 s, 1.5 s slow)."""
+    pytest.importorskip("mujoco")
+    from wbc.cli.main import main
+    from wbc.runner.loop import ScenarioRun
+    from wbc.scenario.loader import load_config
+
+    robot_yaml = tmp_path / "go2_init.yaml"
+    assert main(["robot", "init", str(go2.urdf_path), "-o", str(robot_yaml)]) == 0
+    capsys.readouterr()
+    path = tmp_path / "go2_zero.yaml"
+    path.write_text(STANDING.format(robot=robot_yaml))
+    r = ScenarioRun(load_config(path), solver=solver, simulator="mujoco", progress=False, duration=duration)
+    contacts = [t for t in r.stack if t.kind == "contact"]
+    relaxed = 0
+    for k in range(r.n):
+        assert r.cycle(k), f"stopped at cycle {k}"
+        sol = r.last_sol
+        relaxed += sol.relaxed
+        if sol.status in ("ok", "saturated"):
+            assert _outside(sol, contacts) == 0, k
+    assert not r.metrics()["fell"] and relaxed > 0
