@@ -26,22 +26,21 @@ from wbc.robot.loader import load_robot
 
 def split(ctrl, q) -> dict[str, int]:
     """One solve, step by step as ``VelocityController._solve`` takes them, each step timed (ns)."""
+    import math
     from functools import partial
 
     import pinocchio as pin
 
     from wbc.controller.diagnostics import level_diagnostics
     from wbc.controller.solution import solve_status
-    from wbc.controller.velocity import _NO_INDEX, VelocitySolution
-    from wbc.problem.buffer import RowBuffer, row_values
-    from wbc.problem.problem import Problem as Pb
-    from wbc.tasks.velocity import velocity_rows
+    from wbc.controller.velocity import VelocitySolution
+    from wbc.problem.buffer import row_values
 
     t, ns = {}, time.perf_counter_ns
     t0 = ns()
-    v = np.zeros(ctrl.robot.nv)
-    fault = ctrl.faults.state_fault(q, v)
-    robot, nv, dt, gain = ctrl.robot, ctrl.robot.nv, ctrl.dt, ctrl.gain
+    robot = ctrl.robot
+    v = np.zeros(robot.nv)
+    ctrl.faults.state_fault(q, v)
     q, v = robot.check_state(q, v, finite=False)
     t1 = ns()
     t["fault checks, state checks"] = t1 - t0
@@ -49,48 +48,39 @@ def split(ctrl, q) -> dict[str, int]:
     t2 = ns()
     t["pinocchio update (computeJointJacobians, frames, J_com)"] = t2 - t1
     groups = ctrl.groups()
-    rows = []
-    for tasks in groups:
-        rs = []
-        for task in tasks:
-            a = ns()
-            rs.append(velocity_rows(task, robot, nv, dt, gain))
-            key = f"rows: {task.kind}"
-            t[key] = t.get(key, 0) + ns() - a
-        rows.append(rs)
+    plan = ctrl._plan
+    key = (ctrl.stack.version, len(groups), *map(len, groups))
+    assert plan.matches(groups, key)
     t3 = ns()
-    key = (ctrl.stack.version, tuple(len(g) for g in groups))
-    buf = ctrl._buffer
-    if buf is None or buf.key != key or not buf.fill(groups, rows):
-        buf = ctrl._buffer = RowBuffer(nv, groups, rows, key=key)
-        buf.fill(groups, rows)
-    ctrl.levels = levels = buf.levels
+    t["plan check"] = t3 - t2
+    for write, task in zip(plan.writers, (x for g in groups for x in g)):
+        a = ns()
+        write()
+        k = f"rows: {task.kind}"
+        t[k] = t.get(k, 0) + ns() - a
     t4 = ns()
-    t["buffer fill"] = t4 - t3
-    pb = Pb(levels, ctrl.layout, ctrl._identity, ctrl._h, _NO_INDEX, margin=ctrl.margin)
+    res = ctrl.solver.solve(plan.problem)
     t5 = ns()
-    t["Problem built"] = t5 - t4
-    res = ctrl.solver.solve(pb)
-    t6 = ns()
-    t["solver (hqp cascade)"] = t6 - t5
+    t["solver (hqp cascade)"] = t5 - t4
+    nv = robot.nv
     qd = res.x[:nv]
     ok, message = res.ok, res.message
-    if not np.all(np.isfinite(qd)):
+    if not math.isfinite(qd.dot(qd)) and not np.all(np.isfinite(qd)):
         ok, message = False, "non-finite solution"
     status, relaxed = solve_status(ok, res)
+    buf = plan.buffer
     values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
     evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                        (not res.enforces_inequality_rows, res.outside_cascade),
                        (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
+    t6 = ns()
+    t["bookkeeping (status, row values, diagnostics closure)"] = t6 - t5
+    q_next = pin.integrate(robot.model, q, qd * ctrl.dt)
     t7 = ns()
-    t["bookkeeping (status, row values, diagnostics closure)"] = t7 - t6
-    q_next = pin.integrate(robot.model, q, qd * dt)
-    t8 = ns()
-    t["integration (pin.integrate)"] = t8 - t7
+    t["integration (pin.integrate)"] = t7 - t6
     VelocitySolution(qd, q_next, robot.na, status=status, message=message, qp_count=res.qp_count,
                      evaluate=evaluate, relaxed=relaxed)
-    t["solution object"] = ns() - t8
-    del fault
+    t["solution object"] = ns() - t7
     return t
 
 
