@@ -69,8 +69,21 @@ class VelocitySolution(Solution):
 
     def __init__(self, qd: np.ndarray, q_next: np.ndarray, na: int, **kwargs) -> None:
         nv = len(qd)
-        super().__init__(qdd=np.zeros(nv), tau=np.zeros(na), tau_full=np.zeros(nv), forces={}, x=qd, **kwargs)
+        super().__init__(qdd=_zeros(nv), tau=_zeros(na), tau_full=_zeros(nv), forces={}, x=qd, **kwargs)
         self.qd, self.q_next = qd, q_next
+
+
+_ZEROS: dict[int, np.ndarray] = {}
+
+
+def _zeros(n: int) -> np.ndarray:
+    """A read-only zero vector of size n, made once: the torque fields of every velocity
+    solution (a cycle computes no torque)."""
+    z = _ZEROS.get(n)
+    if z is None:
+        z = _ZEROS[n] = np.zeros(n)
+        z.flags.writeable = False
+    return z
 
 
 class VelocityController:
@@ -157,7 +170,7 @@ class VelocityController:
         """
         if external_torque is not None and np.any(external_torque):
             raise ConfigError("the velocity mode takes no external torque (no dynamics)", key="external_torque")
-        v = np.zeros(self.robot.nv) if v is None else v
+        v = _zeros(self.robot.nv) if v is None else v
         return self.faults.cycle(q, v, self._solve, self._hold)
 
     def groups(self) -> list[list]:

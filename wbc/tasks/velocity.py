@@ -40,7 +40,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.robot.model import WORLD_ALIGNED
+from wbc.robot.model import LOCAL, WORLD_ALIGNED
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Rows
@@ -153,18 +153,26 @@ class _Gain:
 
 
 def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -> tuple[Writer, Rows]:
-    """J q̇ = ẋ_d + K e on the task's selected axes (frame, CoM, contact; module docstring)."""
+    """J q̇ = ẋ_d + K e on the task's selected axes (frame, CoM, contact; module docstring). The
+    writer holds the pinocchio data's placements and CoM (references into ``robot.data``, which
+    ``update_kinematics`` refreshes in place): each read through the bindings costs ~1 µs."""
     kind = task.kind
+    model, data = robot.model, robot.data
+    placements = data.oMf
+    jacobian = pin.getFrameJacobian
     if kind == "frame":
         fid = robot.frame_id(task.frame)
         sel, dim = task.axes, 6
         linear = bool(sel.max() < 3)
     elif kind == "com":
         sel, dim = np.array(["xyz".index(a) for a in task.axes]), 3
+        com = data.com
     else:
-        dim = task.force_jacobian(robot).shape[0]
+        surface = robot.contact(task.contact)
+        fid = robot.frame_id(surface.frame)
+        dim = surface.force_dim
+        frame = LOCAL if dim == 6 else WORLD_ALIGNED      # Contact.force_jacobian's frame
         sel = np.arange(dim) if not task.sliding else (np.array([2]) if dim == 3 else np.array([2, 3, 4]))
-        fid = robot.frame_id(robot.contact(task.contact).frame)
     sel = np.ascontiguousarray(sel, dtype=np.int64)
     m = len(sel)
     A, b = (np.zeros((m, nv)), np.zeros(m)) if out is None else (out.A, out.b)
@@ -173,11 +181,11 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
     def write_frame() -> bool:
         T = task.target
         if linear and T is not None:
-            np.subtract(T.translation, robot.frame_placement(fid).translation, out=e[:3])
+            np.subtract(T.translation, placements[fid].translation, out=e[:3])
             err = e
         else:
             err = task.full_error(robot)
-        _motion_rows(A, b, robot.frame_jacobian(fid, WORLD_ALIGNED), sel, task.target_velocity, K.get(), err)
+        _motion_rows(A, b, jacobian(model, data, fid, WORLD_ALIGNED), sel, task.target_velocity, K.get(), err)
         return True
 
     def write_com() -> bool:
@@ -187,30 +195,25 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
         if target is None:
             task.error(robot)                 # the CoM at the first cycle becomes the target
             target = task.target
-        np.subtract(target, robot.com, out=e)
-        _motion_rows(A, b, robot.com_jacobian, sel, task.target_velocity, K.get(), e)
+        np.subtract(target, com[0], out=e)
+        _motion_rows(A, b, data.Jcom, sel, task.target_velocity, K.get(), e)
         return True
 
     def write_contact() -> bool:
         if task.sliding != (m < dim):
             return False
-        J = task.force_jacobian(robot)
-        _motion_rows(A, b, J, sel, zero, K.get(), _contact_error(task, robot, fid, dim))
+        oMc = placements[fid]
+        ref = task.reference
+        if ref is None:
+            ref = task.reference = oMc.copy()
+        if dim == 6:        # log₆(oMc⁻¹ M_ref) in the contact frame
+            err = pin.log6(oMc.actInv(ref)).vector
+        else:               # p_ref − p, world
+            err = ref.translation - oMc.translation
+        _motion_rows(A, b, jacobian(model, data, fid, frame), sel, zero, K.get(), err)
         return True
 
     return {"frame": write_frame, "com": write_com, "contact": write_contact}[kind], Rows(A=A, b=b)
-
-
-def _contact_error(task, robot, fid: int, m: int) -> np.ndarray:
-    """The contact's drift from its placement, as ``Contact.error`` before its axis selection
-    (log₆(oMc⁻¹ M_ref) in the contact frame for a surface, p_ref − p world for a point), without
-    the frame velocity and drift the acceleration rows also read."""
-    oMc = robot.frame_placement(fid)
-    if task.reference is None:
-        task.reference = oMc.copy()
-    if m == 6:
-        return pin.log6(oMc.actInv(task.reference)).vector
-    return task.reference.translation - oMc.translation
 
 
 @nb.njit(cache=True)
