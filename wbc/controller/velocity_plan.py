@@ -63,7 +63,7 @@ class VelocityPlan:
                            box=None if boxv is None else (boxv[3], boxv[0], boxv[1]))
                 write, _ = velocity_writer(t, robot, nv, dt, gain, out)
                 self.writers.append(write)
-                if eqv is not None and eqv[2] != 1.0:
+                if slot is not None and eqv[2] != 1.0:
                     self.scaled.append((slot.A, slot.b, eqv[0], eqv[1], eqv[2]))
         self.levels = buf.levels
         self.problem = Problem(buf.levels, Layout(nv=nv), np.eye(nv), np.zeros(nv), _NO_INDEX, margin=margin,

@@ -107,7 +107,7 @@ def velocity_writer(task: Task, robot, nv: int, dt: float, gain: float | None = 
     if kind == "collision_avoidance":
         return _collision_writer(task, robot, nv, out)
     if kind == "differential_drive":
-        A, b = (np.zeros((1, nv)), np.zeros(1)) if out is None else (out.A, out.b)
+        A, b = _equality_arrays(out, 1, nv)
         A[:] = 0.0
         A[0, 1] = 1.0                       # the planar root's lateral velocity, base frame
         b[:] = 0.0
@@ -129,6 +129,13 @@ def velocity_rows(task: Task, robot, nv: int, dt: float, gain: float | None = No
     write, rows = velocity_writer(task, robot, nv, dt, gain)
     write()
     return rows
+
+
+def _equality_arrays(out: Rows | None, m: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b) to write m equality rows over nv columns into: ``out``'s, else new."""
+    if out is None or out.A is None or out.b is None:
+        return np.zeros((m, nv)), np.zeros(m)
+    return out.A, out.b
 
 
 class _Gain:
@@ -175,7 +182,7 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
         sel = np.arange(dim) if not task.sliding else (np.array([2]) if dim == 3 else np.array([2, 3, 4]))
     sel = np.ascontiguousarray(sel, dtype=np.int64)
     m = len(sel)
-    A, b = (np.zeros((m, nv)), np.zeros(m)) if out is None else (out.A, out.b)
+    A, b = _equality_arrays(out, m, nv)
     K, e, zero = _Gain(task, dim, sel, gain), np.zeros(dim), np.zeros(dim)
 
     def write_frame() -> bool:
@@ -231,7 +238,7 @@ def _posture_writer(task, robot, nv: int, gain: float | None, out: Rows | None) 
     """q̇_j = K (q_d ⊖ q)_j on the posture's joints (m/s, rad/s); A written once."""
     idx = task.coordinates(robot)
     m = len(idx)
-    A, b = (np.zeros((m, nv)), np.zeros(m)) if out is None else (out.A, out.b)
+    A, b = _equality_arrays(out, m, nv)
     A[:] = 0.0
     A[np.arange(m), idx] = 1.0
     K = _Gain(task, m, idx, gain)
@@ -250,7 +257,10 @@ def _joint_limit_writer(task, robot, dt: float, out: Rows | None) -> tuple[Write
     """Box bounds on q̇ from position and velocity limits (module docstring)."""
     (qi, vi, extra, idx), (qmax, qmin, vmax, vmax_extra) = task.coordinates(robot)
     n = len(idx)
-    lo, hi = (np.zeros(n), np.zeros(n)) if out is None else (out.box[1], out.box[2])
+    if out is None or out.box is None:
+        lo, hi = np.zeros(n), np.zeros(n)
+    else:
+        lo, hi = out.box[1], out.box[2]
     lo[len(qi):] = -vmax_extra
     hi[len(qi):] = vmax_extra
 
@@ -280,7 +290,10 @@ def _collision_writer(task, robot, nv: int, out: Rows | None) -> tuple[Writer, R
     """J_d q̇ ≥ −ξ (d − d_s)/(d_i − d_s) for the nearest ``max_rows`` pairs (module docstring)."""
     task.bind(robot)
     n = task.max_rows
-    C, lo, hi = (np.zeros((n, nv)), np.zeros(n), np.full(n, _FREE)) if out is None else (out.C, out.lo, out.hi)
+    if out is None or out.C is None or out.lo is None or out.hi is None:
+        C, lo, hi = np.zeros((n, nv)), np.zeros(n), np.full(n, _FREE)
+    else:
+        C, lo, hi = out.C, out.lo, out.hi
 
     def write() -> bool:
         if task.max_rows != n:
