@@ -1,6 +1,7 @@
 """Same behaviour before and after a change: closed-loop torques recorded and compared.
 
     python benchmarks/same_behaviour.py record OUT.npz [pinocchio,mujoco]
+    python benchmarks/same_behaviour.py record-velocity OUT.npz [pinocchio,mujoco]
     python benchmarks/same_behaviour.py compare BEFORE.npz AFTER.npz
 
 ``record`` runs, on the tree it is run from (PYTHONPATH), the bench trajectory (1,500 cycles
@@ -8,6 +9,10 @@ of the moving CoM and hand targets, Talos and TIAGo) and five scenarios (talos_b
 talos_reach, talos_push, talos_step, tiago_reach; 1.0 s, talos_push 1.6 s to include the
 push) in each simulator, with each solver, and stores every cycle's τ. ``compare`` prints,
 per case, ``identical`` (bit for bit) or the largest |Δτ| and its relative size.
+``record-velocity`` does the same for the velocity mode: every cycle's q̇ of
+tiago_table_reach_velocity (the whole 9 s, each simulator) and of the Talos IK problem of
+``ik_peers.py`` (its Gauss–Newton iterations from q0, each solver); compared the same way
+(the Δ then in rad/s and m/s).
 """
 
 from __future__ import annotations
@@ -56,6 +61,37 @@ def record(path: str, simulators: list[str]) -> None:
     np.savez(path, **out)
 
 
+def record_velocity(path: str, simulators: list[str]) -> None:
+    import pinocchio as pin
+
+    from benchmarks.ik_peers import Problem, WbcIK
+    from wbc.robot.loader import load_robot
+    from wbc.runner.loop import run
+    from wbc.scenario.loader import load_config
+
+    warnings.simplefilter("ignore")
+    out = {}
+    for sim in simulators:
+        qds: list = []
+        run(load_config("tiago_table_reach_velocity"), simulator=sim,
+            callback=lambda t, s, sol, qds=qds: qds.append(sol.qd.copy()))
+        out[f"tiago_table_reach_velocity/{sim}"] = np.array(qds)
+    pb = Problem(load_robot("talos"))
+    for solver in ("hqp", "projection", "weighted"):
+        ik = WbcIK(pb)
+        if solver != "hqp":
+            from wbc import Controller
+            ik.ctrl = Controller(pb.robot, ik.ctrl.stack, mode="velocity", solver=solver, dt=ik.ctrl.dt,
+                                 gain=ik.ctrl.gain)
+        q, qds = pb.q0.copy(), []
+        for _ in range(30):
+            dq = ik.solve(q)
+            qds.append(dq.copy())
+            q = pin.integrate(pb.model, q, dq)
+        out[f"talos_ik/{solver}"] = np.array(qds)
+    np.savez(path, **out)
+
+
 def compare(before: str, after: str) -> int:
     a, b = np.load(before), np.load(after)
     differ = 0
@@ -80,6 +116,8 @@ def compare(before: str, after: str) -> int:
 if __name__ == "__main__":
     if len(sys.argv) >= 3 and sys.argv[1] == "record":
         record(sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["pinocchio", "mujoco"])
+    elif len(sys.argv) >= 3 and sys.argv[1] == "record-velocity":
+        record_velocity(sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["pinocchio", "mujoco"])
     elif len(sys.argv) == 4 and sys.argv[1] == "compare":
         sys.exit(compare(sys.argv[2], sys.argv[3]))
     else:

@@ -167,3 +167,61 @@ def test_velocity_scenario_runs_in_both_simulators():
             assert r.last_sol.status == "ok"
             gap = np.linalg.norm(pin.difference(sc.robot.model, r.sim.q, r.q_cmd))
             assert gap < 0.05, (sim, k, gap)
+
+
+def _fresh_rows(robot, ctrl, q):
+    """Every level's (A, b, box lo, box hi) from velocity_rows called afresh (new arrays, no
+    plan), √weight scaled and stacked in level order, at q."""
+    from wbc.tasks.velocity import velocity_rows
+
+    robot.update_kinematics(q)
+    out = []
+    for tasks in ctrl.groups():
+        rs = [(t, velocity_rows(t, robot, robot.nv, ctrl.dt, ctrl.gain)) for t in tasks]
+        A = [np.sqrt(t.weight) * r.A for t, r in rs if r.A is not None]
+        b = [np.sqrt(t.weight) * r.b for t, r in rs if r.A is not None]
+        box = [r.box for _, r in rs if r.box is not None]
+        out.append((np.vstack(A) if A else np.zeros((0, robot.nv)), np.concatenate(b) if b else np.zeros(0),
+                    np.concatenate([x[1] for x in box]) if box else None,
+                    np.concatenate([x[2] for x in box]) if box else None))
+    return out
+
+
+def test_planned_rows_follow_targets_gains_weights_and_structure(talos):
+    """The velocity cycle's rows, written in place by the plan made at the first cycle
+    (wbc/controller/velocity_plan.py), equal the rows built afresh at every cycle while the
+    targets, gains, contact reference, weights and a contact's sliding flag change between
+    cycles; the plan's arrays are kept while the structure holds (no rebuild per cycle) and
+    replaced when a contact turns sliding (its rows change count)."""
+    robot = talos
+    rng = np.random.default_rng(7)
+    hand, other = Frame("right_hand", mask="position", name="hand"), Frame("left_hand", name="other")
+    feet = [Contact("left_foot"), Contact("right_foot"), JointLimits()]
+    stack = Stack([feet, [CoM()], [hand, other], [Posture()]])
+    ctrl = Controller(robot, stack, mode="velocity", dt=0.01)
+    q = robot.q_default.copy()
+    ctrl.solve(q)
+    A0 = ctrl.levels[0].A
+    here = robot.frame_placement(robot.frame_id("right_hand")).translation.copy()
+    for k in range(6):
+        hand.target = here + rng.uniform(-0.05, 0.05, 3)
+        stack["com"].target = robot.com + rng.uniform(-0.02, 0.02, 3)
+        hand.set_gains(float(rng.uniform(5, 50)))
+        if k == 2:
+            other.weight = 3.0
+        stack["posture"].target = pin.integrate(robot.model, robot.q_default, 0.05 * rng.standard_normal(robot.nv))
+        if k == 3:
+            stack["left_foot_contact"].reference = None        # re-made where the foot is
+        if k == 4:
+            stack["right_foot_contact"].sliding = True
+        q = pin.integrate(robot.model, q, 0.02 * rng.standard_normal(robot.nv))
+        ctrl.solve(q)
+        for lvl, (A, b, lo, hi) in zip(ctrl.levels, _fresh_rows(robot, ctrl, q)):
+            assert np.array_equal(lvl.A, A) and np.array_equal(lvl.b, b)
+            if lo is not None:
+                assert np.array_equal(lvl.box[1], lo) and np.array_equal(lvl.box[2], hi)
+        rebuilt = ctrl.levels[0].A is not A0
+        assert rebuilt == (k in (2, 4))                              # else the same plan, rows in place
+        if k >= 4:
+            assert ctrl.levels[0].A.shape[0] == 12 - 3               # the sliding foot: 3 rows
+        A0 = ctrl.levels[0].A

@@ -27,6 +27,7 @@ The QP margin (the room kept from a limit) is in the rows' units, here m/s and r
 
 from __future__ import annotations
 
+import math
 from functools import partial
 
 import numpy as np
@@ -36,9 +37,9 @@ from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, FaultPolicy
 from wbc.controller.solution import Solution, solve_status
 from wbc.controller.solver_names import SOLVERS
+from wbc.controller.velocity_plan import VelocityPlan
 from wbc.errors import ConfigError, SolverError
-from wbc.problem.buffer import RowBuffer, row_values
-from wbc.problem.problem import Problem
+from wbc.problem.buffer import row_values
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
 from wbc.solvers import create_solver
@@ -46,11 +47,9 @@ from wbc.solvers.backends import Backend
 from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
 from wbc.tasks.dynamics import DifferentialDrive
-from wbc.tasks.velocity import check_velocity_stack, velocity_rows
+from wbc.tasks.velocity import check_velocity_stack
 
 __all__ = ["VelocityController", "VelocitySolution"]
-
-_NO_INDEX = np.zeros(0, dtype=np.int64)
 
 
 class VelocitySolution(Solution):
@@ -70,8 +69,21 @@ class VelocitySolution(Solution):
 
     def __init__(self, qd: np.ndarray, q_next: np.ndarray, na: int, **kwargs) -> None:
         nv = len(qd)
-        super().__init__(qdd=np.zeros(nv), tau=np.zeros(na), tau_full=np.zeros(nv), forces={}, x=qd, **kwargs)
+        super().__init__(qdd=_zeros(nv), tau=_zeros(na), tau_full=_zeros(nv), forces={}, x=qd, **kwargs)
         self.qd, self.q_next = qd, q_next
+
+
+_ZEROS: dict[int, np.ndarray] = {}
+
+
+def _zeros(n: int) -> np.ndarray:
+    """A read-only zero vector of size n, made once: the torque fields of every velocity
+    solution (a cycle computes no torque)."""
+    z = _ZEROS.get(n)
+    if z is None:
+        z = _ZEROS[n] = np.zeros(n)
+        z.flags.writeable = False
+    return z
 
 
 class VelocityController:
@@ -130,9 +142,7 @@ class VelocityController:
         self.faults = FaultMonitor(policy)
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self.layout = Layout(nv=robot.nv)
-        self._identity = np.eye(robot.nv)
-        self._h = np.zeros(robot.nv)
-        self._buffer: RowBuffer | None = None
+        self._plan: VelocityPlan | None = None
         self.levels: list[Level] = []
         self.phase_clock = None
         for task in self.stack:
@@ -160,7 +170,7 @@ class VelocityController:
         """
         if external_torque is not None and np.any(external_torque):
             raise ConfigError("the velocity mode takes no external torque (no dynamics)", key="external_torque")
-        v = np.zeros(self.robot.nv) if v is None else v
+        v = _zeros(self.robot.nv) if v is None else v
         return self.faults.cycle(q, v, self._solve, self._hold)
 
     def groups(self) -> list[list]:
@@ -171,31 +181,30 @@ class VelocityController:
         return [[self._diff_drive, *(levels[0] if levels else [])], *levels[1:]]
 
     def _solve(self, q: np.ndarray, v: np.ndarray) -> VelocitySolution:
-        robot, nv, dt, gain = self.robot, self.robot.nv, self.dt, self.gain
+        robot = self.robot
         q, v = robot.check_state(q, v, finite=False)
         robot.update_kinematics(q, v)
         groups = self.groups()
-        rows = [[velocity_rows(t, robot, nv, dt, gain) for t in tasks] for tasks in groups]
-        key = (self.stack.version, tuple(len(g) for g in groups))
-        buf = self._buffer
-        if buf is None or buf.key != key or not buf.fill(groups, rows):
-            buf = self._buffer = RowBuffer(nv, groups, rows, key=key)
-            buf.fill(groups, rows)
-        self.levels = levels = buf.levels
-        res = self.solver.solve(Problem(levels, self.layout, self._identity, self._h, _NO_INDEX,
-                                         margin=self.margin))
+        plan = self._plan
+        key = (self.stack.version, len(groups), *map(len, groups))
+        if plan is None or not plan.matches(groups, key) or not plan.fill():
+            plan = self._plan = VelocityPlan(groups, key, robot, self.dt, self.gain, self.margin)
+        self.levels = plan.levels
+        res = self.solver.solve(plan.problem)
+        nv = robot.nv
         qd = res.x[:nv]
         ok, message = res.ok, res.message
-        if not np.all(np.isfinite(qd)):
+        if not math.isfinite(qd.dot(qd)) and not np.all(np.isfinite(qd)):
             ok, message = False, "non-finite solution"
         status, relaxed = solve_status(ok, res)
         if not ok:
             qd = np.zeros(nv)
+        buf = plan.buffer
         values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
         evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel))
-        return VelocitySolution(qd, pin.integrate(robot.model, q, qd * dt), robot.na, status=status,
+        return VelocitySolution(qd, pin.integrate(robot.model, q, qd * self.dt), robot.na, status=status,
                                 message=message, qp_count=res.qp_count, evaluate=evaluate, relaxed=relaxed)
 
     def _hold(self, v: np.ndarray, message: str) -> VelocitySolution:

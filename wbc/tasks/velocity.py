@@ -34,10 +34,13 @@ regularisation, null-space impedance, the floating-base dynamics) have no veloci
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.robot.model import WORLD_ALIGNED
+from wbc.robot.model import LOCAL, WORLD_ALIGNED
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Rows
@@ -72,96 +75,49 @@ def velocity_gain(task: MotionTask, dim: int, gain: float | None) -> np.ndarray:
     return np.sqrt(task.gain_vectors(dim)[0])
 
 
-def _terms(task, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-    """(J, e, ẋ_d, selected axes, dim of the gain vector) of a motion task, world-aligned
-    (a 6-D contact: its LOCAL frame, the frame of its error log₆)."""
-    kind = task.kind
-    if kind == "frame":
-        fid = robot.frame_id(task.frame)
-        return robot.frame_jacobian(fid, WORLD_ALIGNED), task.full_error(robot), task.target_velocity, task.axes, 6
-    if kind == "com":
-        sel = np.array(["xyz".index(a) for a in task.axes])
-        e = np.zeros(3)
-        e[sel] = task.error(robot)
-        return robot.com_jacobian, e, task.target_velocity, sel, 3
-    if kind == "contact":
-        J = task.force_jacobian(robot)
-        m = J.shape[0]
-        axes = np.arange(m) if not task.sliding else (np.array([2]) if m == 3 else np.array([2, 3, 4]))
-        return J, _contact_error(task, robot, m), np.zeros(m), axes, m
-    raise TaskDefinitionError(f"task '{task.name}' (type: {kind}) has no velocity form")   # pragma: no cover
+#: a writer of a task's velocity rows: writes this cycle's rows into the arrays it was made
+#: with; False when the task's structure (its row count) no longer matches them
+Writer = Callable[[], bool]
 
 
-def _contact_error(task, robot, m: int) -> np.ndarray:
-    """The contact's drift from its placement, as ``Contact.error`` before its axis selection
-    (log₆(oMc⁻¹ M_ref) in the contact frame for a surface, p_ref − p world for a point), without
-    the frame velocity and drift the acceleration rows also read."""
-    oMc = robot.frame_placement(robot.frame_id(robot.contact(task.contact).frame))
-    if task.reference is None:
-        task.reference = oMc.copy()
-    if m == 6:
-        return pin.log6(oMc.actInv(task.reference)).vector
-    return task.reference.translation - oMc.translation
-
-
-def motion_velocity_rows(task: MotionTask, robot, nv: int, gain: float | None = None) -> Rows:
-    """J q̇ = ẋ_d + K e on the task's selected axes (module docstring).
+def velocity_writer(task: Task, robot, nv: int, dt: float, gain: float | None = None,
+                    out: Rows | None = None) -> tuple[Writer, Rows]:
+    """(write, rows): ``write()`` writes the task's rows over x = q̇ (module docstring) for the
+    robot's current state into the arrays of ``rows``, in place: ``out``'s when given (a row
+    buffer's blocks, :mod:`wbc.controller.velocity_plan`), else new ones. Rows that do not
+    change with the state (a posture's or the differential drive's A, the box's indices) are
+    written once, here.
 
     Args:
-        task: a frame, CoM or contact task.
-        robot: the robot, updated (``update_kinematics``) to this cycle's q.
+        task: a task of a kind in :data:`VELOCITY_KINDS` (another: TaskDefinitionError).
+        robot: the robot, updated (``update_kinematics``) before each ``write()``.
         nv: the number of velocity coordinates (x = q̇).
-        gain: K (1/s) for every axis; None: √K_p of the task's gains.
+        dt: the control period (s): q_next = q ⊕ q̇ dt (the joint-limit rows keep it inside).
+        gain: K (1/s) of every motion task; None: √K_p of each task's own gains.
+        out: the arrays to write into, of the task's row shape (``A``, ``b`` for equality rows;
+            ``C``, ``lo``, ``hi`` for general inequality rows; ``box`` = (idx, lo, hi)); None: new.
     """
-    J, e, vd, sel, dim = _terms(task, robot)
-    if task.kind == "com" and len(sel) < 3 and np.ndim(task.kp) == 1:
-        K = np.zeros(3)                       # one gain per selected axis, given in axes order
-        K[sel] = velocity_gain(task, len(sel), gain)
-    else:
-        K = velocity_gain(task, dim, gain)
-    return Rows(A=np.ascontiguousarray(J[sel, :nv]), b=(vd + K * e)[sel])
-
-
-def posture_velocity_rows(task, robot, nv: int, gain: float | None = None) -> Rows:
-    """q̇_j = K (q_d ⊖ q)_j on the posture's joints (m/s, rad/s)."""
-    e = task.error(robot)
-    idx = task.coordinates(robot)
-    A = np.zeros((len(idx), nv))
-    A[np.arange(len(idx)), idx] = 1.0
-    return Rows(A=A, b=velocity_gain(task, len(idx), gain) * e)
-
-
-def joint_limit_velocity_rows(task, robot, dt: float) -> Rows:
-    """Box bounds on q̇ from position and velocity limits (module docstring)."""
-    (qi, vi, extra, idx), (qmax, qmin, vmax, vmax_extra) = task.coordinates(robot)
-    k = min(1.0 / task.horizon, 1.0 / dt)
-    q = robot.q[qi]
-    hi = np.minimum(vmax, k * (qmax - task.margin - q))
-    lo = np.maximum(-vmax, k * (qmin + task.margin - q))
-    crossed = lo > hi
-    if crossed.any():
-        lo[crossed] = hi[crossed] = 0.5 * (lo[crossed] + hi[crossed])
-    return Rows(box=(idx, np.concatenate([lo, -vmax_extra]), np.concatenate([hi, vmax_extra])))
-
-
-def collision_velocity_rows(task, robot, nv: int) -> Rows:
-    """J_d q̇ ≥ −ξ (d − d_s)/(d_i − d_s) for the nearest ``max_rows`` pairs (module docstring)."""
-    task.bind(robot)
-    n = task.max_rows
-    C, lo, hi = np.zeros((n, nv)), np.zeros(n), np.full(n, _FREE)
-    r = task.model.distance_rows(robot, task.influence)
-    order = np.argsort(r.d)[:n]
-    k = len(order)
-    if k:
-        C[:k] = r.J[order][:, :nv]
-        lo[:k] = -task.max_speed * (r.d[order] - task.safety) / (task.influence - task.safety)
-        hi[:k] = np.inf
-    task.last = (r, order)
-    return Rows(C=C, lo=lo, hi=hi)
+    kind = task.kind
+    if kind in ("frame", "com", "contact"):
+        return _motion_writer(task, robot, nv, gain, out)
+    if kind == "posture":
+        return _posture_writer(task, robot, nv, gain, out)
+    if kind == "joint_limits":
+        return _joint_limit_writer(task, robot, dt, out)
+    if kind == "collision_avoidance":
+        return _collision_writer(task, robot, nv, out)
+    if kind == "differential_drive":
+        A, b = _equality_arrays(out, 1, nv)
+        A[:] = 0.0
+        A[0, 1] = 1.0                       # the planar root's lateral velocity, base frame
+        b[:] = 0.0
+        return (lambda: True), Rows(A=A, b=b)
+    check_velocity_stack([[task]])
+    raise AssertionError("unreachable")     # pragma: no cover
 
 
 def velocity_rows(task: Task, robot, nv: int, dt: float, gain: float | None = None) -> Rows:
-    """The task's rows over x = q̇ (module docstring).
+    """The task's rows over x = q̇ (module docstring), in new arrays (:func:`velocity_writer`).
 
     Args:
         task: a task of a kind in :data:`VELOCITY_KINDS` (another: TaskDefinitionError).
@@ -170,18 +126,190 @@ def velocity_rows(task: Task, robot, nv: int, dt: float, gain: float | None = No
         dt: the control period (s): q_next = q ⊕ q̇ dt (the joint-limit rows keep it inside).
         gain: K (1/s) of every motion task; None: √K_p of each task's own gains.
     """
+    write, rows = velocity_writer(task, robot, nv, dt, gain)
+    write()
+    return rows
+
+
+def _equality_arrays(out: Rows | None, m: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b) to write m equality rows over nv columns into: ``out``'s, else new."""
+    if out is None or out.A is None or out.b is None:
+        return np.zeros((m, nv)), np.zeros(m)
+    return out.A, out.b
+
+
+class _Gain:
+    """K of a motion task as the vector its rows read (``dim`` axes of J), worked out again only
+    when the task's kp is replaced."""
+
+    __slots__ = ("task", "dim", "sel", "gain", "kp", "K")
+
+    def __init__(self, task, dim: int, sel: np.ndarray, gain: float | None) -> None:
+        self.task, self.dim, self.sel, self.gain, self.kp, self.K = task, dim, sel, gain, None, np.zeros(dim)
+
+    def get(self) -> np.ndarray:
+        task = self.task
+        if task.kp is not self.kp:
+            if task.kind == "com" and len(self.sel) < 3 and np.ndim(task.kp) == 1:
+                K = np.zeros(3)                       # one gain per selected axis, given in axes order
+                K[self.sel] = velocity_gain(task, len(self.sel), self.gain)
+            else:
+                K = velocity_gain(task, self.dim, self.gain)
+            self.K, self.kp = K, task.kp
+        return self.K
+
+
+def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -> tuple[Writer, Rows]:
+    """J q̇ = ẋ_d + K e on the task's selected axes (frame, CoM, contact; module docstring). The
+    writer holds the pinocchio data's placements and CoM (references into ``robot.data``, which
+    ``update_kinematics`` refreshes in place): each read through the bindings costs ~1 µs."""
     kind = task.kind
-    if kind in ("frame", "com", "contact"):
-        return motion_velocity_rows(task, robot, nv, gain)   # type: ignore[arg-type]
-    if kind == "posture":
-        return posture_velocity_rows(task, robot, nv, gain)
-    if kind == "joint_limits":
-        return joint_limit_velocity_rows(task, robot, dt)
-    if kind == "collision_avoidance":
-        return collision_velocity_rows(task, robot, nv)
-    if kind == "differential_drive":
-        A = np.zeros((1, nv))
-        A[0, 1] = 1.0                       # the planar root's lateral velocity, base frame
-        return Rows(A=A, b=np.zeros(1))
-    check_velocity_stack([[task]])
-    raise AssertionError("unreachable")     # pragma: no cover
+    model, data = robot.model, robot.data
+    placements = data.oMf
+    jacobian = pin.getFrameJacobian
+    if kind == "frame":
+        fid = robot.frame_id(task.frame)
+        sel, dim = task.axes, 6
+        linear = bool(sel.max() < 3)
+    elif kind == "com":
+        sel, dim = np.array(["xyz".index(a) for a in task.axes]), 3
+        com = data.com
+    else:
+        surface = robot.contact(task.contact)
+        fid = robot.frame_id(surface.frame)
+        dim = surface.force_dim
+        frame = LOCAL if dim == 6 else WORLD_ALIGNED      # Contact.force_jacobian's frame
+        sel = np.arange(dim) if not task.sliding else (np.array([2]) if dim == 3 else np.array([2, 3, 4]))
+    sel = np.ascontiguousarray(sel, dtype=np.int64)
+    m = len(sel)
+    A, b = _equality_arrays(out, m, nv)
+    K, e, zero = _Gain(task, dim, sel, gain), np.zeros(dim), np.zeros(dim)
+
+    def write_frame() -> bool:
+        T = task.target
+        if linear and T is not None:
+            np.subtract(T.translation, placements[fid].translation, out=e[:3])
+            err = e
+        else:
+            err = task.full_error(robot)
+        _motion_rows(A, b, jacobian(model, data, fid, WORLD_ALIGNED), sel, task.target_velocity, K.get(), err)
+        return True
+
+    def write_com() -> bool:
+        if len(task.axes) != m:
+            return False
+        target = task.target
+        if target is None:
+            task.error(robot)                 # the CoM at the first cycle becomes the target
+            target = task.target
+        np.subtract(target, com[0], out=e)
+        _motion_rows(A, b, data.Jcom, sel, task.target_velocity, K.get(), e)
+        return True
+
+    def write_contact() -> bool:
+        if task.sliding != (m < dim):
+            return False
+        oMc = placements[fid]
+        ref = task.reference
+        if ref is None:
+            ref = task.reference = oMc.copy()
+        if dim == 6:        # log₆(oMc⁻¹ M_ref) in the contact frame
+            err = pin.log6(oMc.actInv(ref)).vector
+        else:               # p_ref − p, world
+            err = ref.translation - oMc.translation
+        _motion_rows(A, b, jacobian(model, data, fid, frame), sel, zero, K.get(), err)
+        return True
+
+    return {"frame": write_frame, "com": write_com, "contact": write_contact}[kind], Rows(A=A, b=b)
+
+
+@nb.njit(cache=True)
+def _motion_rows(out_A, out_b, J, sel, vd, K, e):
+    """Rows J[sel] (its first nv columns) and b = (ẋ_d + K e)[sel], one compiled pass."""
+    nv = out_A.shape[1]
+    for i in range(sel.shape[0]):
+        j = sel[i]
+        for c in range(nv):
+            out_A[i, c] = J[j, c]
+        out_b[i] = vd[j] + K[j] * e[j]
+
+
+def _posture_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -> tuple[Writer, Rows]:
+    """q̇_j = K (q_d ⊖ q)_j on the posture's joints (m/s, rad/s); A written once."""
+    idx = task.coordinates(robot)
+    m = len(idx)
+    A, b = _equality_arrays(out, m, nv)
+    A[:] = 0.0
+    A[np.arange(m), idx] = 1.0
+    K = _Gain(task, m, idx, gain)
+
+    def write() -> bool:
+        e = task.error(robot)
+        if len(e) != m:
+            return False
+        np.multiply(K.get(), e, out=b)
+        return True
+
+    return write, Rows(A=A, b=b)
+
+
+def _joint_limit_writer(task, robot, dt: float, out: Rows | None) -> tuple[Writer, Rows]:
+    """Box bounds on q̇ from position and velocity limits (module docstring)."""
+    (qi, vi, extra, idx), (qmax, qmin, vmax, vmax_extra) = task.coordinates(robot)
+    n = len(idx)
+    if out is None or out.box is None:
+        lo, hi = np.zeros(n), np.zeros(n)
+    else:
+        lo, hi = out.box[1], out.box[2]
+    lo[len(qi):] = -vmax_extra
+    hi[len(qi):] = vmax_extra
+
+    def write() -> bool:
+        _joint_velocity_bounds(lo, hi, robot.q, qi, qmax, qmin, vmax, task.margin,
+                               min(1.0 / task.horizon, 1.0 / dt))
+        return True
+
+    return write, Rows(box=(idx, lo, hi))
+
+
+@nb.njit(cache=True)
+def _joint_velocity_bounds(lo, hi, q, qi, qmax, qmin, vmax, margin, k):
+    """max(−v̄, k (q_min + m − q)) ≤ q̇ ≤ min(v̄, k (q_max − m − q)) per joint, crossed
+    bounds collapsed to their midpoint (the first len(qi) entries of lo and hi)."""
+    for i in range(qi.shape[0]):
+        x = q[qi[i]]
+        h = min(vmax[i], k * (qmax[i] - margin - x))
+        lw = max(-vmax[i], k * (qmin[i] + margin - x))
+        if lw > h:
+            lw = h = 0.5 * (lw + h)
+        lo[i] = lw
+        hi[i] = h
+
+
+def _collision_writer(task, robot, nv: int, out: Rows | None) -> tuple[Writer, Rows]:
+    """J_d q̇ ≥ −ξ (d − d_s)/(d_i − d_s) for the nearest ``max_rows`` pairs (module docstring)."""
+    task.bind(robot)
+    n = task.max_rows
+    if out is None or out.C is None or out.lo is None or out.hi is None:
+        C, lo, hi = np.zeros((n, nv)), np.zeros(n), np.full(n, _FREE)
+    else:
+        C, lo, hi = out.C, out.lo, out.hi
+
+    def write() -> bool:
+        if task.max_rows != n:
+            return False
+        task.bind(robot)
+        r = task.model.distance_rows(robot, task.influence)
+        order = np.argsort(r.d)[:n]
+        k = len(order)
+        C[:] = 0.0
+        lo[:] = 0.0
+        hi[:] = _FREE
+        if k:
+            C[:k] = r.J[order][:, :nv]
+            lo[:k] = -task.max_speed * (r.d[order] - task.safety) / (task.influence - task.safety)
+            hi[:k] = np.inf
+        task.last = (r, order)
+        return True
+
+    return write, Rows(C=C, lo=lo, hi=hi)

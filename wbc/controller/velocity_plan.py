@@ -1,0 +1,95 @@
+"""The velocity cycle's rows, planned once per stack structure (:mod:`wbc.controller.velocity`).
+
+What a velocity cycle does with the tasks' rows, decided once while the stack's structure
+holds (its version, the levels solved, each task's weight and row count): a
+:class:`~wbc.problem.buffer.RowBuffer` sized from a first call of every task's velocity rows,
+then, per task, a writer (:func:`wbc.tasks.velocity.velocity_writer`) bound to that task's
+blocks of the buffer, and the :class:`~wbc.problem.problem.Problem` the solver is handed
+every cycle (the same object: its levels and stacked rows are views of the buffer). A cycle
+is then: each writer writes its rows in place (a compiled pass each; rows constant in the
+state were written at planning), the rows of a task of weight w ≠ 1 scaled by √w into its
+block, nothing allocated, no list or dict built. A writer that finds its task's rows
+changed shape (a contact made sliding) says so and the plan is rebuilt.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbc.problem.buffer import RowBuffer
+from wbc.problem.problem import Problem
+from wbc.problem.rows import Layout, Rows
+from wbc.tasks.velocity import velocity_writer
+
+_NO_INDEX = np.zeros(0, dtype=np.int64)
+
+
+class VelocityPlan:
+    """One stack structure's row buffer, writers and Problem (module docstring).
+
+    Args:
+        groups: the levels of tasks solved (the stack's, the differential drive in level 0).
+        key: what identifies the structure besides the tasks' weights (the stack's version and
+            the levels' sizes).
+        robot: the robot, updated to this cycle's q (the rows of this first call are kept).
+        dt: the control period (s).
+        gain: K (1/s) of every motion task; None: √K_p of each task's own gains.
+        margin: the QP margin (m/s, rad/s) of the Problem.
+    """
+
+    def __init__(self, groups: list[list], key: tuple, robot, dt: float, gain: float | None, margin: float) -> None:
+        nv = robot.nv
+        self.key = key
+        self.groups = groups
+        self.weights = [t.weight for tasks in groups for t in tasks]
+        rows = []             # a first call of every task's rows, in arrays of their own: the structure
+        for tasks in groups:
+            rs = []
+            for t in tasks:
+                write, r = velocity_writer(t, robot, nv, dt, gain)
+                write()
+                rs.append(r)
+            rows.append(rs)
+        buf = self.buffer = RowBuffer(nv, groups, rows, key=key)
+        buf.fill(groups, rows)
+        self.writers = []
+        #: (the task's scratch A, b, its block A, b, √w) of the tasks of weight w ≠ 1
+        self.scaled: list[tuple] = []
+        for tasks, plan, slots in zip(groups, buf.plans, buf.slots):
+            for t, (_, eqv, inv, boxv), slot in zip(tasks, plan, slots):
+                out = Rows(A=None if slot is None else slot.A, b=None if slot is None else slot.b,
+                           C=None if inv is None else inv[0], lo=None if inv is None else inv[1],
+                           hi=None if inv is None else inv[2],
+                           box=None if boxv is None else (boxv[3], boxv[0], boxv[1]))
+                write, _ = velocity_writer(t, robot, nv, dt, gain, out)
+                self.writers.append(write)
+                if slot is not None and eqv[2] != 1.0:
+                    self.scaled.append((slot.A, slot.b, eqv[0], eqv[1], eqv[2]))
+        self.levels = buf.levels
+        self.problem = Problem(buf.levels, Layout(nv=nv), np.eye(nv), np.zeros(nv), _NO_INDEX, margin=margin,
+                               rows=buf.stacked)
+        self.fill()
+
+    def matches(self, groups: list[list], key: tuple) -> bool:
+        """Whether this plan is still the stack's: the same structure key and task weights."""
+        if key != self.key:
+            return False
+        i = 0
+        weights = self.weights
+        for tasks in groups:
+            for t in tasks:
+                if t.weight != weights[i]:
+                    return False
+                i += 1
+        return True
+
+    def fill(self) -> bool:
+        """Write this cycle's rows into the buffer (the robot updated to this cycle's q);
+        False (nothing written to trust) when a task's rows changed shape: plan again."""
+        for write in self.writers:
+            if not write():
+                return False
+        for sA, sb, A, b, w in self.scaled:
+            np.multiply(sA, w, out=A)
+            np.multiply(sb, w, out=b)
+        return True
