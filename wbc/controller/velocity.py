@@ -45,12 +45,15 @@ from wbc.solvers import create_solver
 from wbc.solvers.backends import Backend
 from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
+from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.dynamics import DifferentialDrive
-from wbc.tasks.velocity import check_velocity_stack, velocity_rows
+from wbc.tasks.velocity import check_velocity_stack, collision_correction, velocity_rows
 
 __all__ = ["VelocityController", "VelocitySolution"]
 
 _NO_INDEX = np.zeros(0, dtype=np.int64)
+#: re-solves a cycle may take when its command breaks a collision row (VelocityController._corrected)
+CORRECTION_PASSES = 2
 
 
 class VelocitySolution(Solution):
@@ -137,6 +140,10 @@ class VelocityController:
         self.phase_clock = None
         for task in self.stack:
             task.bind(robot)
+        self._collision_key: object = None
+        self._collision_list: list[CollisionAvoidance] = []
+        #: cycles whose command was re-solved with re-linearised collision rows
+        self.corrections = 0
 
     def lowest_tasks(self) -> list:
         """None: the velocity mode adds no level below the stack's."""
@@ -185,6 +192,9 @@ class VelocityController:
         res = self.solver.solve(Problem(levels, self.layout, self._identity, self._h, _NO_INDEX,
                                          margin=self.margin))
         qd = res.x[:nv]
+        if res.ok and self._collision_tasks():
+            res = self._corrected(q, res, groups, rows, buf)
+            qd = res.x[:nv]
         ok, message = res.ok, res.message
         if not np.all(np.isfinite(qd)):
             ok, message = False, "non-finite solution"
@@ -197,6 +207,38 @@ class VelocityController:
                            (self.sacrifice_tol, self.sacrifice_rel))
         return VelocitySolution(qd, pin.integrate(robot.model, q, qd * dt), robot.na, status=status,
                                 message=message, qp_count=res.qp_count, evaluate=evaluate, relaxed=relaxed)
+
+    def _collision_tasks(self) -> list[CollisionAvoidance]:
+        """The stack's collision-avoidance tasks (recomputed when the stack changes)."""
+        if self._collision_key != self.stack.version:
+            self._collision_key = self.stack.version
+            self._collision_list = [t for t in self.stack if isinstance(t, CollisionAvoidance)]
+        return self._collision_list
+
+    def _corrected(self, q: np.ndarray, res, groups: list[list], rows: list[list], buf: RowBuffer):
+        """The solve again with the collision rows re-linearised where the command breaks them
+        (:func:`wbc.tasks.velocity.collision_correction`), at most :data:`CORRECTION_PASSES`
+        times; the last successful result."""
+        nv, dt = self.robot.nv, self.dt
+        used = {id(t): 0 if t.last is None else len(t.last[1]) for t in self._collision_tasks()}
+        for _ in range(CORRECTION_PASSES):
+            added = False
+            for tasks, rs in zip(groups, rows):
+                for t, r in zip(tasks, rs):
+                    if id(t) in used:
+                        n = collision_correction(t, r, self.robot, q, res.x[:nv], dt, used[id(t)])
+                        added |= n > used[id(t)]
+                        used[id(t)] = n
+            if not added:
+                break
+            self.corrections += 1
+            buf.fill(groups, rows)
+            again = self.solver.solve(Problem(buf.levels, self.layout, self._identity, self._h, _NO_INDEX,
+                                              margin=self.margin))
+            if not again.ok:
+                break
+            res = again
+        return res
 
     def _hold(self, v: np.ndarray, message: str) -> VelocitySolution:
         """A faulty cycle: hold the model's last configuration (q̇ = 0)."""
