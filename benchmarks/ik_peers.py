@@ -74,7 +74,8 @@ class Problem:
         self.feet = {f: d.oMf[m.getFrameId(f)].copy() for f in SOLES}
         self.com = pin.centerOfMass(m, d, self.q0).copy() + COM_OFFSET
         if unreachable:               # the centre of the torso's convex hull (its box's centre)
-            from wbc.collision.model import CollisionModel, bounding_sphere
+            from wbc.collision.hulls import bounding_sphere
+            from wbc.collision.model import CollisionModel
 
             cm = CollisionModel(robot, self_collision=True)
             gm = cm.geometry_model

@@ -103,3 +103,33 @@ def vec3s(points: np.ndarray):
     for p in np.asarray(points, dtype=float):
         out.append(p)
     return out
+
+
+def hull_vertices(geometry) -> np.ndarray:
+    """Vertices (n × 3, m) whose convex hull is (or encloses) ``geometry``."""
+    if isinstance(geometry, coal.ConvexBase):
+        return np.asarray(geometry.points(), dtype=float).reshape(-1, 3)
+    if isinstance(geometry, coal.Box):
+        h = np.asarray(geometry.halfSide, dtype=float)
+        return np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * h
+    dirs = np.array([[x, y, z] for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)],
+                    dtype=float)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    if isinstance(geometry, coal.Sphere):
+        return dirs * geometry.radius / np.cos(np.pi / 4) ** 2       # a shell enclosing the sphere
+    if isinstance(geometry, coal.Capsule | coal.Cylinder):
+        r, h = geometry.radius, geometry.halfLength
+        ring = dirs[np.abs(dirs[:, 2]) < 1e-9] * r / np.cos(np.pi / 8)
+        caps = ([dirs * r / np.cos(np.pi / 4) ** 2 + [0, 0, s * h] for s in (-1, 1)]
+                if isinstance(geometry, coal.Capsule) else [])
+        return np.vstack([ring + [0, 0, h], ring - [0, 0, h], *caps])
+    raise TypeError(f"no vertices for a {type(geometry).__name__}")
+
+
+def bounding_sphere(geometry) -> tuple[np.ndarray, float]:
+    """(centre in the geometry's frame, radius) of a sphere enclosing ``geometry`` (m);
+    infinite radius for a half-space."""
+    if isinstance(geometry, coal.Halfspace):
+        return np.zeros(3), np.inf
+    geometry.computeLocalAABB()
+    return np.array(geometry.aabb_center, dtype=float), float(geometry.aabb_radius)

@@ -45,7 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RobotDefinitionError
-from .hulls import convex_hull
+from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .shapes import Obstacle
 
@@ -83,36 +83,6 @@ def _pair_line(path, j: int) -> int | None:
     from ..validation.yamlio import read_document
 
     return read_document(path, RobotDefinitionError).line(f"pairs[{j}]")
-
-
-def _vertices(geometry) -> np.ndarray:
-    """Vertices (n × 3, m) whose convex hull is (or encloses) ``geometry``."""
-    if isinstance(geometry, coal.ConvexBase):
-        return np.asarray(geometry.points(), dtype=float).reshape(-1, 3)
-    if isinstance(geometry, coal.Box):
-        h = np.asarray(geometry.halfSide, dtype=float)
-        return np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * h
-    dirs = np.array([[x, y, z] for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)],
-                    dtype=float)
-    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
-    if isinstance(geometry, coal.Sphere):
-        return dirs * geometry.radius / np.cos(np.pi / 4) ** 2       # a shell enclosing the sphere
-    if isinstance(geometry, coal.Capsule | coal.Cylinder):
-        r, h = geometry.radius, geometry.halfLength
-        ring = dirs[np.abs(dirs[:, 2]) < 1e-9] * r / np.cos(np.pi / 8)
-        caps = ([dirs * r / np.cos(np.pi / 4) ** 2 + [0, 0, s * h] for s in (-1, 1)]
-                if isinstance(geometry, coal.Capsule) else [])
-        return np.vstack([ring + [0, 0, h], ring - [0, 0, h], *caps])
-    raise TypeError(f"no vertices for a {type(geometry).__name__}")
-
-
-def bounding_sphere(geometry) -> tuple[np.ndarray, float]:
-    """(centre in the geometry's frame, radius) of a sphere enclosing ``geometry`` (m);
-    infinite radius for a half-space."""
-    if isinstance(geometry, coal.Halfspace):
-        return np.zeros(3), np.inf
-    geometry.computeLocalAABB()
-    return np.array(geometry.aabb_center, dtype=float), float(geometry.aabb_radius)
 
 
 class CollisionModel:
@@ -236,7 +206,7 @@ class CollisionModel:
         out = []
         for i in sorted(wanted):
             g = self.geometry_model.geometryObjects[i]
-            out.append((g.name, self.robot.model.names[g.parentJoint], g.placement, _vertices(g.geometry)))
+            out.append((g.name, self.robot.model.names[g.parentJoint], g.placement, hull_vertices(g.geometry)))
         return out
 
 
@@ -410,20 +380,57 @@ class CollisionModel:
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
         ks, d, P1, P2, N = self.witness(influence, robot.q)
         m = len(ks)
-        J, drift = np.zeros((m, robot.nv)), np.zeros(m)
+        J, drift = self._jacobians(data, ks, P1, P2, N, drift=not self.exact_drift)
+        if m and self.exact_drift:
+            drift = self._curvature_drift(robot, ks)
+        rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
+        self._cycle, self._rows = key, rows
+        return rows
+
+    def _jacobians(self, data: pin.Data, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray,
+                   drift: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(J_d (k × nv), the witness points' rigid-body drift (k,), zeros unless ``drift``) of
+        the pairs ``ks`` from their witness points and normals and the world-frame joint
+        Jacobians in ``data.J`` (:meth:`distance_rows`' docstring)."""
+        m, nv = len(ks), self.robot.model.nv
+        J, dr = np.zeros((m, nv)), np.zeros(m)
         if m:
             a, b = self.pairs[ks, 0], self.pairs[ks, 1]
             for g, P, sign in ((a, P1, -1.0), (b, P2, 1.0)):
                 jid = self.joint_of[g]
                 coef = np.concatenate([N, _cross(P, N)], axis=1) * sign          # (k × 6)
                 J += (coef @ data.J) * self._support[jid]
-                if not self.exact_drift:
-                    drift += sign * self._point_drift(data, jid, P, N)
-        if m and self.exact_drift:
-            drift = self._curvature_drift(robot, ks)
-        rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
-        self._cycle, self._rows = key, rows
-        return rows
+                if drift:
+                    dr += sign * self._point_drift(data, jid, P, N)
+        return J, dr
+
+    def rows_at(self, q: np.ndarray, ks: np.ndarray, data: pin.Data,
+                geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
+        """The exact distances (k,; m) and distance Jacobians (k × nv) of the pairs ``ks`` at a
+        configuration ``q`` other than the cycle's (the velocity mode's check of its command,
+        :func:`wbc.tasks.velocity.collision_correction`), on the caller's own pinocchio and
+        geometry data; the cycle's rows and broad phase are left as they are.
+
+        Args:
+            q: the configuration (nq).
+            ks: pair indices (k,).
+            data: pinocchio data of the robot's model (joint Jacobians are computed in it).
+            geometry_data: a geometry data of this model (:meth:`new_geometry_data`).
+        """
+        model, gm, gd = self.robot.model, self.geometry_model, geometry_data
+        pin.computeJointJacobians(model, data, q)
+        pin.updateGeometryPlacements(model, data, gm, gd)
+        cmap = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        cmap[self._pa[ks], self._pb[ks]] = True
+        gd.setActiveCollisionPairs(gm, cmap)
+        pin.computeDistances(gm, gd)
+        res = [gd.distanceResults[int(k)] for k in ks]
+        m = len(res)
+        d = np.array([r.min_distance for r in res], dtype=float)
+        P1 = np.array([r.getNearestPoint1() for r in res], dtype=float).reshape(m, 3)
+        P2 = np.array([r.getNearestPoint2() for r in res], dtype=float).reshape(m, 3)
+        N = np.array([r.normal for r in res], dtype=float).reshape(m, 3)
+        return d, self._jacobians(data, ks, P1, P2, N)[0]
 
     def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
         """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance

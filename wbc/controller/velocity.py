@@ -47,9 +47,12 @@ from wbc.solvers.backends import Backend
 from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
 from wbc.tasks.dynamics import DifferentialDrive
-from wbc.tasks.velocity import check_velocity_stack
+from wbc.tasks.velocity import check_velocity_stack, collision_correction
 
 __all__ = ["VelocityController", "VelocitySolution"]
+
+#: re-solves a cycle may take when its command breaks a collision row (VelocityController._corrected)
+CORRECTION_PASSES = 2
 
 
 class VelocitySolution(Solution):
@@ -143,6 +146,8 @@ class VelocityController:
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self.layout = Layout(nv=robot.nv)
         self._plan: VelocityPlan | None = None
+        #: cycles whose command was re-solved with re-linearised collision rows
+        self.corrections = 0
         self.levels: list[Level] = []
         self.phase_clock = None
         for task in self.stack:
@@ -192,6 +197,8 @@ class VelocityController:
         self.levels = plan.levels
         res = self.solver.solve(plan.problem)
         nv = robot.nv
+        if res.ok and plan.collision_rows:
+            res = self._corrected(q, res, plan)
         qd = res.x[:nv]
         ok, message = res.ok, res.message
         if not math.isfinite(qd.dot(qd)) and not np.all(np.isfinite(qd)):
@@ -206,6 +213,27 @@ class VelocityController:
                            (self.sacrifice_tol, self.sacrifice_rel))
         return VelocitySolution(qd, pin.integrate(robot.model, q, qd * self.dt), robot.na, status=status,
                                 message=message, qp_count=res.qp_count, evaluate=evaluate, relaxed=relaxed)
+
+    def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):
+        """The solve again with the collision rows re-linearised where the command breaks them
+        (:func:`wbc.tasks.velocity.collision_correction`, written into the plan's blocks), at
+        most :data:`CORRECTION_PASSES` times; the last successful result."""
+        nv, dt = self.robot.nv, self.dt
+        used = [0 if t.last is None else len(t.last[1]) for t, _ in plan.collision_rows]
+        for _ in range(CORRECTION_PASSES):
+            added = False
+            for i, (t, rows) in enumerate(plan.collision_rows):
+                n = collision_correction(t, rows, self.robot, q, res.x[:nv], dt, used[i])
+                added |= n > used[i]
+                used[i] = n
+            if not added:
+                break
+            self.corrections += 1
+            again = self.solver.solve(plan.problem)
+            if not again.ok:
+                break
+            res = again
+        return res
 
     def _hold(self, v: np.ndarray, message: str) -> VelocitySolution:
         """A faulty cycle: hold the model's last configuration (q̇ = 0)."""

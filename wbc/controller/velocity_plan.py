@@ -19,6 +19,7 @@ import numpy as np
 from wbc.problem.buffer import RowBuffer
 from wbc.problem.problem import Problem
 from wbc.problem.rows import Layout, Rows
+from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.velocity import velocity_writer
 
 _NO_INDEX = np.zeros(0, dtype=np.int64)
@@ -53,6 +54,9 @@ class VelocityPlan:
         buf = self.buffer = RowBuffer(nv, groups, rows, key=key)
         buf.fill(groups, rows)
         self.writers = []
+        #: (task, its inequality block of the buffer) of the collision-avoidance tasks: the
+        #: velocity cycle's check of its command writes re-linearised rows there
+        self.collision_rows: list[tuple[CollisionAvoidance, Rows]] = []
         #: (the task's scratch A, b, its block A, b, √w) of the tasks of weight w ≠ 1
         self.scaled: list[tuple] = []
         for tasks, plan, slots in zip(groups, buf.plans, buf.slots):
@@ -63,6 +67,8 @@ class VelocityPlan:
                            box=None if boxv is None else (boxv[3], boxv[0], boxv[1]))
                 write, _ = velocity_writer(t, robot, nv, dt, gain, out)
                 self.writers.append(write)
+                if isinstance(t, CollisionAvoidance):
+                    self.collision_rows.append((t, out))
                 if slot is not None and eqv[2] != 1.0:
                     self.scaled.append((slot.A, slot.b, eqv[0], eqv[1], eqv[2]))
         self.levels = buf.levels

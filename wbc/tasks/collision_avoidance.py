@@ -84,6 +84,9 @@ class CollisionAvoidance(Task):
         self._buf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         #: the last cycle's rows (wbc.collision.model.DistanceRows) and which are active
         self.last: tuple[Any, np.ndarray] | None = None
+        #: (pinocchio Data, GeometryData) of the velocity mode's check of its command
+        #: (:func:`wbc.tasks.velocity.collision_correction`), made on first use
+        self.correction_data: tuple[Any, Any] | None = None
 
     def bind(self, robot) -> None:
         if self.model is None or self.model.robot is not robot:

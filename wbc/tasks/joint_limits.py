@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.validation.schema import number
+from wbc.validation.schema import boolean, number
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
@@ -32,6 +32,11 @@ class JointLimits(Task):
         max_acceleration: the viability bound's deceleration ā (rad/s² or m/s², in (0, 1e6]);
             default 30.
         margin: distance kept from each position limit (rad or m, in [0, 1]); default 0.
+        rate_limit: (velocity mode only) also bound the commanded q̇'s change over one control
+            period by ``max_acceleration``: |q̇ − v| ≤ ā dt, v the measured velocity, so that a
+            position servo can follow the command (a step in q̇ is a step in the servo's error);
+            default False (inverse kinematics takes full steps). The torque mode ignores it
+            (its bounds are on q̈ already).
         name: the task's name, unique in a stack; default ``"joint_limits"``.
         weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
     """
@@ -39,7 +44,8 @@ class JointLimits(Task):
     kind = "joint_limits"
 
     def __init__(self, dt: float = 1e-3, horizon: float = 0.1, max_acceleration: float = 30.0,
-                 margin: float = 0.0, name: str = "joint_limits", weight: float = 1.0) -> None:
+                 margin: float = 0.0, rate_limit: bool = False, name: str = "joint_limits",
+                 weight: float = 1.0) -> None:
         super().__init__(name, weight)
         owner = f"task '{self.name}'"
         # bounded so that the bounds' 1/dt and 2/horizon² stay finite
@@ -48,6 +54,7 @@ class JointLimits(Task):
         self.max_acceleration = number(max_acceleration, "max_acceleration", gt=0, le=1e6, unit="rad/s² or m/s²",
                                        error=TaskDefinitionError, owner=owner)
         self.margin = number(margin, "margin", ge=0, le=1, unit="rad or m", error=TaskDefinitionError, owner=owner)
+        self.rate_limit = boolean(rate_limit, "rate_limit", error=TaskDefinitionError, owner=owner)
         self._map = None
 
     def _indices(self, robot):
@@ -91,6 +98,8 @@ class JointLimits(Task):
     def params(self) -> dict:
         p = super().params()
         p.update(dt=self.dt, horizon=self.horizon, max_acceleration=self.max_acceleration, margin=self.margin)
+        if self.rate_limit:
+            p["rate_limit"] = True
         if p["name"] == "joint_limits":
             del p["name"]
         return p

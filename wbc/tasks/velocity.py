@@ -20,7 +20,9 @@ Constraints:
   max(−v̄, K_l (q_min + m − q)) ≤ q̇ ≤ min(v̄, K_l (q_max − m − q)) with K_l = min(1/T, 1/dt)
   (T the task's ``horizon``, m its ``margin``): after a step of dt, q + q̇ dt stays inside
   [q_min + m, q_max − m] since K_l dt ≤ 1; crossed bounds (a joint already outside) collapse
-  to their midpoint, as the acceleration form does;
+  to their midpoint, as the acceleration form does; with ``rate_limit``, also
+  v − ā dt ≤ q̇ ≤ v + ā dt (ā the task's ``max_acceleration``, v the measured velocity): a
+  command a position servo can follow;
 - collision avoidance: per near pair, the velocity damper of Faverjon and Tournassoud,
   ḋ = J_d q̇ ≥ −ξ (d − d_s)/(d_i − d_s), ξ the task's ``max_speed`` (m/s): the approach
   speed allowed at the influence distance d_i, falling to 0 at the safety distance d_s; the
@@ -267,6 +269,15 @@ def _joint_limit_writer(task, robot, dt: float, out: Rows | None) -> tuple[Write
     def write() -> bool:
         _joint_velocity_bounds(lo, hi, robot.q, qi, qmax, qmin, vmax, task.margin,
                                min(1.0 / task.horizon, 1.0 / dt))
+        if task.rate_limit:
+            lo[len(qi):] = -vmax_extra
+            hi[len(qi):] = vmax_extra
+            v, step = robot.v[idx], task.max_acceleration * dt
+            np.minimum(hi, v + step, out=hi)
+            np.maximum(lo, v - step, out=lo)
+            crossed = lo > hi
+            if crossed.any():
+                lo[crossed] = hi[crossed] = 0.5 * (lo[crossed] + hi[crossed])
         return True
 
     return write, Rows(box=(idx, lo, hi))
@@ -313,3 +324,53 @@ def _collision_writer(task, robot, nv: int, out: Rows | None) -> tuple[Writer, R
         return True
 
     return write, Rows(C=C, lo=lo, hi=hi)
+
+
+def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray, dt: float, used: int,
+                         tol: float = 1e-4) -> int:
+    """Check the damper at the commanded next configuration and re-linearise where it fails.
+
+    A row promises, to first order, d(q ⊕ q̇ dt) ≥ d_t = d + dt ḋ_min (ḋ_min = −ξ (d − d_s)/(d_i − d_s)).
+    The distance between convex hulls is only piecewise smooth (its witness features switch as
+    the links turn) and curved, so a step the row allows can bring another feature closer: d at
+    the commanded q_next is computed exactly (coal, :meth:`~wbc.collision.model.CollisionModel.rows_at`)
+    and, for each pair with d_next < d_t − ``tol``, a row linearised at q_next is added to the
+    task's unused rows,
+
+        d_next + J_next (q̇' − q̇) dt ≥ d_t,   i.e.   J_next q̇' ≥ J_next q̇ + (d_t − d_next)/dt,
+
+    (one Gauss–Newton step on the violated constraint). Returns the number of rows now used
+    (``used`` plus those added; at most ``max_rows``).
+
+    Args:
+        task: the :class:`~wbc.tasks.collision_avoidance.CollisionAvoidance` task whose rows
+            (:func:`collision_velocity_rows`, this cycle's) are ``rows``.
+        rows: its Rows; rows ``used`` … ``max_rows − 1`` are free and may be written.
+        robot: the robot (its model).
+        q: this cycle's configuration (nq).
+        qd: the solved q̇ (nv).
+        dt: the control period (s).
+        used: rows already holding constraints.
+        tol: how far (m) below its promise a distance may land before a row is added.
+    """
+    r, order = task.last
+    if not len(order) or used >= task.max_rows:
+        return used
+    if task.correction_data is None:
+        task.correction_data = (robot.model.createData(), task.model.new_geometry_data())
+    data, gd = task.correction_data
+    ks = r.pairs[order]
+    d_next, J_next = task.model.rows_at(pin.integrate(robot.model, q, qd * dt), ks, data, gd)
+    d0 = r.d[order]
+    target = d0 - dt * task.max_speed * (d0 - task.safety) / (task.influence - task.safety)
+    nv = len(qd)
+    C, lo, hi = rows.C, rows.lo, rows.hi
+    assert C is not None and lo is not None and hi is not None      # collision_velocity_rows' rows
+    for i in np.flatnonzero(d_next < target - tol):
+        if used >= task.max_rows:
+            break
+        C[used] = J_next[i, :nv]
+        lo[used] = J_next[i, :nv] @ qd + (target[i] - d_next[i]) / dt
+        hi[used] = np.inf
+        used += 1
+    return used
