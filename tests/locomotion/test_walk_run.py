@@ -1,8 +1,9 @@
 """Walks in closed loop with contact physics: the walker, its contacts and metrics.
 
 Default suite: Talos walks 2 steps of 0.2 m (then the stop step) in the own simulator; a
-missed touch-down stops the run cleanly; a run-time command beyond the limits is clipped
-with a warning. The full walks (``talos_walk``, ``talos_walk_side``, ``talos_walk_turn``,
+missed touch-down stops the run cleanly; a command changed and a stop at run time in closed
+loop (``talos_walk_command``'s events, earlier); a run-time command beyond the limits is
+clipped with a warning. The full walks (``talos_walk``, ``talos_walk_side``, ``talos_walk_turn``,
 ``g1_walk``, ``talos_walk_push``; both simulators) are marked slow."""
 
 from __future__ import annotations
@@ -13,10 +14,11 @@ import importlib.util
 import numpy as np
 import pytest
 
-from wbc.locomotion.footsteps import check_plan
+from wbc.locomotion.footsteps import check_plan, relative
 from wbc.locomotion.plan import Command
 from wbc.locomotion.walker import Walker
-from wbc.runner.loop import run
+from wbc.runner.loop import ScenarioRun, run
+from wbc.runner.walking import WalkObserver
 from wbc.scenario.loader import load_config
 
 HAS_MUJOCO = importlib.util.find_spec("mujoco") is not None
@@ -64,6 +66,36 @@ def test_a_missed_touchdown_stops_the_run_with_its_reason():
     assert m["walk"]["steps_taken"] == 0
     t = sc.walk.timing
     assert m["stopped"]["time"] == pytest.approx(t.first + t.single + sc.walk.late_max, abs=0.01)
+
+
+def test_a_command_change_and_a_stop_at_run_time_in_closed_loop():
+    # talos_walk_command's two events, earlier: in the 2nd step's single support a faster walk
+    # turning left (v_x beyond the step limit: clipped, with a warning), then, once the 3rd step
+    # (the new command's first) has begun, a stop: the 4th step brings the feet side by side
+    sc = load_config("talos_walk_command")
+    t = sc.walk.timing
+    period = t.single + t.double
+    change = t.first + period + 0.1
+    stop = change + period
+    sc.walk = dataclasses.replace(sc.walk, changes=[(change, Command(1.0, 0.0, 0.2, 4)), (stop, None)])
+    r = ScenarioRun(sc, duration=stop + period + t.single + t.last + 0.3, progress=False)
+    with pytest.warns(UserWarning, match="clipped"):
+        for k in range(r.n):
+            assert r.cycle(k)
+    m = r.metrics()
+    w = m["walk"]
+    assert len(w["warnings"]) == 1 and "v_x" in w["warnings"][0]
+    _check_walk(m, 4, yaw=True)
+    plan = next(o for o in r.observers if isinstance(o, WalkObserver)).walker.plan
+    steps = plan.steps
+    assert [s.side for s in steps] == ["right", "left", "right", "left"]
+    assert steps[1].x - steps[0].x == pytest.approx(0.2)                  # the first command's
+    ahead, _, turn = relative(steps[2], steps[1])
+    assert turn == pytest.approx(0.2 * period)                             # within the limits: kept
+    assert ahead == pytest.approx(sc.walk.limits.max_length)               # clipped to the limit
+    check_plan(plan.start, steps, sc.walk.limits)
+    beside = relative(steps[3], steps[2])
+    assert beside[0] == pytest.approx(0.0, abs=1e-9) and beside[2] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_a_command_beyond_the_limits_at_run_time_is_clipped_with_a_warning():
