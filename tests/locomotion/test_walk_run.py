@@ -18,6 +18,7 @@ from wbc.locomotion.footsteps import check_plan, relative
 from wbc.locomotion.plan import Command
 from wbc.locomotion.walker import Walker
 from wbc.runner.loop import ScenarioRun, run
+from wbc.runner.plot import plot_metrics
 from wbc.runner.walking import WalkObserver
 from wbc.scenario.loader import load_config
 
@@ -47,14 +48,30 @@ def _check_walk(m: dict, steps: int, yaw: bool = False) -> None:
     assert w["replan_time"]["count"] > 0
 
 
-def test_talos_walks_two_steps_in_the_own_simulator():
+def test_talos_walks_two_steps_in_the_own_simulator(tmp_path):
     sc, duration = _short()
-    m = run(sc, duration=duration)
+    m = run(sc, duration=duration, series=True)
     _check_walk(m, 3)
     w = m["walk"]
     assert w["distance"] == pytest.approx(0.4, abs=0.03)       # 2 × 0.2 m, the pelvis over the feet
     assert w["late"] == 0                                      # landed on the clock (or early)
     assert w["zmp_margin_min"] > 0.01
+    # the walk's trace (what --plot draws and a view reads): every cycle, the CoM on its
+    # reference (the CoM task's error stays under a mm), the DCM too, the ZMP reference
+    # ending between the final feet; one lift-off per step, the plan's sides, each before
+    # its touch-down
+    s = m["series"]["walk"]
+    n = round(m["duration"] / sc.dt)
+    assert len(s["t"]) == n and all(len(s[k]) == n for k in ("com", "com_ref", "dcm", "dcm_ref", "zmp", "zmp_ref"))
+    com, com_ref = np.array(s["com"]), np.array(s["com_ref"])
+    assert np.abs(com - com_ref).max() < 1e-3
+    assert np.abs(np.array(s["dcm"]) - np.array(s["dcm_ref"])).max() < 0.01
+    feet = [f for f in s["footsteps"] if f["state"] == "down"][-2:]
+    assert np.allclose(s["zmp_ref"][-1], np.mean([[f["x"], f["y"]] for f in feet], axis=0), atol=1e-6)
+    assert [e["side"] for e in s["lifts"]] == [f["side"] for f in s["footsteps"] if f["state"] != "start"]
+    assert all(a["time"] < b["time"] for a, b in zip(s["lifts"], s["touchdowns"], strict=True))
+    out = plot_metrics(m, tmp_path / "walk.png")
+    assert out.stat().st_size > 10_000
 
 
 def test_a_missed_touchdown_stops_the_run_with_its_reason():

@@ -35,14 +35,21 @@ def _yaw(quat_xyzw: np.ndarray) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
-    """Signed distance (m) of ``p`` to the boundary of the convex hull of ``points`` (xy;
-    > 0 inside); −∞ with fewer than 3 points or a flat hull."""
+def _hull(points: np.ndarray) -> ConvexHull | None:
     if len(points) < 3:
-        return -np.inf
+        return None
     try:
-        hull = ConvexHull(points)
+        return ConvexHull(points)
     except QhullError:
+        return None
+
+
+def hull_margin(points: np.ndarray, p: np.ndarray, hull: ConvexHull | None = None) -> float:
+    """Signed distance (m) of ``p`` to the boundary of the convex hull of ``points`` (xy;
+    > 0 inside; ``hull`` the points' hull if already computed); −∞ with fewer than 3 points or a
+    flat hull."""
+    hull = _hull(points) if hull is None else hull
+    if hull is None:
         return -np.inf
     # each facet: n·x + b ≤ 0 inside, n a unit normal
     return float(-(hull.equations[:, :2] @ p + hull.equations[:, 2]).max())
@@ -61,6 +68,11 @@ class WalkMetrics:
         self.pelvis0: np.ndarray | None = None
         self.pelvis = np.zeros(3)
         self.t = 0.0
+        #: the last cycle's ZMP from the simulator's forces (xy, m; None: the ground carries
+        #: under a tenth of the weight) and the support polygon, the convex hull of the feet in
+        #: contact (its vertices in order, (k, 2) world xy, m; empty when there is none)
+        self.zmp: np.ndarray | None = None
+        self.support = np.zeros((0, 2))
 
     def record(self, t: float, sim, stack) -> None:
         """After the simulator's step at ``t`` s (its true state and contact forces)."""
@@ -92,10 +104,17 @@ class WalkMetrics:
                 self.anchor[side] = None
         fz = pf[:, 2]
         total = float(fz.sum())
+        hull = None
+        if stance:
+            xy = pts[np.concatenate(stance), :2]
+            hull = _hull(xy)
+            self.support = xy[hull.vertices] if hull is not None else xy
+        else:
+            self.support = np.zeros((0, 2))
+        self.zmp = None
         if stance and total > 0.1 * w.robot.weight:
-            zmp = (fz @ pts[:, :2]) / total
-            idx = np.concatenate(stance)
-            margin = hull_margin(pts[idx, :2], zmp)
+            self.zmp = zmp = (fz @ pts[:, :2]) / total
+            margin = hull_margin(self.support, zmp, hull) if hull is not None else -np.inf
             self.zmp_margin_min = min(self.zmp_margin_min, margin)
             if margin < 0.0:
                 self.zmp_outside += 1
