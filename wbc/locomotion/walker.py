@@ -124,6 +124,7 @@ class Walker:
         self.ground_z = 0.0
         self.changes = list(spec.changes)
         self.warnings: list[str] = []
+        self.touchdown_fz = spec.touchdown_force * robot.weight     # N, the landing threshold
 
     # ---------------------------------------------------------------- start
     def begin(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
@@ -230,7 +231,7 @@ class Walker:
     def _swing(self, t: float, s: float, side: str, swing: SwingTrajectory, fz: float) -> None:
         """The swing foot ``s`` s after lift-off: its reference, or the touch-down (early: the
         foot's force after half the swing; on time; late: descending while the plan waits)."""
-        if fz > self.spec.touchdown_force * self.robot.weight and s >= 0.5 * swing.T:
+        if fz > self.touchdown_fz and s >= 0.5 * swing.T:
             self._touchdown(t, side, early=s < swing.T - 1e-9)
             return
         if s < swing.T - 1e-9:
