@@ -87,9 +87,9 @@ class WalkObserver(RunObserver):
         if w.preview is None or w.plan is None:
             return
         omega = w.preview.omega
-        d = w.data                      # the walker's pinocchio data at this cycle's measurement
-        self.com = d.com[0][:2].copy()
-        self.dcm = self.com + d.vcom[0][:2] / omega
+        robot = w.robot                 # the controller's model data, updated by this cycle's solve
+        self.com = robot.com[:2].copy()
+        self.dcm = self.com + robot.com_velocity[:2] / omega
         task = w.com_task
         self.com_ref = task.target[:2].copy()
         self.dcm_ref = self.com_ref + task.target_velocity[:2] / omega
