@@ -4,7 +4,7 @@ Default suite: Talos walks 2 steps of 0.2 m (then the stop step) in the own simu
 missed touch-down stops the run cleanly; a command changed and a stop at run time in closed
 loop (``talos_walk_command``'s events, earlier); a run-time command beyond the limits is
 clipped with a warning. The full walks (``talos_walk``, ``talos_walk_side``, ``talos_walk_turn``,
-``g1_walk``, ``talos_walk_push``; both simulators) are marked slow."""
+``g1_walk``, ``talos_walk_push``, ``talos_walk_command``; both simulators) are marked slow."""
 
 from __future__ import annotations
 
@@ -33,13 +33,13 @@ def _short(name: str = "talos_walk", steps: int = 2, **spec):
     return sc, t.first + (steps + 1) * (t.single + t.double) - t.double + t.last + 0.3
 
 
-def _check_walk(m: dict, steps: int, yaw: bool = False) -> None:
+def _check_walk(m: dict, steps: int | None, yaw: bool = False) -> None:
     """The issue's bounds: no fall, no relaxed or saturated cycle, every step down, final
     error ≤ 5 cm (and yaw ≤ 5°), stance slip < 5 mm, no ZMP outside the stance polygon."""
     w = m["walk"]
     assert not m["fell"] and m["stopped"] is None and w["stopped"] is None
     assert m["relaxed_cycles"] == 0 and m["saturated_cycles"] == 0 and m["solver_failures"] == 0
-    assert w["steps_taken"] == w["steps_planned"] == steps
+    assert w["steps_taken"] == w["steps_planned"] == (w["steps_planned"] if steps is None else steps)
     assert w["final_error"] <= 0.05
     assert w["stance_slip_max"] < 0.005
     assert w["zmp_outside_cycles"] == 0
@@ -131,14 +131,16 @@ def test_a_command_beyond_the_limits_at_run_time_is_clipped_with_a_warning():
 @pytest.mark.parametrize("sim", ["pinocchio", pytest.param("mujoco", marks=pytest.mark.skipif(
     not HAS_MUJOCO, reason="mujoco not installed"))])
 @pytest.mark.parametrize(("name", "yaw"), [("talos_walk", False), ("talos_walk_side", True),
-                                           ("talos_walk_turn", True), ("g1_walk", False)])
+                                           ("talos_walk_turn", True), ("g1_walk", False),
+                                           ("talos_walk_command", True)])
 def test_full_walks(name, yaw, sim):
     if name == "g1_walk" and sim == "mujoco":
-        pytest.xfail("the G1's stance sole rolls on MuJoCo's soft contact and it falls after 3 steps "
+        pytest.xfail("the G1's swing leg's momentum needs more CoP than its stance ankle gives, the trunk and "
+                     "arms take it, the sole rolls on MuJoCo's soft contact: a fall after 3 steps "
                      "(benchmarks/walking.md)")
     sc = load_config(name)
     m = run(sc, simulator=sim)
-    _check_walk(m, sc.walk.command.steps + 1, yaw)
+    _check_walk(m, None if sc.walk.changes else sc.walk.command.steps + 1, yaw)
 
 
 @pytest.mark.slow
