@@ -44,7 +44,10 @@ def test_command_lateral_and_turning_plans_keep_the_limits():
 
 @pytest.mark.parametrize(("command", "key"), [((0.4, 0.0, 0.0), "walk.command.v_x"),
                                               ((0.0, 0.2, 0.0), "walk.command.v_y"),
-                                              ((0.0, 0.0, 0.6), "walk.command.omega")])
+                                              ((0.0, 0.0, 0.6), "walk.command.omega"),
+                                              # both beyond: a turn moves the foot along the stance
+                                              # foot by half a width × sin(turn) on top of v_x's
+                                              ((1.0, 0.0, 0.2), "walk.command.v_x")])
 def test_command_beyond_the_limits_is_refused_or_clipped(command, key):
     with pytest.raises(ConfigError) as err:
         from_command(START, *command, 0.8, 4, LIMITS)

@@ -108,7 +108,11 @@ def from_command(start: dict[str, Footstep], vx: float, vy: float, omega: float,
     cut to the limits instead, for a command changed at run time)."""
     half0 = _half_width(start)
     dx, dy, dth = vx * period, vy * period, omega * period
-    bounds = {"v_x": limits.max_length, "v_y": max((limits.max_width - 2 * half0) / 2, 0.0), "omega": limits.max_turn}
+    # a turn of dth moves a foot half a width (half0 sin dth) along the stance foot beside the
+    # walking frame's advance: the length's bound leaves room for it
+    turn = min(abs(dth), limits.max_turn)
+    bounds = {"v_x": limits.max_length - half0 * math.sin(turn), "v_y": max((limits.max_width - 2 * half0) / 2, 0.0),
+              "omega": limits.max_turn}
     values = {"v_x": dx, "v_y": dy, "omega": dth}
     for name, value in list(values.items()):
         if abs(value) > bounds[name] + 1e-9:

@@ -35,17 +35,35 @@ def _yaw(quat_xyzw: np.ndarray) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+def _hull(points: np.ndarray) -> ConvexHull | None:
+    if len(points) < 3:
+        return None
+    try:
+        return ConvexHull(points)
+    except QhullError:
+        return None
+
+
+def polygon_margin(vertices: np.ndarray, p: np.ndarray) -> float:
+    """Signed distance (m) of ``p`` to the boundary of the convex polygon ``vertices`` ((k, 2),
+    counter-clockwise; > 0 inside): min over the edges e_i = v_{i+1} − v_i of
+    cross(e_i, p − v_i)/‖e_i‖; −∞ with fewer than 3 vertices."""
+    if len(vertices) < 3:
+        return -np.inf
+    e = np.roll(vertices, -1, axis=0) - vertices
+    d = p - vertices
+    n = np.hypot(e[:, 0], e[:, 1])
+    ok = n > 1e-12
+    if ok.sum() < 3:
+        return -np.inf
+    return float(((e[ok, 0] * d[ok, 1] - e[ok, 1] * d[ok, 0]) / n[ok]).min())
+
+
 def hull_margin(points: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (m) of ``p`` to the boundary of the convex hull of ``points`` (xy;
     > 0 inside); −∞ with fewer than 3 points or a flat hull."""
-    if len(points) < 3:
-        return -np.inf
-    try:
-        hull = ConvexHull(points)
-    except QhullError:
-        return -np.inf
-    # each facet: n·x + b ≤ 0 inside, n a unit normal
-    return float(-(hull.equations[:, :2] @ p + hull.equations[:, 2]).max())
+    hull = _hull(points)
+    return -np.inf if hull is None else polygon_margin(points[hull.vertices], p)
 
 
 class WalkMetrics:
@@ -61,6 +79,14 @@ class WalkMetrics:
         self.pelvis0: np.ndarray | None = None
         self.pelvis = np.zeros(3)
         self.t = 0.0
+        #: the last cycle's ZMP from the simulator's forces (xy, m; None: the ground carries
+        #: under a tenth of the weight) and the support polygon, the convex hull of the feet in
+        #: contact (its vertices in order, (k, 2) world xy, m; empty when there is none)
+        self.zmp: np.ndarray | None = None
+        self.support = np.zeros((0, 2))
+        self.weight = walker.robot.weight          # N
+        self._hull_key: tuple[str, ...] = ()
+        self._hull_idx = np.zeros(0, dtype=int)
 
     def record(self, t: float, sim, stack) -> None:
         """After the simulator's step at ``t`` s (its true state and contact forces)."""
@@ -73,12 +99,13 @@ class WalkMetrics:
         self.pelvis = pose
         pts = sim.point_positions()
         pf = sim.point_forces
-        stance = []
+        stance, stance_sides = [], []
         for side, idx in self.pts.items():
             task = w.contact_task[side]
             held = task.name in stack
-            if held or float(pf[idx, 2].sum()) > w.spec.touchdown_force * w.robot.weight:
+            if held or float(pf[idx, 2].sum()) > w.spec.touchdown_force * self.weight:
                 stance.append(idx)
+                stance_sides.append(side)
             if held and task.fmax == np.inf:
                 xy = pts[idx, :2]
                 if self.anchor[side] is None:
@@ -92,13 +119,25 @@ class WalkMetrics:
                 self.anchor[side] = None
         fz = pf[:, 2]
         total = float(fz.sum())
-        if stance and total > 0.1 * w.robot.weight:
-            zmp = (fz @ pts[:, :2]) / total
-            idx = np.concatenate(stance)
-            margin = hull_margin(pts[idx, :2], zmp)
+        self.support = self._support(tuple(stance_sides), pts) if stance_sides else np.zeros((0, 2))
+        self.zmp = None
+        if stance and total > 0.1 * self.weight:
+            self.zmp = zmp = (fz @ pts[:, :2]) / total
+            margin = polygon_margin(self.support, zmp)
             self.zmp_margin_min = min(self.zmp_margin_min, margin)
             if margin < 0.0:
                 self.zmp_outside += 1
+
+    def _support(self, sides: tuple[str, ...], pts: np.ndarray) -> np.ndarray:
+        """The support polygon of the feet ``sides`` at the points' positions ``pts``: its
+        vertices (counter-clockwise, xy). The hull (qhull) is computed when the set of feet in
+        contact changes; its vertex indices are kept, and read at the points' current positions."""
+        if sides != self._hull_key:
+            idx = np.concatenate([self.pts[s] for s in sides])
+            hull = _hull(pts[idx, :2])
+            self._hull_key = sides
+            self._hull_idx = idx[hull.vertices] if hull is not None else idx
+        return pts[self._hull_idx, :2]
 
     def summary(self, stopped: str | None) -> dict:
         w = self.walker

@@ -124,6 +124,8 @@ class Walker:
         self.ground_z = 0.0
         self.changes = list(spec.changes)
         self.warnings: list[str] = []
+        self.touchdown_fz = spec.touchdown_force * robot.weight     # N, the landing threshold
+        self._q = robot.q_default                 # the last measured configuration
 
     # ---------------------------------------------------------------- start
     def begin(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
@@ -186,9 +188,10 @@ class Walker:
         assert self.plan is not None and self.preview is not None
         while self.changes and self.changes[0][0] <= t + 1e-9:
             self.command(t, self.changes.pop(0)[1])
-        c = pin.centerOfMass(self.model, self.data, q, v)      # the joints' placements too
-        if self.preview.due(t):
+        if self.preview.due(t):         # the measured CoM and velocity: only a replan reads them
+            c = pin.centerOfMass(self.model, self.data, q, v)
             self.preview.replan(c[:2], self.data.vcom[0][:2], t)
+        self._q = q
         self._contacts(t, fz)
         pc, vc, ac = self.preview.sample(t)
         self.com_task.set_reference(np.array([pc[0], pc[1], self.z_com]), np.array([vc[0], vc[1], 0.0]),
@@ -208,6 +211,7 @@ class Walker:
         if self.state == "wait" and tau >= ts - ramp - 1e-9:
             self.ctrl.release_contact(self.contact_task[side].name, ramp)
             fid = self.sole_fid[side]
+            pin.forwardKinematics(self.model, self.data, self._q)
             pin.updateFramePlacement(self.model, self.data, fid)
             here = self.data.oMf[fid].copy()
             task = Frame(self.robot.model.frames[fid].name, kp=self.spec.swing_kp, name=f"{side}_swing", target=here)
@@ -230,7 +234,7 @@ class Walker:
     def _swing(self, t: float, s: float, side: str, swing: SwingTrajectory, fz: float) -> None:
         """The swing foot ``s`` s after lift-off: its reference, or the touch-down (early: the
         foot's force after half the swing; on time; late: descending while the plan waits)."""
-        if fz > self.spec.touchdown_force * self.robot.weight and s >= 0.5 * swing.T:
+        if fz > self.touchdown_fz and s >= 0.5 * swing.T:
             self._touchdown(t, side, early=s < swing.T - 1e-9)
             return
         if s < swing.T - 1e-9:

@@ -199,7 +199,7 @@ class ScenarioRun:
         sc, robot, stack, sim = self.sc, self.robot, self.stack, self.sim
         out: list[RunObserver] = []
         if sc.walk is not None:         # the walker sets the references and switches the feet's contacts
-            out.append(WalkObserver(sc.walk, robot, stack, self.ctrl, sim, sc.dt))
+            out.append(WalkObserver(sc.walk, robot, stack, self.ctrl, sim, sc.dt, series=o.series))
         interaction = InteractionRun.for_run(robot, stack, sim, sc.dt)     # force tasks: measurement, figures
         if interaction is not None:
             out.append(InteractionObserver(interaction))
@@ -367,6 +367,8 @@ class ScenarioRun:
             out.update(o.summary())
         if self.measured.rec is not None:
             out["series"] = self.measured.rec.to_dict()
+            for o in self.observers:
+                out["series"].update(o.series())
         return out
 
 

@@ -69,6 +69,11 @@ class RunObserver:
         """What the observer adds to the run's metrics."""
         return {}
 
+    def series(self) -> dict:
+        """What the observer adds to the run's time series (``metrics["series"]``, a run with
+        ``series=True``)."""
+        return {}
+
 
 class InteractionObserver(RunObserver):
     """The force tasks' measurement and interaction figures (:class:`InteractionRun`)."""

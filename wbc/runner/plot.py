@@ -10,6 +10,8 @@ One figure, 1200 × 800 px by default:
   friction margins μ F_n − ‖F_t‖ of each contact's resultant force (N, ≥ 0 inside
   the friction cone); joint torques against their limits: the largest |τ_i|/τ_max,i
   per cycle and the traces of the joints that came closest.
+- a walking run (``series["walk"]``): below, the CoM, ZMP and DCM in x and y against their
+  references and the footstep timeline (:mod:`wbc.runner.walk_plot`), the figure 1.75 × taller.
 
 The series come from :func:`wbc.runner.loop.run` with ``series=True`` (``metrics["series"]``).
 matplotlib runs on its Agg back-end (no display needed).
@@ -61,8 +63,16 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
     sig = [_arr(r) for r in series["level_sigma_min"]]
     nlev = max(len(levels), len(res))
 
-    fig = plt.figure(figsize=size, dpi=dpi)
-    gs = fig.add_gridspec(1, 2, left=0.07, right=0.98, top=0.93 if title else 0.96, bottom=0.07, wspace=0.22)
+    walk = series.get("walk")
+    if walk:        # a walking run: its panels (wbc.runner.walk_plot) below, the figure taller
+        fig = plt.figure(figsize=(size[0], size[1] * 1.75), dpi=dpi)
+        outer = fig.add_gridspec(2, 1, left=0.07, right=0.98, top=0.96 if title else 0.98, bottom=0.04,
+                                 height_ratios=[1.0, 0.75], hspace=0.12)
+        gs = outer[0].subgridspec(1, 2, wspace=0.22)
+    else:
+        fig = plt.figure(figsize=size, dpi=dpi)
+        gs = fig.add_gridspec(1, 2, left=0.07, right=0.98, top=0.93 if title else 0.96, bottom=0.07,  # type: ignore[assignment]  # a GridSpec indexes as the sub-gridspec does
+                              wspace=0.22)
     left = gs[0].subgridspec(nlev, 1, hspace=0.55)
     right = gs[1].subgridspec(3, 1, hspace=0.45)
     cmap = plt.get_cmap("tab10")
@@ -132,6 +142,9 @@ def plot_series(series: dict, out: str | Path, title: str = "", size: tuple[floa
         ax.tick_params(labelsize=7)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="best", fontsize=6, framealpha=0.7, ncol=2)
+    if walk:
+        from wbc.runner.walk_plot import draw_walk
+        draw_walk(fig, outer[1], walk)
     if title:
         fig.suptitle(title, fontsize=11)
     out = Path(out)
