@@ -85,8 +85,10 @@ def _robot_sweep(documents, tmp_path, cycles: int, target: int | None) -> Counte
 
 
 def test_scenario_leaves_replaced_one_at_a_time(scenario_documents, robot_cache, tmp_path):
-    stats = _scenario_sweep(scenario_documents, robot_cache, tmp_path, 1, target=2000)
-    assert sum(stats.values()) >= 1600 and stats["ran"] > 150 and stats["valid"] == 0 and stats["error"] > 1200
+    # a stride of ~1,000 over the leaves (the full sweep is the slow test below); halved from 2,000
+    # as the bundled scenarios grew, to keep the default suite inside its 15 minutes
+    stats = _scenario_sweep(scenario_documents, robot_cache, tmp_path, 1, target=1000)
+    assert sum(stats.values()) >= 800 and stats["ran"] > 75 and stats["valid"] == 0 and stats["error"] > 600
 
 
 def test_robot_leaves_replaced_one_at_a_time(robot_documents, tmp_path):

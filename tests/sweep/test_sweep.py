@@ -278,6 +278,7 @@ def test_ray_gives_the_local_pools_rows(tmp_path, local_rows):
     assert res.workers == 2 and comparable(res.records) == local_rows
 
 
+@pytest.mark.slow          # the one-node Ray test above is its short version
 @needs_ray
 def test_a_two_node_ray_cluster_gives_the_local_pools_rows(tmp_path, local_rows):
     import ray
