@@ -70,6 +70,7 @@ from wbc.runner.walking import WalkObserver
 from wbc.scenario.loader import Scenario
 from wbc.scenario.sections import duration_value
 from wbc.sim.backends import make_simulator
+from wbc.sim.options import SimOptions
 from wbc.tasks.contact import Contact
 from wbc.tasks.frame import to_se3
 from wbc.trajectories.position import frame_reference
@@ -150,14 +151,15 @@ class ScenarioRun:
         except ConfigError as exc:    # a solver chosen over the scenario's, given the scenario's options
             raise ConfigError(f"{exc.message} (the scenario's solver is '{given}'; this run's is "
                               f"'{self.solver_name}')", key=exc.key, file=sc.source) from None
-        extra = {}
+        link_geoms: list = []
         if self.simulator == "mujoco":      # the links kept from obstacles collide in MuJoCo too (its contact list)
             geoms = [g for t in stack if t.kind == "collision_avoidance" for g in t.model.link_geometries()]
-            if geoms:
-                extra["link_geoms"] = list({g[0]: g for g in geoms}.values())
+            link_geoms = list({g[0]: g for g in geoms}.values())
+        #: the simulator's options: this run's and the scenario's (sensing:)
+        self.sim_options = SimOptions(joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
+                                      tau_limits=robot.tau_max, link_geoms=tuple(link_geoms), **sc.sensing)
         sim = make_simulator(self.simulator, _simulated_robot(robot, o.model_perturbation), sc.environment,
-                             joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
-                             tau_limits=robot.tau_max, **sc.sensing, **extra)
+                             self.sim_options)
         if o.wrap_simulator is not None:
             sim = o.wrap_simulator(sim)
         self.sim = sim

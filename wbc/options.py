@@ -1,0 +1,41 @@
+"""Option records: many settings of one object in one frozen dataclass.
+
+A constructor with many settings takes a record of them, ``options``, and the same fields
+given one by one as keywords over it (``Simulator(model, points, env, q0, dt=1e-3)`` or
+``Simulator(model, points, env, q0, SimOptions(dt=1e-3))``). :meth:`Options.of` merges the
+two; a keyword that is not a field is a TypeError naming it, the owner and the fields. No
+function outside the compiled kernels takes more than 8 parameters
+(tests/architecture/test_parameter_counts.py).
+
+Imports nothing of wbc: every package may use it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Self
+
+
+class Options:
+    """Base of the option records (each a frozen dataclass)."""
+
+    @classmethod
+    def of(cls, options: Self | None, settings: dict[str, Any], owner: str = "") -> Self:
+        """``options`` (default: the record's defaults) with the keyword ``settings`` put in.
+
+        Args:
+            options: a record of this class, or None for its defaults.
+            settings: field name -> value, over ``options``.
+            owner: what takes the options, for the error message.
+
+        Raises:
+            TypeError: a key of ``settings`` is not a field of the record.
+        """
+        base = options if options is not None else cls()
+        if not settings:
+            return base
+        names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        unknown = sorted(set(settings) - names)
+        if unknown:
+            raise TypeError(f"{owner or cls.__name__}: unknown setting(s) {unknown}: expected {sorted(names)}")
+        return dataclasses.replace(base, **settings)  # type: ignore[type-var]
