@@ -13,6 +13,8 @@ Imports nothing of wbc: every package may use it.
 from __future__ import annotations
 
 import dataclasses
+import inspect
+from collections.abc import Callable
 from typing import Any, Self
 
 
@@ -39,3 +41,22 @@ class Options:
         if unknown:
             raise TypeError(f"{owner or cls.__name__}: unknown setting(s) {unknown}: expected {sorted(names)}")
         return dataclasses.replace(base, **settings)  # type: ignore[type-var]
+
+
+def flat_parameters(fn: Callable[..., Any], record: type[Options] | None) -> dict[str, inspect.Parameter]:
+    """``fn``'s parameters (``self`` left out) as a caller may give them one by one: with
+    ``record`` (its ``options`` parameter's class), ``options`` and ``**settings`` are replaced
+    by the record's fields, keyword parameters with their defaults (what a YAML mapping may
+    hold, what ``wbc tasks`` lists).
+
+    Args:
+        fn: a function or a constructor (``cls.__init__``).
+        record: the class of its ``options`` parameter, or None (its parameters as they are).
+    """
+    params = {n: p for n, p in inspect.signature(fn).parameters.items() if n != "self"}
+    if record is None:
+        return params
+    out = {n: p for n, p in params.items() if n != "options" and p.kind is not inspect.Parameter.VAR_KEYWORD}
+    for f in dataclasses.fields(record):  # type: ignore[arg-type]
+        out[f.name] = inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default)
+    return out

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 
@@ -9,6 +11,7 @@ from wbc.robot.model import LOCAL, WORLD_ALIGNED, ContactSurface
 from wbc.validation.schema import boolean, number, text
 
 from ..errors import TaskDefinitionError
+from ..options import Options
 from ..problem.rows import ContactData, Layout, Rows, RowSlot
 from .base import MotionTask, eq_rows, motion_rows
 
@@ -77,6 +80,22 @@ def friction_pyramid(mu: float) -> np.ndarray:
 COP_MARGIN = 0.2
 
 
+@dataclass(frozen=True)
+class ContactOptions(Options):
+    """A contact's force model (:class:`Contact`'s ``Args``; each checked by Contact)."""
+
+    mu: float | None = None
+    """Coulomb friction coefficient μ of the pyramid (unitless, > 0); None: the robot's surface's"""
+    fmin: float = 0.0
+    """lower bound of the normal force f_z, N (≥ 0)"""
+    bilateral: bool = False
+    """True drops the force inequalities (a gripped handle, a welded foot)"""
+    cop_margin: float = COP_MARGIN
+    """fraction of the sole's half sizes kept between the CoP and its edges (unitless, in [0, 1))"""
+    sliding: bool = False
+    """the contact may slide along its surface"""
+
+
 class Contact(MotionTask):
     """A rigid contact of the robot surface ``contact`` (a name under ``contacts:`` in
     the robot YAML) with the environment.
@@ -119,6 +138,9 @@ class Contact(MotionTask):
         kd: its derivative gain K_d (1/s, ≥ 0), as ``kp``; None (default): critical damping 2√kp.
         weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
         name: the task's name, unique in a stack; None: ``"<contact>_contact"``.
+        options: the force model below in one :class:`ContactOptions` (None: its defaults).
+        **settings: its fields one by one, over ``options`` (another name is a TypeError):
+
         mu: Coulomb friction coefficient μ of the pyramid (unitless, > 0); None: the robot's
             (the surface's ``mu``).
         fmin: lower bound of the normal force f_z (N, ≥ 0); default 0 (unilateral).
@@ -131,15 +153,18 @@ class Contact(MotionTask):
 
     kind = "contact"
 
+    options_record = ContactOptions
+
     def __init__(self, contact: str, kp: float = 10.0, kd=None, weight: float = 1.0,
-                 name: str | None = None, mu: float | None = None, fmin: float = 0.0,
-                 bilateral: bool = False, cop_margin: float = COP_MARGIN, sliding: bool = False) -> None:
+                 name: str | None = None, options: ContactOptions | None = None, **settings) -> None:
         text(contact, "contact", what="a contact name (under contacts: in the robot YAML)",
              error=TaskDefinitionError, owner="task 'contact'")
         super().__init__(name or f"{contact}_contact", kp, kd, weight)
         self._za: tuple | None = None      # zero axes of :meth:`_zero_axes`
         self.contact = contact
         owner = f"task '{self.name}'"
+        o = ContactOptions.of(options, settings, owner)
+        mu, fmin, bilateral, cop_margin, sliding = o.mu, o.fmin, o.bilateral, o.cop_margin, o.sliding
         if mu is not None:
             mu = number(mu, "mu", gt=0, unit="unitless", error=TaskDefinitionError, owner=owner)
         fmin = number(fmin, "fmin", ge=0, unit="N", error=TaskDefinitionError, owner=owner)

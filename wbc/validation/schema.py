@@ -90,12 +90,35 @@ def _bounds_text(gt, ge, lt, le) -> str:
     return ""
 
 
-def number(value: Any, key: str | None = None, *, unit: str = "", gt: float | None = None,
-           ge: float | None = None, lt: float | None = None, le: float | None = None, allow_inf: bool = False,
-           error: type[WbcError] = ConfigError, owner: str | None = None, what: str = "a number") -> float:
+#: the keyword bounds of :func:`number` and :func:`vector`
+BOUNDS = ("gt", "ge", "lt", "le", "allow_inf")
+
+
+def _bounds(bounds: dict[str, Any]) -> tuple[Any, Any, Any, Any, bool]:
+    """(gt, ge, lt, le, allow_inf) of a ``**bounds`` (absent: None, None, None, None, False)."""
+    if bounds.keys() - BOUNDS:
+        raise TypeError(f"unknown bound(s) {sorted(bounds.keys() - set(BOUNDS))}: expected one of {list(BOUNDS)}")
+    get = bounds.get
+    return get("gt"), get("ge"), get("lt"), get("le"), bool(get("allow_inf", False))
+
+
+def number(value: Any, key: str | None = None, *, unit: str = "", error: type[WbcError] = ConfigError,
+           owner: str | None = None, what: str = "a number", **bounds: Any) -> float:
     """``value`` as a float: a finite number (``allow_inf``: or ±inf) within the bounds
     (``gt`` < value, ``ge`` <= value, value < ``lt``, value <= ``le``); ``unit`` for the
-    message (``"s"``, ``"1/s²"``)."""
+    message (``"s"``, ``"1/s²"``).
+
+    Args:
+        value: what to check.
+        key: its key path, for the message.
+        unit: its unit, for the message.
+        error: the error class raised.
+        owner: what it belongs to, for the message.
+        what: what is expected, for the message.
+        **bounds: :data:`BOUNDS` by name: ``gt``, ``ge``, ``lt``, ``le`` (float or None) and
+            ``allow_inf`` (bool, default False); another name is a TypeError.
+    """
+    gt, ge, lt, le, allow_inf = _bounds(bounds)
     expected = what + _bounds_text(gt, ge, lt, le) + (f" ({unit})" if unit else "")
 
     def bad(found: str) -> WbcError:
@@ -160,12 +183,13 @@ def sequence(value: Any, key: str | None = None, *, min_len: int = 0, max_len: i
 
 
 def vector(value: Any, key: str | None = None, n: int | Sequence[int] | None = None, *, unit: str = "",
-           gt: float | None = None, ge: float | None = None, lt: float | None = None, le: float | None = None,
-           allow_inf: bool = False, max_len: int = 100_000, error: type[WbcError] = ConfigError,
-           owner: str | None = None) -> np.ndarray:
+           max_len: int = 100_000, error: type[WbcError] = ConfigError, owner: str | None = None,
+           **bounds: Any) -> np.ndarray:
     """``value`` as a float vector: a list (or numpy array) of ``n`` numbers (any of the
     lengths if ``n`` is a sequence, any length >= 1 if None), each checked by :func:`number`
-    under ``key[i]``."""
+    under ``key[i]`` (``unit``, ``error``, ``owner`` and the ``bounds`` as :func:`number`'s);
+    at most ``max_len`` of them."""
+    gt, ge, lt, le, allow_inf = _bounds(bounds)
     lengths = (n,) if isinstance(n, int) else (tuple(n) if n is not None else None)
     count = " or ".join(str(k) for k in lengths) if lengths else "1 or more"
     what = f"a list of {count} number{'s' if lengths != (1,) else ''}" + _bounds_text(gt, ge, lt, le) + \
