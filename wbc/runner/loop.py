@@ -55,7 +55,7 @@ from wbc.interaction.external_force import ExternalForceRun
 from wbc.interaction.measurement import InteractionRun
 from wbc.robot.servo import gravity_feedforward, servo_gains
 from wbc.runner.compile_notice import CompileNotice
-from wbc.runner.metrics import RunMetrics, fallen
+from wbc.runner.metrics import RunMetrics, Series, fallen
 from wbc.runner.observers import (
     CallbackObserver,
     CollisionObserver,
@@ -183,8 +183,9 @@ class ScenarioRun:
         self.base_z0 = sim.q[2] if robot.root == "free_flyer" else None
         mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
         self.contact_points = pts_of      # contact task name -> indices of its simulator points
-        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, o.series,
-                                   self.ctrl.lowest_tasks())
+        series = Series(self.n, sc.dt, robot, stack, [c.name for c in contacts], mu_max,
+                        lowest=self.ctrl.lowest_tasks()) if o.series else None
+        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, series)
         self.observers = self._observers(o)
         self.cycle_times = np.full(self.n, np.nan)     # touched now: no growth mid-run
         self.failures, self.fell, self.stopped = 0, False, None

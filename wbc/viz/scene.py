@@ -33,6 +33,7 @@ replay's clock.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import meshcat
@@ -43,6 +44,7 @@ import pinocchio as pin
 from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
+from ..options import Options
 from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from . import server
 from .collisions import draw_witnesses
@@ -113,19 +115,45 @@ def _three_decomposition(T: np.ndarray, scale) -> tuple[np.ndarray, list[float]]
     return R, [float(x) for x in canonical]
 
 
-class Scene:
-    """See the module docstring. ``force_scale``: N per mm of contact-force arrow (default
-    1 mm per 2 N); ``push_scale``: N per mm of push arrow (default 2 mm per N);
-    ``task_force_scale``: N per mm of a force task's arrows (default 1 cm per N);
-    ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s);
-    ``live``: also draw on the server's page while recording (default: only without
-    ``record``); ``host``: the address the page listens on (``zmq_url``: draw through a
-    server already running there instead)."""
+@dataclass(frozen=True)
+class SceneOptions(Options):
+    """How a :class:`Scene` draws and records."""
 
-    def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
-                 force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0,
-                 live: bool | None = None, host: str = server.DEFAULT_HOST, push_scale: float = 0.5,
-                 task_force_scale: float = 0.1, mesh_cell: float = MESH_CELL) -> None:
+    record: bool = False
+    """keep an animation of the drawn frames (:meth:`Scene.save_html`)"""
+    live: bool | None = None
+    """also draw on the server's page while recording; None: only without ``record``"""
+    fps: float = 30.0
+    """frame rate of a recording's animation, 1/s (match :func:`viewer_callback`'s)"""
+    force_scale: float = 2.0
+    """N per mm of contact-force arrow (1 mm per 2 N)"""
+    push_scale: float = 0.5
+    """N per mm of push arrow (2 mm per N)"""
+    task_force_scale: float = 0.1
+    """N per mm of a force task's arrows (1 cm per N)"""
+    mesh_cell: float = MESH_CELL
+    """grid cell the visual meshes are thinned on, m (:mod:`wbc.viz.meshes`)"""
+
+
+class Scene:
+    """See the module docstring.
+
+    Args:
+        robot: the robot drawn.
+        environment: shapes of :mod:`wbc.sim.environment` drawn.
+        open_browser: open the page in a browser.
+        zmq_url: draw through a Meshcat server already running there; None: start one.
+        host: the address the started server's page listens on.
+        options: :class:`SceneOptions` (None: its defaults).
+        **settings: its fields one by one (``record``, ``live``, ``fps``, ``force_scale``,
+            ``push_scale``, ``task_force_scale``, ``mesh_cell``), over ``options``.
+    """
+
+    def __init__(self, robot, environment=(), open_browser: bool = False, zmq_url: str | None = None,
+                 host: str = server.DEFAULT_HOST, options: SceneOptions | None = None, **settings) -> None:
+        o = self.options = SceneOptions.of(options, settings, "Scene")
+        record, live, fps, mesh_cell = o.record, o.live, o.fps, o.mesh_cell
+        force_scale, push_scale, task_force_scale = o.force_scale, o.push_scale, o.task_force_scale
         self.robot = robot
         self.server = None          # the server process this scene started (stopped by close)
         if not zmq_url:
