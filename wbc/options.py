@@ -15,14 +15,16 @@ from __future__ import annotations
 import dataclasses
 import inspect
 from collections.abc import Callable
-from typing import Any, Self
+from typing import Any, TypeVar
+
+R = TypeVar("R", bound="Options")
 
 
 class Options:
     """Base of the option records (each a frozen dataclass)."""
 
     @classmethod
-    def of(cls, options: Self | None, settings: dict[str, Any], owner: str = "") -> Self:
+    def of(cls: type[R], options: R | None, settings: dict[str, Any], owner: str = "") -> R:
         """``options`` (default: the record's defaults) with the keyword ``settings`` put in.
 
         Args:

@@ -46,14 +46,17 @@ from wbc.controller.singular import velocity_names
 from wbc.controller.solution import Solution, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
-from wbc.errors import ConfigError, SolverError
+from wbc.errors import ConfigError, SolverError, StackError
 from wbc.problem.problem import ROW_MARGIN, Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
 from wbc.solvers import create_solver
 from wbc.stack import Stack
+from wbc.tasks.base import Task
+from wbc.tasks.contact import Contact
 from wbc.tasks.contact_regularization import ContactRegularization, reference_point
+from wbc.tasks.contact_wrench import ContactWrench
 from wbc.tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
 __all__ = ["SOLVERS", "Controller"]
@@ -157,8 +160,8 @@ class Controller:
         self.sacrifice_rel = o.sacrifice_rel
         #: a name per velocity index (a joint of several: name[i]), for the diagnostics
         self._joint_names = velocity_names(robot.model)
-        options = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
-        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
+        given = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **given)
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
@@ -202,6 +205,8 @@ class Controller:
             duration: length of the ramp (s), default 0.2 s; at least one control period.
         """
         task = self.stack[name]
+        if not isinstance(task, Contact):
+            raise StackError(f"release_contact: task '{name}' is a {task.kind} task, not a contact")
         f_now = float(self._last_forces.get(name, np.zeros(3))[2])
         self._ramps[name] = ForceRamp(max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), remove=True)
         task.fmax = max(f_now, 0.0)
@@ -231,7 +236,7 @@ class Controller:
     def _internal_constraints(self, layout: Layout) -> list:
         """The tasks the controller adds to level 0: the floating-base dynamics (5.26) of a
         robot with an unactuated root, the differential drive's constraint."""
-        extra = []
+        extra: list[Task] = []
         if len(self.robot.unactuated_idx):
             extra.append(self._dynamics)
         if self._diff_drive is not None:
@@ -249,7 +254,7 @@ class Controller:
             return got[1], got[2]
         own = next((t for t in self.stack if isinstance(t, ContactRegularization)), None)
         contacts = {c.name for c in self.stack.contacts()}
-        wrenched = {t.contact for t in self.stack if t.kind == "contact_wrench"}
+        wrenched = {t.contact for t in self.stack if isinstance(t, ContactWrench)}
         lowest = []
         if own is None and self.regularization is not None and contacts - wrenched:
             self.regularization.bind(self.robot)
@@ -345,6 +350,7 @@ class Controller:
         # next cycle), in one compiled call; the per-level and per-task breakdown is done
         # only if the caller asks for it
         buf = self.stack.row_buffer
+        assert buf is not None, "the stack's rows were filled this cycle"
         # τ (saturated in place), whether x and τ are finite, the rows' values, the worst
         # |τ_i|/τ_max,i the solver asked for and the joints clipped beyond rounding
         tau_full, finite, values, ratio, n_sat = cycle_outputs(

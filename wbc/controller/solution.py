@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -169,8 +170,10 @@ class Solution:
         self.conditions = tuple(conditions)
         self.singular_levels = list(get("singular_levels") or [])
         self.fault = ""
-        self._residuals, self._task_residuals = get("residuals"), get("task_residuals")
-        self._diagnostics = get("diagnostics")
+        # given, or None until ``evaluate`` fills them (the properties)
+        self._residuals: Any = get("residuals")
+        self._task_residuals: Any = get("task_residuals")
+        self._diagnostics: Any = get("diagnostics")
         self._evaluate = get("evaluate")
 
     def _ensure(self) -> None:

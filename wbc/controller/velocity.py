@@ -122,8 +122,8 @@ class VelocityController:
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
         self.sacrifice_tol, self.sacrifice_rel = o.sacrifice_tol, o.sacrifice_rel
         self.dt, self.gain = float(o.dt), gain
-        options = {k: v for k, v in (("level_weight", level_weight),) if v is not None}
-        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
+        given = {k: v for k, v in (("level_weight", level_weight),) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **given)
         self.margin = VELOCITY_MARGIN if o.margin is None else float(o.margin)
         self.faults = FaultMonitor(o.fault_policy())
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None

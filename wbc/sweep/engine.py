@@ -129,9 +129,9 @@ def run_sweep(spec: SweepSpec, options: SweepRunOptions | None = None, /, **sett
         **settings: its fields one by one (``executor``, ``workers``, ``address``, ``timeout``
             in s, ``out_dir``, ``retry``, ``stop_after``, ``progress``), over ``options``.
     """
-    o = SweepRunOptions.of(options, settings, "run_sweep")
-    executor, workers, address, timeout, out_dir = o.executor, o.workers, o.address, o.timeout, o.out_dir
-    retry, stop_after, progress = o.retry, o.stop_after, o.progress
+    how = SweepRunOptions.of(options, settings, "run_sweep")
+    executor, workers, address, timeout, out_dir = how.executor, how.workers, how.address, how.timeout, how.out_dir
+    retry, stop_after, progress = how.retry, how.stop_after, how.progress
     t0 = time.perf_counter()
     out = Path(out_dir) if out_dir is not None else spec.output
     store = ResultStore(out / "results.csv")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -184,12 +185,19 @@ class Contact(MotionTask):
         self.fmax = np.inf
         self._surface: ContactSurface | None = None
         self._fid = None
-        self._ineq = None
-        self._gen = None
+        self._ineq: tuple | None = None       # (key, C) of the friction rows
+        self._gen: tuple | None = None        # (key, f0, V) of the generators
 
     def bind(self, robot) -> None:
         self.surface(robot)
         self.check_gain_sizes(self.force_dim)
+
+    def _bound(self) -> ContactSurface:
+        """The contact surface (the task bound to a robot, :meth:`bind`)."""
+        s = self._surface
+        if s is None:
+            raise TaskDefinitionError(f"task '{self.name}' is not bound to a robot (Controller binds it)")
+        return s
 
     def surface(self, robot) -> ContactSurface:
         if self._surface is None:
@@ -264,7 +272,7 @@ class Contact(MotionTask):
     def cop_rectangle(self) -> tuple[float, float]:
         """(X, Y) (m): the half sizes of the rectangle the CoP is kept in, the sole's shrunk by
         ``cop_margin``."""
-        s = self._surface
+        s = self._bound()
         k = 1.0 - self.cop_margin
         return k * s.half_length, k * s.half_width
 
@@ -272,7 +280,7 @@ class Contact(MotionTask):
         sl = layout.contact_slices[self.name]
         key = (layout.nx, sl.start, self.cop_margin)
         if self._ineq is None or self._ineq[0] != key:
-            s = self._surface
+            s = self._bound()
             mu = s.mu if self.mu is None else self.mu
             U = wrench_cone(mu, *self.cop_rectangle()) if s.kind == "surface" else friction_pyramid(mu)[:4]
             unilateral = np.zeros((2, s.force_dim))
@@ -295,7 +303,7 @@ class Contact(MotionTask):
         """(f0, V): every admissible force is f0 + V λ with λ ≥ 0 (f0 carries ``fmin``);
         a bilateral contact gets V = [I, −I]. Both live in the contact frame: built once,
         rebuilt only when ``mu``, ``fmin`` or ``bilateral`` change."""
-        s = self._surface
+        s = self._bound()
         mu = s.mu if self.mu is None else self.mu
         key = (mu, self.fmin, self.bilateral, s.kind, s.half_length, s.half_width, self.cop_margin)
         if self._gen is not None and self._gen[0] == key:
@@ -320,7 +328,7 @@ class Contact(MotionTask):
         return float(f[2])
 
     def params(self) -> dict:
-        p = {"contact": self.contact}
+        p: dict[str, Any] = {"contact": self.contact}
         p.update(super().params())
         if p["name"] == f"{self.contact}_contact":
             del p["name"]
