@@ -447,8 +447,8 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
         x0 = np.clip(np.zeros(nv), lo, hi)
         tols = np.array([[d.rank_tol, d.threshold, d.max_damping]] * L).T.copy()
         hints_c, hints_p = hint_table(), hint_table()
-        out = projection_prefix(A, b, rows, nv, x0, idx, lo, hi, np.zeros((0, 0)), False, hints_c, tols[0],
-                                tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol)
+        out = projection_prefix((A, b, rows, nv), x0, (idx, lo, hi), (np.zeros((0, 0)), False), hints_c,
+                                (tols[0], tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol))
         fast, cas_c = [], Cascade(nv, hints_c)
         levels = [SimpleNamespace(index=k) for k in range(L)]
         assert adopt_run(levels, cas_c, fast, 0, out)[0] == L

@@ -146,10 +146,10 @@ class HierarchicalQP:
             # every level from k that needs no back-end QP, in one compiled call; it hands
             # over the step it took where it stopped
             Z, identity = cas.kernel_basis()
-            out = cascade_prefix(rows.A, rows.b, rows.e_end, rows.C, rows.lo, rows.hi, rows.i_end, cas.x, Z,
-                                 identity, k, cas.calls, self._hints, rows.rank_tol, rows.threshold,
-                                 rows.max_damping, GRAM_MIN_RATIO, self.tol, self.certify, self.regularization,
-                                 margin)
+            out = cascade_prefix((rows.A, rows.b, rows.e_end), (rows.C, rows.lo, rows.hi, rows.i_end),
+                                 (cas.x, Z, identity, k, cas.calls), self._hints,
+                                 (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
+                                  self.certify, self.regularization, margin))
             stop, pending, certified = adopt_run(levels, cas, infos, k, out)
             qp_count += certified
             if stop == n_levels:

@@ -49,8 +49,7 @@ def sns_box(idx, lo, hi, margin, nv):
 
 
 @nb.njit(cache=True)
-def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints, rank_tol, threshold,
-                      max_damping, gram_min_ratio, box_tol, saturation_rank_tol):
+def projection_prefix(motion, x0, box, weighting, hints, settings):
     """The projection solver's levels in q̈, one after the other, each with Saturation in
     the Null Space where a joint limit is in the way (the steps of
     :class:`~wbc.solvers.projection.RecursiveProjection`; ``tests/helpers/reference_projection.py``
@@ -66,7 +65,16 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
     bound worse, and the level is solved again in what is left; when no joint is left to
     saturate, the step is scaled by the largest s ∈ [0, 1] that keeps every bound (level 0
     is never scaled). Returns as :func:`cascade_prefix` (the stop level, if any, with no
-    step taken there)."""
+    step taken there).
+
+    The arguments, grouped (plain tuples: numba types them fast): ``motion`` = (A, b, rows,
+    nv), the levels' motion rows; ``x0``; ``box`` = (b_idx, b_lo, b_hi); ``weighting`` =
+    (T, weighted); ``hints``; ``settings`` = (rank_tol, threshold, max_damping (per level),
+    gram_min_ratio, box_tol, saturation_rank_tol)."""
+    A, b, rows, nv = motion
+    b_idx, b_lo, b_hi = box
+    T, weighted = weighting
+    rank_tol, threshold, max_damping, gram_min_ratio, box_tol, saturation_rank_tol = settings
     L = rows.shape[0]
     nb = b_idx.shape[0]
     x = x0.copy()
