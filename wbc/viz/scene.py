@@ -33,7 +33,6 @@ replay's clock.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import meshcat
@@ -44,13 +43,13 @@ import pinocchio as pin
 from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
-from ..options import Options
 from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from . import server
 from .collisions import draw_witnesses
 from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
 from .meshes import cluster, geometry_mesh, visual_model
+from .scene_options import SceneOptions
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
 #: a hidden node's scale in a recording (with a ``visible`` track set to false; not 0: singular matrices)
@@ -60,7 +59,6 @@ COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF
 PUSH_MIN_LENGTH = 0.05       # m: the shortest push arrow drawn
 TASK_FORCE_RADII = {"desired": 0.012, "measured": 0.005}   # m: the sleeve and its core
 FRAME_AXES = 0.12            # m: the axes of a frame drawn where it is (frames=...)
-MESH_CELL = 0.005            # m: the robot meshes' clustering grid (wbc.viz.meshes.cluster)
 
 
 #: a node under the camera object: it moves with the view (a head-up display)
@@ -113,26 +111,6 @@ def _three_decomposition(T: np.ndarray, scale) -> tuple[np.ndarray, list[float]]
     R = T.copy()
     R[:3, :3] = T[:3, :3] @ np.diag(np.sign(s) * np.sign(canonical))   # a proper rotation
     return R, [float(x) for x in canonical]
-
-
-@dataclass(frozen=True)
-class SceneOptions(Options):
-    """How a :class:`Scene` draws and records."""
-
-    record: bool = False
-    """keep an animation of the drawn frames (:meth:`Scene.save_html`)"""
-    live: bool | None = None
-    """also draw on the server's page while recording; None: only without ``record``"""
-    fps: float = 30.0
-    """frame rate of a recording's animation, 1/s (match :func:`viewer_callback`'s)"""
-    force_scale: float = 2.0
-    """N per mm of contact-force arrow (1 mm per 2 N)"""
-    push_scale: float = 0.5
-    """N per mm of push arrow (2 mm per N)"""
-    task_force_scale: float = 0.1
-    """N per mm of a force task's arrows (1 cm per N)"""
-    mesh_cell: float = MESH_CELL
-    """grid cell the visual meshes are thinned on, m (:mod:`wbc.viz.meshes`)"""
 
 
 class Scene:
