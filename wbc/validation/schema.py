@@ -94,10 +94,16 @@ def _bounds_text(gt, ge, lt, le) -> str:
 BOUNDS = ("gt", "ge", "lt", "le", "allow_inf")
 
 
+_BOUND_SET = frozenset(BOUNDS)
+_UNBOUNDED = (None, None, None, None, False)
+
+
 def _bounds(bounds: dict[str, Any]) -> tuple[Any, Any, Any, Any, bool]:
     """(gt, ge, lt, le, allow_inf) of a ``**bounds`` (absent: None, None, None, None, False)."""
-    if bounds.keys() - BOUNDS:
-        raise TypeError(f"unknown bound(s) {sorted(bounds.keys() - set(BOUNDS))}: expected one of {list(BOUNDS)}")
+    if not bounds:
+        return _UNBOUNDED
+    if not _BOUND_SET.issuperset(bounds):
+        raise TypeError(f"unknown bound(s) {sorted(bounds.keys() - _BOUND_SET)}: expected one of {list(BOUNDS)}")
     get = bounds.get
     return get("gt"), get("ge"), get("lt"), get("le"), bool(get("allow_inf", False))
 
@@ -118,8 +124,18 @@ def number(value: Any, key: str | None = None, *, unit: str = "", error: type[Wb
         **bounds: :data:`BOUNDS` by name: ``gt``, ``ge``, ``lt``, ``le`` (float or None) and
             ``allow_inf`` (bool, default False); another name is a TypeError.
     """
-    gt, ge, lt, le, allow_inf = _bounds(bounds)
+    limits = _bounds(bounds)
+    gt, ge, lt, le, _ = limits
     expected = what + _bounds_text(gt, ge, lt, le) + (f" ({unit})" if unit else "")
+    return _checked(value, key, expected, limits, (error, owner))
+
+
+def _checked(value: Any, key: str | None, expected: str, limits: tuple, raised: tuple) -> float:
+    """:func:`number`'s check, its message's ``expected`` text and (gt, ge, lt, le,
+    allow_inf) worked out by the caller (once for a whole :func:`vector`); ``raised`` =
+    (the error class, the owner)."""
+    gt, ge, lt, le, allow_inf = limits
+    error, owner = raised
 
     def bad(found: str) -> WbcError:
         return error(f"must be {expected}, got {found}", key=key, owner=owner)
@@ -189,7 +205,8 @@ def vector(value: Any, key: str | None = None, n: int | Sequence[int] | None = N
     lengths if ``n`` is a sequence, any length >= 1 if None), each checked by :func:`number`
     under ``key[i]`` (``unit``, ``error``, ``owner`` and the ``bounds`` as :func:`number`'s);
     at most ``max_len`` of them."""
-    gt, ge, lt, le, allow_inf = _bounds(bounds)
+    limits = _bounds(bounds)
+    gt, ge, lt, le, _ = limits
     lengths = (n,) if isinstance(n, int) else (tuple(n) if n is not None else None)
     count = " or ".join(str(k) for k in lengths) if lengths else "1 or more"
     what = f"a list of {count} number{'s' if lengths != (1,) else ''}" + _bounds_text(gt, ge, lt, le) + \
@@ -203,9 +220,11 @@ def vector(value: Any, key: str | None = None, n: int | Sequence[int] | None = N
     if (lengths and len(value) not in lengths) or not value or len(value) > max_len:
         raise error(f"must be {what}, got {len(value)}: {show(value)}", key=key, owner=owner)
     out = np.empty(len(value))
+    expected = "a number" + _bounds_text(gt, ge, lt, le) + (f" ({unit})" if unit else "")   # as number()'s
+    raised = (error, owner)
     for i, v in enumerate(value):
         sub = f"{key}[{i}]" if key else f"[{i}]"
-        out[i] = number(v, sub, unit=unit, gt=gt, ge=ge, lt=lt, le=le, allow_inf=allow_inf, error=error, owner=owner)
+        out[i] = _checked(v, sub, expected, limits, raised)
     return out
 
 
