@@ -453,8 +453,8 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
         gC = rng.standard_normal((ng, nv))
         g_mid = gC @ x0
         g = (gC, g_mid - rng.uniform(0.2, 2.0, ng), g_mid + rng.uniform(0.2, 2.0, ng))
-        out = projection_prefix(A, b, rows, nv, x0, idx, lo, hi, np.zeros((0, 0)), False, hints_c, tols[0],
-                                tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol, *g)
+        out = projection_prefix((A, b, rows, nv), x0, (idx, lo, hi), (np.zeros((0, 0)), False), hints_c,
+                                (tols[0], tols[1], tols[2], GRAM_MIN_RATIO, solver.box_tol, NO_DAMPING.rank_tol), g)
         fast, cas_c = [], Cascade(nv, hints_c)
         levels = [SimpleNamespace(index=k) for k in range(L)]
         assert adopt_run(levels, cas_c, fast, 0, out)[0] == L

@@ -21,7 +21,7 @@ HALF_LENGTH, HALF_WIDTH = 0.10, 0.05          # a Talos sole, m
 
 # ------------------------------------------------------------------ footsteps
 def test_command_forward_plan_ends_side_by_side_and_keeps_the_limits():
-    steps = from_command(START, 0.25, 0.0, 0.0, 0.8, 10, LIMITS)
+    steps = from_command(START, (0.25, 0.0, 0.0), 0.8, 10, LIMITS)
     assert len(steps) == 11
     check_plan(START, steps, LIMITS)
     assert [s.side for s in steps[:3]] == ["right", "left", "right"]
@@ -33,11 +33,11 @@ def test_command_forward_plan_ends_side_by_side_and_keeps_the_limits():
 
 
 def test_command_lateral_and_turning_plans_keep_the_limits():
-    side = from_command(START, 0.0, 0.05 / 0.8, 0.0, 0.8, 6, LIMITS)   # 0.1 m lateral steps
+    side = from_command(START, (0.0, 0.05 / 0.8, 0.0), 0.8, 6, LIMITS)   # 0.1 m lateral steps
     check_plan(START, side, LIMITS)
     assert side[0].side == "left"
     assert (side[-1].y + side[-2].y) / 2 == pytest.approx(3 * 0.1, abs=1e-9)
-    turn = from_command(START, 0.1, 0.0, (math.pi / 2) / (10 * 0.8), 0.8, 10, LIMITS)
+    turn = from_command(START, (0.1, 0.0, (math.pi / 2) / (10 * 0.8)), 0.8, 10, LIMITS)
     check_plan(START, turn, LIMITS)
     assert turn[-1].yaw == pytest.approx(math.pi / 2)
 
@@ -50,9 +50,9 @@ def test_command_lateral_and_turning_plans_keep_the_limits():
                                               ((1.0, 0.0, 0.2), "walk.command.v_x")])
 def test_command_beyond_the_limits_is_refused_or_clipped(command, key):
     with pytest.raises(ConfigError) as err:
-        from_command(START, *command, 0.8, 4, LIMITS)
+        from_command(START, command, 0.8, 4, LIMITS)
     assert key in str(err.value)
-    clipped = from_command(START, *command, 0.8, 4, LIMITS, clip=True)
+    clipped = from_command(START, command, 0.8, 4, LIMITS, clip=True)
     check_plan(START, clipped, LIMITS)
 
 
@@ -101,7 +101,7 @@ def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0):
     from its own (the "measured") state: the ZMP of the pendulum and the stance feet."""
     z_c, dt = 0.87, 0.001
     timing = Timing(single=0.6, double=0.2, first=0.6, last=0.8, ramp=0.1)
-    steps = from_command(START, 0.25, 0.0, 0.0, 0.8, 10, LIMITS)
+    steps = from_command(START, (0.25, 0.0, 0.0), 0.8, 10, LIMITS)
     phases = schedule(START, steps, timing)
     plan = ZmpPreview(z_c, ZmpTable(phases).sample)
     c, dc = np.zeros(2), np.zeros(2)
@@ -122,7 +122,7 @@ def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0):
 
 
 def test_zmp_table_samples_as_the_reference():
-    steps = from_command(START, 0.25, 0.0, 0.0, 0.8, 4, LIMITS)
+    steps = from_command(START, (0.25, 0.0, 0.0), 0.8, 4, LIMITS)
     phases = schedule(START, steps, Timing())
     a, b = np.zeros((700, 2)), np.zeros((700, 2))
     for t in (0.0, 0.55, 1.33, 4.0, 6.0):

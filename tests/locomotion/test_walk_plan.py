@@ -19,7 +19,7 @@ TIMING = Timing()
 
 
 def _plan(steps=4):
-    return WalkPlan(START, from_command(START, 0.25, 0.0, 0.0, 0.8, steps, LIMITS), TIMING, 0.0, LIMITS)
+    return WalkPlan(START, from_command(START, (0.25, 0.0, 0.0), 0.8, steps, LIMITS), TIMING, 0.0, LIMITS)
 
 
 def _contiguous(plan):

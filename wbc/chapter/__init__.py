@@ -11,7 +11,7 @@ admittance (:mod:`.admittance`), hybrid force/motion (:mod:`.hybrid_force_motion
 multi-priority interaction (:mod:`.null_space_impedance`); those with force
 feedback are called ``(q, v, t, h_e=...) -> τ`` (conventions in :mod:`._opspace`).
 
-May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.null_space`,
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.null_space`,
 :mod:`wbc.sim` (the elastic measurement). Nothing of the stack of tasks imports it.
 """
 

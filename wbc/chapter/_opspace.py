@@ -26,11 +26,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from wbc.errors import FrameNotFound, SolverError, TargetError
+from wbc.options import Options
 from wbc.robot.model import WORLD_ALIGNED
 from wbc.validation.inputs import se3_from
 
@@ -38,8 +40,10 @@ from .motion_common import ControllerDefinitionError, gain_matrix, vector
 
 __all__ = [
     "ControllerDefinitionError",
+    "ImpedanceGains",
     "OpSpace",
     "PoseReference",
+    "PostureGains",
     "gain_matrix",
     "pose_error",
     "positive",
@@ -174,6 +178,31 @@ def null_space_posture(owner: str, robot, kp, kd, q_rest) -> tuple[np.ndarray, n
     Dq = gain_matrix(owner, "null_kd", kd, robot.nv, definite=False)
     qr = robot.q_default.copy() if q_rest is None else vector(owner, "q_rest", q_rest, robot.nq)
     return Kq, Dq, qr
+
+
+@dataclass(frozen=True)
+class PostureGains(Options):
+    """The null-space posture spring-damper γ = K_q (q_rest ⊖ q) − D_q q̇ of a one-frame
+    controller (scalars or one per joint)."""
+
+    null_kp: Any = 5.0
+    """K_q, N·m/rad"""
+    null_kd: Any = 2.0
+    """D_q, N·m·s/rad"""
+    q_rest: Any = None
+    """q_rest (nq); None: the robot's default configuration"""
+
+
+@dataclass(frozen=True)
+class ImpedanceGains(PostureGains):
+    """The impedance 5.37 (6 × 6 matrices, or scalars or 6 numbers for a diagonal) and the posture."""
+
+    km: Any = 2.0
+    """K_M, desired inertia (kg on position rows, kg·m² on orientation rows), positive definite"""
+    kd: Any = 40.0
+    """K_D, desired damping (N·s/m, N·m·s/rad), positive semidefinite"""
+    kp: Any = 400.0
+    """K_P, desired stiffness (N/m, N·m/rad), positive semidefinite"""
 
 
 class FrameController:

@@ -27,17 +27,33 @@ motion loop rather than by model-based cancellation as in :mod:`.impedance`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
 from ._opspace import (
     FrameController,
+    ImpedanceGains,
     gain_matrix,
     impedance_gains,
     pose_error,
     positive,
     wrench,
 )
+
+
+@dataclass(frozen=True)
+class AdmittanceGains(ImpedanceGains):
+    """:class:`~wbc.chapter._opspace.ImpedanceGains` and the filter's step and inner loop."""
+
+    dt: float = 1e-3
+    """control period, s: the admittance filter's integration step"""
+    inner_kp: Any = 1e4
+    """inner motion-loop K_p, 1/s²"""
+    inner_kd: Any = None
+    """inner motion-loop K_d, 1/s; None: 2√K_p"""
 
 
 class AdmittanceControl(FrameController):
@@ -48,16 +64,20 @@ class AdmittanceControl(FrameController):
     ----------
     robot : wbc.RobotModel.
     frame : frame alias or URDF name.
-    dt : control period (s): the admittance filter's integration step.
-    km, kd, kp : K_M (kg, kg·m²; PD), K_D (N·s/m, N·m·s/rad), K_P (N/m, N·m/rad) of 5.37.
-    inner_kp, inner_kd : inner motion-loop gains (1/s², 1/s); default K_d = 2√K_p.
     target : desired pose x_d (constant or ``t -> (SE3, v_d, v̇_d)``); default the first pose.
-    null_kp, null_kd, q_rest : null-space posture spring-damper.
+    gains : :class:`AdmittanceGains` (None: its defaults): ``dt``, the control period (s), the
+        admittance filter's integration step; ``km``, ``kd``, ``kp``: K_M (kg, kg·m²; PD), K_D
+        (N·s/m, N·m·s/rad), K_P (N/m, N·m/rad) of 5.37; ``inner_kp``, ``inner_kd``: inner
+        motion-loop gains (1/s², 1/s; default K_d = 2√K_p); ``null_kp``, ``null_kd``,
+        ``q_rest``: the null-space posture spring-damper.
+    **settings : those fields one by one, over ``gains``.
     """
 
-    def __init__(self, robot, frame: str = "hand", dt: float = 1e-3, km=2.0, kd=40.0, kp=400.0,
-                 inner_kp=1e4, inner_kd=None, target=None, null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        super().__init__("AdmittanceControl", robot, frame, target, null_kp, null_kd, q_rest)
+    def __init__(self, robot, frame: str = "hand", target=None, gains: AdmittanceGains | None = None,
+                 **settings) -> None:
+        g = self.gains = AdmittanceGains.of(gains, settings, "AdmittanceControl")
+        dt, km, kd, kp, inner_kp, inner_kd = g.dt, g.km, g.kd, g.kp, g.inner_kp, g.inner_kd
+        super().__init__("AdmittanceControl", robot, frame, target, g.null_kp, g.null_kd, g.q_rest)
         name = self.name
         self.dt = positive(name, "dt", dt)
         self.KM, self.KD, self.KP, self.KM_inv = impedance_gains(name, km, kd, kp)

@@ -43,6 +43,8 @@ dimensionless, K_Iλ (1/s); λ in N (or N·m for a constrained rotation).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -51,6 +53,7 @@ from wbc.errors import TargetError
 from ._opspace import (
     ControllerDefinitionError,
     FrameController,
+    PostureGains,
     gain_matrix,
     pose_error,
     positive,
@@ -80,6 +83,26 @@ def selection(owner: str, directions) -> tuple[np.ndarray, np.ndarray]:
     return Sf, U[:, m:]
 
 
+@dataclass(frozen=True)
+class HybridGains(PostureGains):
+    """The gains of :class:`HybridForceMotion` (5.3.3) and the null-space posture."""
+
+    kp_force: float = 0.5
+    """K_Pλ of the force loop, unitless"""
+    ki_force: float = 5.0
+    """K_Iλ of the force loop, 1/s"""
+    mass_force: float = 5.0
+    """M_f of the force-direction loop, kg"""
+    damping_force: float = 400.0
+    """D_f of the force-direction loop, N·s/m"""
+    kp_motion: Any = 400.0
+    """K_Pν of the motion loop, 1/s² (scalar or per free direction)"""
+    kd_motion: Any = 40.0
+    """K_Dν of the motion loop, 1/s"""
+    ki_motion: Any = 0.0
+    """K_Iν of the motion loop, 1/s³"""
+
+
 class HybridForceMotion(FrameController):
     """Hybrid force/motion control (5.3.3) of one frame. Call: ``tau = ctrl(q, v, t, h_e=...)``.
 
@@ -90,17 +113,20 @@ class HybridForceMotion(FrameController):
     force_directions : the constrained directions S_f (3-vector: push along it; or 6 × m).
     force : λ_D (N), constant (m numbers or a scalar for m = 1) or a callable ``t -> λ_D``.
     motion : desired pose (constant or ``t -> (SE3, v_d, v̇_d)``); only its S_v part is tracked.
-    kp_force, ki_force : K_Pλ (-), K_Iλ (1/s).
-    mass_force, damping_force : M_f (kg), D_f (N·s/m) of the force-direction loop.
-    kp_motion, kd_motion, ki_motion : K_Pν (1/s²), K_Dν (1/s), K_Iν (1/s³) (scalars or per free direction).
-    null_kp, null_kd, q_rest : null-space posture spring-damper.
+    gains : :class:`HybridGains` (None: its defaults): ``kp_force``, ``ki_force``: K_Pλ (-),
+        K_Iλ (1/s); ``mass_force``, ``damping_force``: M_f (kg), D_f (N·s/m) of the
+        force-direction loop; ``kp_motion``, ``kd_motion``, ``ki_motion``: K_Pν (1/s²), K_Dν
+        (1/s), K_Iν (1/s³) (scalars or per free direction); ``null_kp``, ``null_kd``,
+        ``q_rest``: the null-space posture spring-damper.
+    **settings : those fields one by one, over ``gains``.
     """
 
     def __init__(self, robot, frame: str = "hand", force_directions=(0.0, 0.0, -1.0), force=10.0, motion=None,
-                 kp_force: float = 0.5, ki_force: float = 5.0, mass_force: float = 5.0,
-                 damping_force: float = 400.0, kp_motion=400.0, kd_motion=40.0, ki_motion=0.0,
-                 null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        super().__init__("HybridForceMotion", robot, frame, motion, null_kp, null_kd, q_rest)
+                 gains: HybridGains | None = None, **settings) -> None:
+        g = self.gains = HybridGains.of(gains, settings, "HybridForceMotion")
+        kp_force, ki_force, mass_force, damping_force = g.kp_force, g.ki_force, g.mass_force, g.damping_force
+        kp_motion, kd_motion, ki_motion = g.kp_motion, g.kd_motion, g.ki_motion
+        super().__init__("HybridForceMotion", robot, frame, motion, g.null_kp, g.null_kd, g.q_rest)
         name = self.name
         self.Sf, self.Sv = selection(name, force_directions)
         m = self.Sf.shape[1]

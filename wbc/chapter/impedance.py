@@ -34,6 +34,7 @@ import numpy as np
 
 from ._opspace import (
     FrameController,
+    ImpedanceGains,
     impedance_gains,
     pose_error,
     wrench,
@@ -47,17 +48,18 @@ class ImpedanceControl(FrameController):
     ----------
     robot : wbc.RobotModel.
     frame : frame alias or URDF name.
-    km : K_M, desired inertia (kg on position rows, kg·m² on orientation rows), PD.
-    kd : K_D, desired damping (N·s/m, N·m·s/rad), PSD.
-    kp : K_P, desired stiffness (N/m, N·m/rad), PSD.
     target : desired pose x_d (constant or ``t -> (SE3, v_d, v̇_d)``); default the first pose.
-    null_kp, null_kd, q_rest : null-space posture spring-damper (N·m/rad, N·m·s/rad).
+    gains : :class:`~wbc.chapter._opspace.ImpedanceGains` (None: its defaults): K_M (kg, kg·m²;
+        PD), K_D (N·s/m, N·m·s/rad; PSD), K_P (N/m, N·m/rad; PSD) as ``km``, ``kd``, ``kp``, and
+        the null-space posture spring-damper ``null_kp``, ``null_kd``, ``q_rest``.
+    **settings : those fields one by one, over ``gains``.
     """
 
-    def __init__(self, robot, frame: str = "hand", km=2.0, kd=40.0, kp=400.0, target=None,
-                 null_kp=5.0, null_kd=2.0, q_rest=None) -> None:
-        super().__init__("ImpedanceControl", robot, frame, target, null_kp, null_kd, q_rest)
-        self.KM, self.KD, self.KP, self.KM_inv = impedance_gains(self.name, km, kd, kp)
+    def __init__(self, robot, frame: str = "hand", target=None, gains: ImpedanceGains | None = None,
+                 **settings) -> None:
+        g = self.gains = ImpedanceGains.of(gains, settings, "ImpedanceControl")
+        super().__init__("ImpedanceControl", robot, frame, target, g.null_kp, g.null_kd, g.q_rest)
+        self.KM, self.KD, self.KP, self.KM_inv = impedance_gains(self.name, g.km, g.kd, g.kp)
 
     def __call__(self, q, v, t: float = 0.0, h_e=None) -> np.ndarray:
         """Joint torques τ (N·m) from q (rad), v (rad/s), t (s) and the measured h_e (N, N·m)."""

@@ -45,9 +45,13 @@ term alone makes those two joints worse while it helps joints 1-4.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
+from ..options import Options
 from .joint_space import _JointController
 from .motion_common import ControllerDefinitionError, Reference, Vector, check_state, gain_matrix, vector
 
@@ -68,6 +72,20 @@ def joint_inertias(robot, q: Vector) -> Vector:
     return np.diag(pin.crba(m, m.createData(), np.asarray(q, float))).copy()
 
 
+@dataclass(frozen=True)
+class JointFeedforward(Options):
+    """The feedforward of :class:`IndependentJointPID` and the joint model it uses."""
+
+    feedforward: str = "none"
+    """``"none"``, ``"decentralized"`` or ``"centralized"`` (module docstring)"""
+    inertia: Any = None
+    """b̄_ii of the decentralised feedforward, kg·m²; None: diag B at ``nominal_q``"""
+    viscous: Any = 0.0
+    """viscous friction f_v, N·m·s/rad (scalar or per joint)"""
+    nominal_q: Any = None
+    """q̄ (nq) of the default ``inertia``; None: q_d(0)"""
+
+
 class IndependentJointPID(_JointController):
     """Per-joint PID with optional feedforward; see the module docstring.
 
@@ -76,13 +94,16 @@ class IndependentJointPID(_JointController):
     per-joint vectors (diagonal matrices accepted); ``feedforward`` one of
     ``"none"``, ``"decentralized"``, ``"centralized"``; ``inertia`` the b̄_ii of the
     decentralised feedforward (default diag B at ``nominal_q``, itself defaulting
-    to q_d(0)); ``viscous`` f_v (N·m·s/rad).
+    to q_d(0)); ``viscous`` f_v (N·m·s/rad): the fields of ``model``
+    (:class:`JointFeedforward`), or given one by one as keywords (``**settings``).
     """
 
     name = "IndependentJointPID"
 
-    def __init__(self, robot, reference, kp, kd, ki=0.0, feedforward: str = "none", inertia=None,
-                 viscous=0.0, nominal_q=None) -> None:
+    def __init__(self, robot, reference, kp, kd, ki=0.0, model: JointFeedforward | None = None,
+                 **settings) -> None:
+        f = JointFeedforward.of(model, settings, self.name)
+        feedforward, inertia, viscous, nominal_q = f.feedforward, f.inertia, f.viscous, f.nominal_q
         super().__init__(robot, reference)
         if feedforward not in FEEDFORWARDS:
             raise ControllerDefinitionError(

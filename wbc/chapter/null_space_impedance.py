@@ -48,12 +48,14 @@ B_ν in N·m·s/rad on ν (with an orthonormal Z₀, ν is in rad/s).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from wbc.errors import TargetError
 from wbc.null_space import null_basis_at, null_space_terms
+from wbc.options import Options
 
 from ._opspace import (
     ControllerDefinitionError,
@@ -118,6 +120,20 @@ def extended_task_space_terms(robot, data: pin.Data, fid: int, Z0: np.ndarray) -
 
 
 
+@dataclass(frozen=True)
+class NullSpaceImpedanceGains(Options):
+    """The gains of :class:`NullSpaceImpedanceController` (5.39, 5.43, 5.45)."""
+
+    K: Any = 2000.0
+    """task stiffness, N/m and N·m/rad (6 × 6 PD, or a scalar or 6 numbers for a diagonal)"""
+    D: Any = None
+    """task damping, N·s/m and N·m·s/rad (6 × 6 PSD); None: 2 K^½"""
+    k_q: Any = 20.0
+    """joint-space stiffness k_q > 0 of the projected spring, N·m/rad (scalar or nv numbers)"""
+    B_nu: Any = 3.0
+    """null-space damping B_ν (r × r PD, or a scalar), N·m·s/rad"""
+
+
 class NullSpaceImpedanceController:
     """Task impedance (5.45) + null-space impedance (5.43), 5.39. Call: ``tau = ctrl(q, v, t)``.
 
@@ -125,18 +141,21 @@ class NullSpaceImpedanceController:
     ----------
     robot : wbc.RobotModel (fixed base; every joint actuated).
     frame : the main task's frame (a 6-D pose task; e.g. ``"hand"`` holding a glass).
-    K, D : task stiffness (N/m, N·m/rad) and damping (N·s/m, N·m·s/rad); 6 × 6, PD / PSD.
-    k_q : joint-space stiffness k_q > 0 of the projected spring Zᵀ k_q q̃ (N·m/rad; scalar
-        or nv-vector).
-    B_nu : null-space damping B_ν (r × r, PD), N·m·s/rad.
     target : task pose x_d (constant or ``t -> (SE3, ẋ_d, ẍ_d)``); default the first pose.
     q_d : desired posture (default: the configuration at the first call).
     Z0 : n × r basis of ker J to project (default: orthonormal basis at the first call).
+    gains : :class:`NullSpaceImpedanceGains` (None: its defaults): ``K``, ``D``: task stiffness
+        (N/m, N·m/rad) and damping (N·s/m, N·m·s/rad), 6 × 6, PD / PSD; ``k_q``: joint-space
+        stiffness k_q > 0 of the projected spring Zᵀ k_q q̃ (N·m/rad; scalar or nv-vector);
+        ``B_nu``: null-space damping B_ν (r × r, PD), N·m·s/rad.
+    **settings : those fields one by one, over ``gains``.
     """
 
-    def __init__(self, robot, frame: str = "hand", K=2000.0, D=None, k_q=20.0, B_nu=3.0, target=None,
-                 q_d=None, Z0=None) -> None:
+    def __init__(self, robot, frame: str = "hand", target=None, q_d=None, Z0=None,
+                 gains: NullSpaceImpedanceGains | None = None, **settings) -> None:
         name = f"NullSpaceImpedanceController({frame})"
+        g = self.gains = NullSpaceImpedanceGains.of(gains, settings, name)
+        K, D, k_q, B_nu = g.K, g.D, g.k_q, g.B_nu
         self.robot, self.frame, self.name = robot, frame, name
         if robot.na != robot.nv:
             raise ControllerDefinitionError(f"{name}: needs every joint actuated (robot '{robot.name}' "

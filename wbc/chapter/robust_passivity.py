@@ -66,9 +66,13 @@ normed in the payload's own length scale.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
+from ..options import Options
 from .joint_space import _JointController, slotine_li_regressor
 from .motion_common import ControllerDefinitionError, Vector, check_state
 
@@ -103,6 +107,18 @@ def with_payload(model: pin.Model, payload: pin.Inertia, joint: int | None = Non
     return out
 
 
+@dataclass(frozen=True)
+class ParameterModel(Options):
+    """The dynamic parameters :class:`RobustPassivityBased` assumes and which are uncertain."""
+
+    params: Any = None
+    """π₀, all 10·nbodies parameters (kg, kg·m, kg·m²); None: the model's own"""
+    uncertain: Any = None
+    """indices S of the uncertain parameters; None: the last body's 10; ``"all"``: every one"""
+    scale: Any = None
+    """scale S of those parameters (their units); None: 1, the chapter's norm"""
+
+
 class RobustPassivityBased(_JointController):
     """Robust Slotine-Li (5.6 with π̂ = π₀ + δπ, law (2) of the module docstring).
 
@@ -112,7 +128,8 @@ class RobustPassivityBased(_JointController):
     of the uncertain parameters (default the last body's 10: :func:`body_parameter_indices`;
     ``"all"`` for every parameter, the formulation that does not sample well); ``scale``
     the scale S of those parameters (default 1: the chapter's norm; e.g.
-    :func:`body_parameter_scale`).
+    :func:`body_parameter_scale`). ``params``, ``uncertain`` and ``scale`` are the fields of
+    ``model`` (:class:`ParameterModel`), or given one by one as keywords (``**settings``).
 
     After each call ``last_w`` holds w = Y_Sᵀ σ, ``last_w_norm`` ‖w'‖ = ‖S w‖ and
     ``last_delta`` δπ_S.
@@ -120,8 +137,10 @@ class RobustPassivityBased(_JointController):
 
     name = "RobustPassivityBased"
 
-    def __init__(self, robot, reference, kd, lam, rho: float, eps: float, params=None, uncertain=None,
-                 scale=None) -> None:
+    def __init__(self, robot, reference, kd, lam, rho: float, eps: float, model: ParameterModel | None = None,
+                 **settings) -> None:
+        m = ParameterModel.of(model, settings, self.name)
+        params, uncertain, scale = m.params, m.uncertain, m.scale
         super().__init__(robot, reference)
         p = self._slotine_li_setup(kd, lam, params)
         if uncertain is None:

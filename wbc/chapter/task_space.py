@@ -28,12 +28,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 from scipy.linalg import null_space
 
 from wbc.errors import FrameNotFound
+from wbc.options import Options
 from wbc.robot.model import WORLD_ALIGNED
 
 from .motion_common import (
@@ -102,6 +104,21 @@ def _null_space_term(owner: str, n: int, q_null, null_kp, null_kd, eta) -> NullS
     return lambda q, v, t: kp @ (qn - q) - kd @ v
 
 
+@dataclass(frozen=True)
+class NullSpaceGains(Options):
+    """The null-space term η of the task-space controllers: the posture PD
+    η = K_p,n (q_n − q) − K_d,n q̇ (with ``q_null``), or ``eta`` itself."""
+
+    q_null: Any = None
+    """q_n (nv), the posture the null space is pulled to; None: η = −K_d,n q̇ (the chapter's −k_φ q̇)"""
+    null_kp: Any = 0.0
+    """K_p,n, 1/s² (scalar, nv numbers or nv × nv)"""
+    null_kd: Any = 1.0
+    """K_d,n, 1/s"""
+    eta: NullSpaceTerm | None = None
+    """``eta(q, v, t)`` (rad/s²) in place of the posture PD"""
+
+
 class TaskSpaceInverseDynamics(_TaskController):
     """Acceleration-based task-space inverse dynamics (5.13-5.16), null-space term N η.
 
@@ -110,14 +127,17 @@ class TaskSpaceInverseDynamics(_TaskController):
     3 × 3 positive definite. ``weighting``: W = I (``"identity"``) or W = M
     (``"inertia"``, the dynamically consistent inverse). Null space: ``q_null``,
     ``null_kp`` (1/s²), ``null_kd`` (1/s) give η = K_p,n(q_n − q) − K_d,n q̇, or pass
-    ``eta(q, v, t)``. With an exact model q̈ = r, so J q̈ + J̇ q̇ = a: the task error
-    obeys (5.17) and N η never changes it (J N = 0).
+    ``eta(q, v, t)``: the fields of ``null`` (:class:`NullSpaceGains`), or given one by one
+    as keywords (``**settings``). With an exact model q̈ = r, so J q̈ + J̇ q̇ = a: the task
+    error obeys (5.17) and N η never changes it (J N = 0).
     """
 
     name = "TaskSpaceInverseDynamics"
 
     def __init__(self, robot, frame: str, reference, kp, kd=None, weighting: str = "identity",
-                 q_null=None, null_kp=0.0, null_kd=1.0, eta: NullSpaceTerm | None = None) -> None:
+                 null: NullSpaceGains | None = None, **settings) -> None:
+        n = self.null = NullSpaceGains.of(null, settings, self.name)
+        q_null, null_kp, null_kd, eta = n.q_null, n.null_kp, n.null_kd, n.eta
         super().__init__(robot, frame, reference)
         self.kp = gain_matrix(self.name, "kp", kp, 3)
         if kd is None:
@@ -161,9 +181,9 @@ class OperationalSpace(TaskSpaceInverseDynamics):
 
     name = "OperationalSpace"
 
-    def __init__(self, robot, frame: str, reference, kp, kd=None, q_null=None, null_kp=0.0, null_kd=1.0,
-                 eta: NullSpaceTerm | None = None) -> None:
-        super().__init__(robot, frame, reference, kp, kd, "inertia", q_null, null_kp, null_kd, eta)
+    def __init__(self, robot, frame: str, reference, kp, kd=None, null: NullSpaceGains | None = None,
+                 **settings) -> None:
+        super().__init__(robot, frame, reference, kp, kd, "inertia", null, **settings)
 
     def __call__(self, q: Vector, v: Vector, t: float = 0.0) -> Vector:
         q, v = check_state(self.name, self.robot, q, v)

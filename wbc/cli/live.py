@@ -6,26 +6,45 @@ page's commands (:func:`wbc.runner.interactive.run_live`); a ``--record`` replay
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass
 
+from wbc.options import Options
 from wbc.runner.interactive import Mailbox, run_live
 from wbc.runner.options import RunOptions
 
 
-def run_with_view(sc, options: RunOptions, host: str = "127.0.0.1", port: int = 8080, fps: float = 30.0,
-                  speed: float = 1.0, wait: bool = False, keep: bool = False, on_ready=None) -> dict:
+@dataclass(frozen=True)
+class ViewOptions(Options):
+    """How ``wbc run`` serves its live page."""
+
+    host: str = "127.0.0.1"
+    """the page's address (127.0.0.1 unless asked)"""
+    port: int = 8080
+    """its port (the next free one from there)"""
+    fps: float = 30.0
+    """frames drawn per wall second, and snapshots per simulated second"""
+    speed: float = 1.0
+    """initial speed, × real time"""
+    wait: bool = False
+    """start the run once a browser has connected"""
+    keep: bool = False
+    """after the run, keep serving the page (and the last state) until Ctrl-C / Enter"""
+
+
+def run_with_view(sc, options: RunOptions, view_options: ViewOptions | None = None, on_ready=None,
+                  **settings) -> dict:
     """Serve the page, run ``sc`` live (``options``: the run's), return its metrics.
 
     Args:
         sc: the scenario.
         options: the run's options (a recording's observer in ``callback``, if any).
-        host: the page's address (127.0.0.1 unless asked).
-        port: its port (the next free one from there).
-        fps: frames drawn per wall second, and snapshots per simulated second.
-        speed: initial speed, × real time.
-        wait: start the run once a browser has connected.
-        keep: after the run, keep serving the page (and the last state) until Ctrl-C / Enter.
+        view_options: the page's :class:`ViewOptions` (None: its defaults).
         on_ready: called with the view once it serves (tests: the URL, the mailbox).
+        **settings: :class:`ViewOptions` fields one by one (``host``, ``port``, ``fps``,
+            ``speed``, ``wait``, ``keep``), over ``view_options``.
     """
+    o = ViewOptions.of(view_options, settings, "run_with_view")
+    host, port, fps, speed, wait, keep = o.host, o.port, o.fps, o.speed, o.wait, o.keep
     from wbc.viz.controls import Controls
     from wbc.viz.live import LiveView
 

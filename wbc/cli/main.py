@@ -213,12 +213,13 @@ PARAM_HELP: dict = {
 
 
 def _cmd_tasks(args) -> int:
+    from wbc.options import flat_parameters
     from wbc.tasks import TASK_TYPES
 
     for kind, cls in sorted(TASK_TYPES.items()):
         doc = " ".join((inspect.getdoc(cls) or "").split("\n\n")[0].split())
         print(f"{kind}: {doc}")
-        for p in list(inspect.signature(cls.__init__).parameters.values())[1:]:
+        for p in flat_parameters(cls.__init__, cls.options_record).values():
             default = " (required)" if p.default is inspect.Parameter.empty else f" = {p.default!r}"
             about = PARAM_HELP.get((kind, p.name), PARAM_HELP.get(p.name, ""))
             print(f"    {p.name + default:26s}" + (f" {about}" if about else ""))

@@ -5,6 +5,6 @@ coal, meshes as cached convex hulls, :mod:`.model`; its broad phase's motion bou
 pair's distance (:mod:`.monitor`). The :class:`~wbc.tasks.CollisionAvoidance` task turns the
 distance rows into constraints.
 
-May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.sim` (the
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.sim` (the
 environment's shapes). Not the tasks, the controller or the runner.
 """

@@ -39,22 +39,24 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.controller.diagnostics import level_diagnostics
-from wbc.controller.faults import FaultMonitor, FaultPolicy, hold_torque
+from wbc.controller.faults import FaultMonitor, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
+from wbc.controller.options import ControllerOptions
 from wbc.controller.singular import velocity_names
 from wbc.controller.solution import Solution, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
-from wbc.errors import SolverError
+from wbc.errors import ConfigError, SolverError, StackError
 from wbc.problem.problem import ROW_MARGIN, Problem
 from wbc.problem.result import SolveResult
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
 from wbc.solvers import create_solver
-from wbc.solvers.backends import Backend
-from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
+from wbc.tasks.base import Task
+from wbc.tasks.contact import Contact
 from wbc.tasks.contact_regularization import ContactRegularization, reference_point
+from wbc.tasks.contact_wrench import ContactWrench
 from wbc.tasks.dynamics import DifferentialDrive, FloatingBaseDynamics
 
 __all__ = ["SOLVERS", "Controller"]
@@ -77,6 +79,11 @@ class Controller:
         solver: ``"hqp"`` (strict, inequalities at any level), ``"projection"`` (analytic
             recursive null-space projection, q̈ only, SNS joint limits) or ``"weighted"``
             (level 0 hard, the rest one weighted QP). Another name is a SolverError.
+        options: the settings below in one :class:`~wbc.controller.options.ControllerOptions`
+            (None: its defaults).
+        **settings: the same settings given one by one, over ``options`` (a name that is not
+            one is a TypeError):
+
         backend: QP back-end: ``"daqp"`` (default), ``"proxqp"``, any qpsolvers name, or a
             :class:`~wbc.solvers.backends.Backend` instance.
         weighting: (projection only) generalised-inverse weight W of the projection solver:
@@ -112,49 +119,55 @@ class Controller:
             (x = q̇, output q̇ and the next q: ``Controller(...)`` then returns a
             :class:`~wbc.controller.velocity.VelocityController`, :mod:`wbc.controller.velocity`).
 
+        gain, margin: the velocity mode's (:class:`~wbc.controller.velocity.VelocityController`);
+            set in the torque cycle, a ConfigError.
+
     Raises:
         SolverError: an unknown ``solver`` or a bad ``contact_regularization``.
         ConfigError: an option the chosen solver does not take
-            (:func:`wbc.solvers.create_solver`).
+            (:func:`wbc.solvers.create_solver`), or a velocity-mode option.
     """
 
-    def __new__(cls, robot=None, stack=None, *args, mode: str = "torque", **kwargs):
-        """``mode="velocity"`` builds a :class:`~wbc.controller.velocity.VelocityController`
-        (the same arguments; x = q̇, output q̇ and q_next); ``"torque"`` (default) this class."""
+    def __new__(cls, robot=None, stack=None, *args, mode: str | None = None, **kwargs):
+        """``mode="velocity"`` (or ``options.mode``) builds a
+        :class:`~wbc.controller.velocity.VelocityController` (the same arguments; x = q̇, output
+        q̇ and q_next); ``"torque"`` (default) this class."""
+        options = kwargs.get("options", args[1] if len(args) > 1 else None)
+        if mode is None:
+            mode = options.mode if isinstance(options, ControllerOptions) else "torque"
         if mode == "velocity":
             from wbc.controller.velocity import VelocityController
 
-            return VelocityController(robot, stack, *args, **kwargs)
+            return VelocityController(robot, stack, *args, mode=mode, **kwargs)
         if mode != "torque":
             raise SolverError(f"unknown mode {mode!r}: expected 'torque' or 'velocity'")
         return super().__new__(cls)
 
-    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
-                 weighting: str | None = None, damping: Damping | None = None,
-                 sacrifice_tol: float = 1e-6, level_weight: float | None = None, dt: float = 1e-3,
-                 warm_start: bool = True, sacrifice_rel: float = 1e-3,
-                 contact_regularization: bool | ContactRegularization = True,
-                 faults: FaultPolicy | None = None, solve_timeout: float | None = None,
-                 mode: str = "torque") -> None:
+    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", options: ControllerOptions | None = None,
+                 **settings) -> None:
+        o = self.options = ControllerOptions.of(options, settings, "Controller")
+        backend, weighting, damping, level_weight = o.backend, o.weighting, o.damping, o.level_weight
+        for name in ("gain", "margin"):
+            if getattr(o, name) is not None:
+                raise ConfigError(f"option {name!r} is the velocity mode's (mode: velocity), not the torque "
+                                  "cycle's", key=name)
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if not isinstance(stack, Stack):
             stack = Stack(stack)
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
-        self.sacrifice_tol = sacrifice_tol
-        self.sacrifice_rel = sacrifice_rel
+        self.sacrifice_tol = o.sacrifice_tol
+        self.sacrifice_rel = o.sacrifice_rel
         #: a name per velocity index (a joint of several: name[i]), for the diagnostics
         self._joint_names = velocity_names(robot.model)
-        options = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
-        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
+        given = {k: v for k, v in (("weighting", weighting), ("level_weight", level_weight)) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **given)
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self._last_tau: np.ndarray | None = None
-        policy = faults or FaultPolicy()
-        if solve_timeout is not None:
-            policy = FaultPolicy(policy.max_hold_cycles, policy.damping, policy.detect_stale, solve_timeout)
-        self.faults = FaultMonitor(policy)
-        self.warm_start = bool(warm_start)
+        self.faults = FaultMonitor(o.fault_policy())
+        self.warm_start = bool(o.warm_start)
+        contact_regularization = o.contact_regularization
         if isinstance(contact_regularization, ContactRegularization):
             self.regularization: ContactRegularization | None = contact_regularization
         elif contact_regularization is True:
@@ -170,7 +183,7 @@ class Controller:
         self._lowest_for: tuple | None = None   # (stack version, tasks added below the stack, weights' task)
         self._x_ref: np.ndarray | None = None
         self._last_forces: dict[str, np.ndarray] = {}
-        self.dt = float(dt)
+        self.dt = float(o.dt)
         self._ramps: dict[str, ForceRamp] = {}   # contact task name -> its normal-force bound's ramp
         self.layout: Layout | None = None
         self.levels: list[Level] = []
@@ -192,6 +205,8 @@ class Controller:
             duration: length of the ramp (s), default 0.2 s; at least one control period.
         """
         task = self.stack[name]
+        if not isinstance(task, Contact):
+            raise StackError(f"release_contact: task '{name}' is a {task.kind} task, not a contact")
         f_now = float(self._last_forces.get(name, np.zeros(3))[2])
         self._ramps[name] = ForceRamp(max(f_now, 0.0), 0.0, max(1, int(round(duration / self.dt))), remove=True)
         task.fmax = max(f_now, 0.0)
@@ -221,7 +236,7 @@ class Controller:
     def _internal_constraints(self, layout: Layout) -> list:
         """The tasks the controller adds to level 0: the floating-base dynamics (5.26) of a
         robot with an unactuated root, the differential drive's constraint."""
-        extra = []
+        extra: list[Task] = []
         if len(self.robot.unactuated_idx):
             extra.append(self._dynamics)
         if self._diff_drive is not None:
@@ -239,7 +254,7 @@ class Controller:
             return got[1], got[2]
         own = next((t for t in self.stack if isinstance(t, ContactRegularization)), None)
         contacts = {c.name for c in self.stack.contacts()}
-        wrenched = {t.contact for t in self.stack if t.kind == "contact_wrench"}
+        wrenched = {t.contact for t in self.stack if isinstance(t, ContactWrench)}
         lowest = []
         if own is None and self.regularization is not None and contacts - wrenched:
             self.regularization.bind(self.robot)
@@ -335,6 +350,7 @@ class Controller:
         # next cycle), in one compiled call; the per-level and per-task breakdown is done
         # only if the caller asks for it
         buf = self.stack.row_buffer
+        assert buf is not None, "the stack's rows were filled this cycle"
         # τ (saturated in place), whether x and τ are finite, the rows' values, the worst
         # |τ_i|/τ_max,i the solver asked for and the joints clipped beyond rounding
         tau_full, finite, values, ratio, n_sat = cycle_outputs(

@@ -11,9 +11,12 @@ from wbc.controller.singular import at_most, singular_directions
 from wbc.controller.solution import LevelDiagnostics
 from wbc.problem.buffer import split_values
 
+#: an inequality row within this of a bound is reported active (units of the row)
+ACTIVE_TOL = 1e-7
+
 
 def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tuple[str, ...]],
-                 sacrifice: tuple[float, float], tol_act: float = 1e-7, saturated_torques: list | None = None,
+                 sacrifice: tuple[float, float], saturated_torques: list | None = None,
                  singular: tuple | None = None):
     """Residuals per level and per task, and :class:`LevelDiagnostics`, from the row values
     of one cycle (``values`` = (:func:`~wbc.stack.row_values`' array, equality rows,
@@ -54,7 +57,7 @@ def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tupl
         y, lo, hi = Y[i0:i1], LO[i0:i1], HI[i0:i1]
         with np.errstate(invalid="ignore"):          # a failed cycle's values are inf
             viol = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
-            act = (np.abs(y - lo) < tol_act) | (np.abs(y - hi) < tol_act)
+            act = (np.abs(y - lo) < ACTIVE_TOL) | (np.abs(y - hi) < ACTIVE_TOL)
         unenforced_norm = 0.0
         if projection and n_gen:
             unenforced_norm = float(np.linalg.norm(viol[:n_gen]))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -83,6 +84,11 @@ class LevelDiagnostics:
         return head + ("; " + "; ".join(causes) if causes else "")
 
 
+#: the keywords of :class:`Solution`'s report (its ``Args``)
+REPORT_FIELDS = frozenset({"qp_count", "residuals", "task_residuals", "diagnostics", "evaluate", "relaxed",
+                           "saturated", "tau_ratio", "saturated_torques", "conditions", "singular_levels"})
+
+
 class Solution:
     """Result of :meth:`wbc.Controller.solve`.
 
@@ -123,6 +129,9 @@ class Solution:
         status: ``"ok"``, ``"degraded"``, ``"relaxed"``, ``"saturated"``, ``"failed"`` or
             ``"stopped"`` (above).
         message: the solver's or the fault policy's note in words; "" when nothing to say.
+        **report: the cycle's report, each by name (:data:`REPORT_FIELDS`; another name is a
+            TypeError):
+
         qp_count: QPs the solver solved this cycle (0 when every level was analytic).
         residuals: one float per level (units of its rows), or None: from ``evaluate``.
         task_residuals: task name -> residual, or None: from ``evaluate``.
@@ -141,13 +150,16 @@ class Solution:
     """
 
     def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
-                 x: np.ndarray, status: str, message: str, qp_count: int = 0, residuals=None,
-                 task_residuals=None, diagnostics=None, evaluate=None, relaxed: bool = False,
-                 saturated: bool = False, tau_ratio: float = 0.0, saturated_torques: list | None = None,
-                 conditions: tuple[str, ...] | None = None, singular_levels: list[int] | None = None) -> None:
+                 x: np.ndarray, status: str, message: str, **report) -> None:
+        unknown = report.keys() - REPORT_FIELDS
+        if unknown:
+            raise TypeError(f"Solution: unknown field(s) {sorted(unknown)}: expected {sorted(REPORT_FIELDS)}")
+        get = report.get
+        qp_count, relaxed, saturated = get("qp_count", 0), get("relaxed", False), get("saturated", False)
+        saturated_torques, conditions = get("saturated_torques"), get("conditions")
         self.qdd, self.tau, self.tau_full, self.forces, self.x = qdd, tau, tau_full, forces, x
         self.status, self.message, self.qp_count = status, message, qp_count
-        self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(tau_ratio)
+        self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(get("tau_ratio", 0.0))
         self.saturated_torques = list(saturated_torques or [])
         if conditions is None:
             if status in ("failed", "stopped"):
@@ -156,10 +168,13 @@ class Solution:
                 conditions = tuple(c for c, on in (("relaxed", self.relaxed), ("degraded", status == "degraded"),
                                                   ("saturated", self.saturated)) if on)
         self.conditions = tuple(conditions)
-        self.singular_levels = list(singular_levels or [])
+        self.singular_levels = list(get("singular_levels") or [])
         self.fault = ""
-        self._residuals, self._task_residuals, self._diagnostics = residuals, task_residuals, diagnostics
-        self._evaluate = evaluate
+        # given, or None until ``evaluate`` fills them (the properties)
+        self._residuals: Any = get("residuals")
+        self._task_residuals: Any = get("task_residuals")
+        self._diagnostics: Any = get("diagnostics")
+        self._evaluate = get("evaluate")
 
     def _ensure(self) -> None:
         if self._diagnostics is None and self._evaluate is not None:

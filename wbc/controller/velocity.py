@@ -34,7 +34,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.controller.diagnostics import level_diagnostics
-from wbc.controller.faults import FaultMonitor, FaultPolicy
+from wbc.controller.faults import FaultMonitor
+from wbc.controller.options import ControllerOptions
 from wbc.controller.solution import Solution, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.velocity_plan import VelocityPlan
@@ -43,8 +44,6 @@ from wbc.problem.buffer import row_values
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
 from wbc.solvers import create_solver
-from wbc.solvers.backends import Backend
-from wbc.solvers.cascade import Damping
 from wbc.stack import Stack
 from wbc.tasks.dynamics import DifferentialDrive
 from wbc.tasks.velocity import check_velocity_stack, collision_correction
@@ -53,6 +52,8 @@ __all__ = ["VelocityController", "VelocitySolution"]
 
 #: re-solves a cycle may take when its command breaks a collision row (VelocityController._corrected)
 CORRECTION_PASSES = 2
+#: default room a QP keeps from a limit where it can, m/s or rad/s (ControllerOptions.margin)
+VELOCITY_MARGIN = 1e-3
 
 
 class VelocitySolution(Solution):
@@ -98,6 +99,10 @@ class VelocityController:
             have a velocity form (:data:`wbc.tasks.velocity.VELOCITY_KINDS`), else a
             TaskDefinitionError naming it and its ``stack[k][i]``.
         solver: ``"hqp"``, ``"projection"`` or ``"weighted"`` (as :class:`~wbc.Controller`).
+        options: the settings below in one :class:`~wbc.controller.options.ControllerOptions`
+            (None: its defaults; ``warm_start``, ``contact_regularization`` unused).
+        **settings: the same settings given one by one, over ``options``:
+
         backend: the QP back-end (as :class:`~wbc.Controller`).
         weighting: (projection) ``"identity"`` only (None: identity): there is no M here.
         damping: the cascade's singularity damping (None: the solver's default).
@@ -110,39 +115,32 @@ class VelocityController:
         margin: the room a QP keeps from a limit where it can (m/s, rad/s); default 1e-3.
         faults: the fault policy (a faulty cycle holds q: q̇ = 0, q_next = the measured q).
         solve_timeout: the policy's per-cycle budget (s); None: the policy's.
-        mode: ``"velocity"`` (accepted so that ``Controller``'s keywords pass through).
+        mode: unused (accepted so that ``Controller``'s keywords pass through).
     """
 
     mode = "velocity"
 
-    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", backend: str | Backend = "daqp",
-                 weighting: str | None = None, damping: Damping | None = None, sacrifice_tol: float = 1e-6,
-                 level_weight: float | None = None, dt: float = 1e-3, sacrifice_rel: float = 1e-3,
-                 gain: float | None = None, margin: float = 1e-3, faults: FaultPolicy | None = None,
-                 solve_timeout: float | None = None, mode: str = "velocity", **torque_only) -> None:
+    def __init__(self, robot: RobotModel, stack: Stack, solver: str = "hqp", options: ControllerOptions | None = None,
+                 **settings) -> None:
+        o = self.options = ControllerOptions.of(options, settings, "VelocityController")
+        backend, weighting, damping, level_weight, gain = o.backend, o.weighting, o.damping, o.level_weight, o.gain
         if solver not in SOLVERS:
             raise SolverError(f"unknown solver '{solver}': expected one of {list(SOLVERS)}")
         if weighting not in (None, "identity"):
             raise ConfigError(f"weighting {weighting!r} needs the inertia matrix, which the velocity mode "
                               "does not compute: expected 'identity'", key="solver.weighting")
-        unused = sorted(k for k, v in torque_only.items() if k not in ("warm_start", "contact_regularization"))
-        if unused:
-            raise ConfigError(f"unknown option(s) {unused} for the velocity mode", key=unused[0])
         if gain is not None and not (np.isfinite(gain) and gain > 0):
             raise ConfigError(f"gain must be a number > 0 (1/s), got {gain!r}", key="gain")
         if not isinstance(stack, Stack):
             stack = Stack(stack)
         check_velocity_stack(stack.levels)
         self.robot, self.stack, self.solver_name, self.backend = robot, stack, solver, backend
-        self.sacrifice_tol, self.sacrifice_rel = sacrifice_tol, sacrifice_rel
-        self.dt, self.gain = float(dt), gain
-        options = {k: v for k, v in (("level_weight", level_weight),) if v is not None}
-        self.solver = create_solver(solver, backend=backend, damping=damping, **options)
-        self.margin = float(margin)
-        policy = faults or FaultPolicy()
-        if solve_timeout is not None:
-            policy = FaultPolicy(policy.max_hold_cycles, policy.damping, policy.detect_stale, solve_timeout)
-        self.faults = FaultMonitor(policy)
+        self.sacrifice_tol, self.sacrifice_rel = o.sacrifice_tol, o.sacrifice_rel
+        self.dt, self.gain = float(o.dt), gain
+        given = {k: v for k, v in (("level_weight", level_weight),) if v is not None}
+        self.solver = create_solver(solver, backend=backend, damping=damping, **given)
+        self.margin = VELOCITY_MARGIN if o.margin is None else float(o.margin)
+        self.faults = FaultMonitor(o.fault_policy())
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self.layout = Layout(nv=robot.nv)
         self._plan: VelocityPlan | None = None

@@ -11,6 +11,6 @@ trajectories, and (issue #24) the planning a walking run needs.
   switching through the controller's force ramps, touch-down detection).
 - :mod:`~wbc.locomotion.walk_metrics`: a walk's figures from the simulator's state and forces.
 
-May import :mod:`wbc.errors` and :mod:`wbc.tasks` (the swing foot's Frame task); the
+May import :mod:`wbc.errors` (and :mod:`wbc.options`) and :mod:`wbc.tasks` (the swing foot's Frame task); the
 controller it is given is used through its ``release_contact``/``make_contact``.
 """

@@ -94,10 +94,11 @@ def check_plan(start: dict[str, Footstep], steps: list[Footstep], limits: StepLi
         feet[s.side] = s
 
 
-def from_command(start: dict[str, Footstep], vx: float, vy: float, omega: float, period: float, steps: int,
+def from_command(start: dict[str, Footstep], velocity: tuple[float, float, float], period: float, steps: int,
                  limits: StepLimits, first: str | None = None, clip: bool = False) -> list[Footstep]:
-    """``steps`` footsteps, then one that brings the feet side by side, walking at (``vx``,
-    ``vy``) m/s in the robot's axes and turning at ``omega`` rad/s, one step every ``period`` s.
+    """``steps`` footsteps, then one that brings the feet side by side, walking at ``velocity``
+    = (v_x, v_y, ω): (v_x, v_y) m/s in the robot's axes and turning at ω rad/s, one step every
+    ``period`` s.
 
     The walking frame (the feet's mid-point, their mean yaw) advances v_x·period and turns
     ω·period at each step, so a foot lands v_x·period ahead of the stance foot; sideways it
@@ -107,6 +108,7 @@ def from_command(start: dict[str, Footstep], vx: float, vy: float, omega: float,
     step breaks ``limits`` raises :class:`ConfigError` naming ``walk.command.<key>`` (``clip``:
     cut to the limits instead, for a command changed at run time)."""
     half0 = _half_width(start)
+    vx, vy, omega = velocity
     dx, dy, dth = vx * period, vy * period, omega * period
     # a turn of dth moves a foot half a width (half0 sin dth) along the stance foot beside the
     # walking frame's advance: the length's bound leaves room for it

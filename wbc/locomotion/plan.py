@@ -81,7 +81,7 @@ class WalkPlan:
         if command is None:
             new = _stop_steps(feet, frame, nxt) if n else []
         else:
-            new = from_command(frame, command.vx, command.vy, command.omega, period, command.steps, self.limits,
+            new = from_command(frame, (command.vx, command.vy, command.omega), period, command.steps, self.limits,
                                first=nxt, clip=clip)
         if n == 0:          # nothing lifted yet: the whole plan again, from its start
             self._set(new, schedule(self.start, new, self.timing, self.phases[0].t0))

@@ -146,7 +146,7 @@ class Walker:
             steps = [_from_frame(s, start) for s in spec.footsteps]
         else:
             cmd = spec.command
-            steps = from_command(start, cmd.vx, cmd.vy, cmd.omega, spec.timing.single + spec.timing.double,
+            steps = from_command(start, (cmd.vx, cmd.vy, cmd.omega), spec.timing.single + spec.timing.double,
                                  cmd.steps, spec.limits) if cmd is not None else []
         self.plan = WalkPlan(start, steps, spec.timing, spec.start, spec.limits)
         self.z_com = float(c[2])
@@ -171,7 +171,7 @@ class Walker:
         n = self.i + (1 if self.state != "wait" else 0)
         if cmd is not None:
             try:
-                from_command(self.plan.start, cmd.vx, cmd.vy, cmd.omega, self.spec.timing.single + self.spec.timing.double,
+                from_command(self.plan.start, (cmd.vx, cmd.vy, cmd.omega), self.spec.timing.single + self.spec.timing.double,
                              1, self.spec.limits)
             except Exception as exc:        # a ConfigError naming the component beyond its limit
                 msg = f"walk command at t = {t:g} s clipped to the limits: {exc}"

@@ -3,5 +3,5 @@ cache), finding and loading bundled or user robot YAMLs (:mod:`~wbc.robot.loader
 schema (:mod:`~wbc.robot.schema`) and extras beyond the URDF (:mod:`~wbc.robot.extras`),
 joint friction/armature compensation and the automatic task gains.
 
-May import: :mod:`wbc.errors`, :mod:`wbc.validation`. Nothing of the tasks, the controller or
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.validation`. Nothing of the tasks, the controller or
 the scenario (the gains name :class:`~wbc.tasks.base.Task` only for type checking)."""

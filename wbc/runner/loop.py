@@ -44,18 +44,20 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from wbc.controller.cycle import Controller
 from wbc.controller.faults import FaultPolicy, diverged, simulation_diverged
+from wbc.controller.solution import Solution
 from wbc.errors import ConfigError
 from wbc.interaction.external_force import ExternalForceRun
 from wbc.interaction.measurement import InteractionRun
 from wbc.robot.servo import gravity_feedforward, servo_gains
 from wbc.runner.compile_notice import CompileNotice
-from wbc.runner.metrics import RunMetrics, fallen
+from wbc.runner.metrics import RunMetrics, Series, fallen
 from wbc.runner.observers import (
     CallbackObserver,
     CollisionObserver,
@@ -70,8 +72,11 @@ from wbc.runner.walking import WalkObserver
 from wbc.scenario.loader import Scenario
 from wbc.scenario.sections import duration_value
 from wbc.sim.backends import make_simulator
+from wbc.sim.options import SimOptions
+from wbc.tasks.collision_avoidance import CollisionAvoidance
+from wbc.tasks.com import CoM
 from wbc.tasks.contact import Contact
-from wbc.tasks.frame import to_se3
+from wbc.tasks.frame import Frame, to_se3
 from wbc.trajectories.position import frame_reference
 
 
@@ -150,14 +155,15 @@ class ScenarioRun:
         except ConfigError as exc:    # a solver chosen over the scenario's, given the scenario's options
             raise ConfigError(f"{exc.message} (the scenario's solver is '{given}'; this run's is "
                               f"'{self.solver_name}')", key=exc.key, file=sc.source) from None
-        extra = {}
+        link_geoms: list = []
         if self.simulator == "mujoco":      # the links kept from obstacles collide in MuJoCo too (its contact list)
-            geoms = [g for t in stack if t.kind == "collision_avoidance" for g in t.model.link_geometries()]
-            if geoms:
-                extra["link_geoms"] = list({g[0]: g for g in geoms}.values())
+            geoms = [g for t in stack if isinstance(t, CollisionAvoidance) for g in t.model.link_geometries()]
+            link_geoms = list({g[0]: g for g in geoms}.values())
+        #: the simulator's options: this run's and the scenario's (sensing:)
+        self.sim_options = SimOptions(joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
+                                      tau_limits=robot.tau_max, link_geoms=tuple(link_geoms), **sc.sensing)
         sim = make_simulator(self.simulator, _simulated_robot(robot, o.model_perturbation), sc.environment,
-                             joint_dynamics=self.joint_dynamics, dt=sc.dt, substeps=sc.substeps,
-                             tau_limits=robot.tau_max, **sc.sensing, **extra)
+                             self.sim_options)
         if o.wrap_simulator is not None:
             sim = o.wrap_simulator(sim)
         self.sim = sim
@@ -167,7 +173,7 @@ class ScenarioRun:
         self.q_cmd: np.ndarray | None = None
         for p in sc.pushes:
             sim.push(p["frame"], p["force"], p["start"], p["duration"])
-        self.last_sol = None
+        self.last_sol: Solution | None = None
         self.duration = sc.duration if o.duration is None else duration_value(o.duration, sc.dt)
         self.n = round(self.duration / sc.dt)
         self.start = self._start_values()
@@ -181,11 +187,13 @@ class ScenarioRun:
         self.base_z0 = sim.q[2] if robot.root == "free_flyer" else None
         mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
         self.contact_points = pts_of      # contact task name -> indices of its simulator points
-        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, self.n, sc.dt, o.series,
-                                   self.ctrl.lowest_tasks())
+        series = Series(self.n, sc.dt, robot, stack, [c.name for c in contacts], mu_max,
+                        lowest=self.ctrl.lowest_tasks()) if o.series else None
+        self.measured = RunMetrics(robot, stack, sim, contacts, pts_of, mu_max, series)
         self.observers = self._observers(o)
         self.cycle_times = np.full(self.n, np.nan)     # touched now: no growth mid-run
-        self.failures, self.fell, self.stopped = 0, False, None
+        self.failures, self.fell = 0, False
+        self.stopped: dict[str, Any] | None = None
         self.sim_failures = getattr(sim, "solver_failures", 0)
         self.t_wall, self.k_wall = time.perf_counter(), 0
         self.refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
@@ -219,19 +227,19 @@ class ScenarioRun:
         state), and the scenario's offsets applied to their targets."""
         robot, stack, sc, sim = self.robot, self.stack, self.sc, self.sim
         robot.update(sim.q, sim.v)
-        start = {}
+        start: dict[str, Any] = {}
         for t in stack:
-            if t.kind == "com":
+            if isinstance(t, CoM):
                 start[t.name] = robot.com.copy() if t.target is None else t.target.copy()
-            elif t.kind == "frame":
+            elif isinstance(t, Frame):
                 M = robot.frame_placement(robot.frame_id(t.frame))
                 start[t.name] = M.copy() if t.target is None else t.target.copy()
         for tname, off in sc.offsets.items():
-            t = stack[tname]
-            if t.kind == "com":
-                t.target = start[tname] + off
+            shifted: Any = stack[tname]     # a CoM or Frame task (the scenario loader checked)
+            if shifted.kind == "com":
+                shifted.target = start[tname] + off
             else:
-                t.target = pin.SE3(start[tname].rotation, start[tname].translation + off)
+                shifted.target = pin.SE3(start[tname].rotation, start[tname].translation + off)
         return start
 
     def cycle(self, k: int) -> bool:
@@ -254,7 +262,7 @@ class ScenarioRun:
             if tname not in stack:          # disabled from a live page: its trajectory waits
                 continue
             x, dx, ddx = traj.sample(t - t0)
-            task = stack[tname]
+            task: Any = stack[tname]        # a CoM or Frame task (the scenario loader checked)
             if task.kind == "com":
                 task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
@@ -283,8 +291,10 @@ class ScenarioRun:
         if self.servo is None:
             sim.step(sol.tau_full)
         else:
-            self.q_cmd = sol.q_next
-            sim.step_position(sol.q_next, sol.qd, *self.servo, gravity_feedforward(self.robot, self.servo_data, q))
+            vsol: Any = sol                 # a VelocitySolution: q̇ and the next q
+            self.q_cmd = vsol.q_next
+            driven: Any = sim                # both back-ends' step_position (position servos)
+            driven.step_position(vsol.q_next, vsol.qd, *self.servo, gravity_feedforward(self.robot, self.servo_data, q))
         why = simulation_diverged(sim, self.sim_failures)
         if why:
             self.stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}

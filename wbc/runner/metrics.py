@@ -288,10 +288,13 @@ class RunMetrics:
     velocity limits, torque limits, unilateral and friction violations, slip and lift per
     watched contact, CoP figures, the CoM's support margin, the time series).
     :meth:`watch` is called at every event: it sets the tasks and contacts watched.
+    ``contacts``: the watched Contact tasks, ``pts_of``: each one's simulator point indices,
+    ``mu_max``: the environment's largest friction coefficient, ``series``: the time series
+    recorded (:class:`Series`), or None.
     """
 
-    def __init__(self, robot, stack, sim, contacts: list, pts_of: dict, mu_max: float, n: int, dt: float,
-                 series: bool, lowest: list) -> None:
+    def __init__(self, robot, stack, sim, contacts: list, pts_of: dict, mu_max: float,
+                 series: Series | None) -> None:
         m = robot.model
         self.robot, self.contacts, self.pts_of, self.mu_max = robot, contacts, pts_of, mu_max
         pin.forwardKinematics(m, sim.data, sim.q)
@@ -330,7 +333,7 @@ class RunMetrics:
         #: the first such cycle of each level: time (s), level, tasks, directions, joints
         self.singularities: list[dict] = []
         self.tau_ratio_max = self.tau_ratio_asked = 0.0
-        self.rec = Series(n, dt, robot, stack, [c.name for c in contacts], mu_max, lowest=lowest) if series else None
+        self.rec = series
         if self.rec is not None:
             self.rec.error_names = list(self.errs)
         self.err_live: list = []

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from wbc.errors import ConfigError, WbcError, placed
+from wbc.options import flat_parameters
 from wbc.stack import Stack
 from wbc.tasks import TASK_TYPES
 from wbc.tasks.base import Task
@@ -19,7 +20,9 @@ from wbc.validation.yamlio import read_mapping
 
 
 def _parameters(cls) -> dict[str, inspect.Parameter]:
-    return {n: p for n, p in inspect.signature(cls.__init__).parameters.items() if n != "self"}
+    """The keys a task mapping may hold: the constructor's parameters, its options record's
+    fields in place of ``options`` and ``**settings``."""
+    return flat_parameters(cls.__init__, cls.options_record)
 
 
 def build_task(spec: Any, where: str) -> Task:

@@ -110,7 +110,7 @@ def walk_section(spec: Any, robot, stack, duration: float) -> WalkSpec | None:
     if "command" in spec:
         vx, vy, om, n = _command(spec["command"], "walk.command")
         out.command = Command(vx, vy, om, n)
-        steps = from_command(feet, vx, vy, om, period, n, limits)
+        steps = from_command(feet, (vx, vy, om), period, n, limits)
         check_plan(feet, steps, limits, "walk.command")        # the start's width against the limits too
     else:
         out.footsteps = []
@@ -138,7 +138,7 @@ def walk_section(spec: Any, robot, stack, duration: float) -> WalkSpec | None:
         else:
             vx, vy, om, n = _command(ev["command"], f"{k}.command")
             try:                # beyond the limits: refused here (at run time it would be clipped)
-                from_command(feet, vx, vy, om, period, n, limits)
+                from_command(feet, (vx, vy, om), period, n, limits)
             except ConfigError as exc:
                 raise ConfigError(exc.message, key=(exc.key or "").replace("walk.command", f"{k}.command")) from None
             out.changes.append((when, Command(vx, vy, om, n)))

@@ -1,6 +1,6 @@
 """Forward-dynamics simulation: rigid unilateral Coulomb contacts, pushes, sensing.
 
-May import: :mod:`wbc.errors`, :mod:`wbc.robot` (types). Not the controller or the scenario.
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.robot` (types). Not the controller or the scenario.
 """
 
 from .bodies import box_model

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from ..errors import ConfigError
+from .options import SimOptions
 
 if TYPE_CHECKING:
     import pinocchio as pin
@@ -55,25 +56,32 @@ class PhysicsSimulator(Protocol):
     def contact_wrench(self, frame: str) -> np.ndarray: ...
 
 
-def make_simulator(name: str, robot: RobotModel, environment: Sequence, joint_dynamics: bool = False,
-                   **kwargs) -> PhysicsSimulator:
-    """The simulator ``name`` (one of :data:`SIMULATORS`) for ``robot`` in ``environment``,
-    with ``Simulator.for_robot``'s keyword arguments (``dt``, ``substeps``, ``tau_limits``,
-    ``noise_q``, ``noise_v``, ``latency_steps``, ...). ``joint_dynamics``: the URDF's joint
-    damping and dry friction (pinocchio's ``model.damping``, ``model.friction``) act in the
-    simulation (``wbc.sim``: :mod:`wbc.sim.joint_dynamics`; MuJoCo: joint ``damping`` and
-    ``frictionloss``); off by default. Raises :class:`ConfigError` for an unknown name or a
-    back-end that is not installed."""
-    kwargs["joint_dynamics"] = bool(joint_dynamics)
+def make_simulator(name: str, robot: RobotModel, environment: Sequence, options: SimOptions | None = None,
+                   **settings) -> PhysicsSimulator:
+    """The simulator ``name`` (one of :data:`SIMULATORS`) for ``robot`` in ``environment``.
+
+    Args:
+        name: the back-end, one of :data:`SIMULATORS`.
+        robot: the simulated robot.
+        environment: shapes of :mod:`wbc.sim.environment`.
+        options: :class:`~wbc.sim.options.SimOptions` (``dt``, ``substeps``, ``tau_limits``,
+            sensing, ``joint_dynamics``: the URDF's joint damping and dry friction act in the
+            simulation, off by default, ...).
+        **settings: its fields one by one, over ``options``.
+
+    Raises:
+        ConfigError: an unknown name or a back-end that is not installed.
+    """
+    o = SimOptions.of(options, settings, "make_simulator")
     if name == "pinocchio":
         from .simulator import Simulator
 
-        return Simulator.for_robot(robot, environment, **kwargs)
+        return Simulator.for_robot(robot, environment, options=o)
     if name == "mujoco":
         try:
             from .mujoco_sim import MujocoSimulator
         except ImportError as exc:
             raise ConfigError(f"simulator 'mujoco' needs the mujoco package ({exc}); pip install 'wbc[mujoco]'",
                               key="simulator") from exc
-        return MujocoSimulator.for_robot(robot, environment, **kwargs)
+        return MujocoSimulator.for_robot(robot, environment, options=o)
     raise ConfigError(f"expected one of {', '.join(SIMULATORS)}, got {name!r}", key="simulator")

@@ -22,6 +22,8 @@ from .environment import Box, Cylinder, HalfSpace, Sphere
 if TYPE_CHECKING:
     from wbc.robot.model import RobotModel
 
+    from .options import SimOptions
+
 SOLE_THICKNESS = 0.01   # m, the sole boxes' height
 POINT_RADIUS = 0.005    # m, the point contacts' spheres
 
@@ -85,15 +87,17 @@ LINK_CONTYPE = 2
 
 
 def build_model(robot: RobotModel, environment: Sequence[HalfSpace | Box], points: list, timestep: float,
-                joint_limits: bool = True, inertias: str = "model", tau_max: np.ndarray | None = None,
-                joint_dynamics: bool = False, link_geoms: Sequence = ()) -> mujoco.MjModel:
+                options: SimOptions, tau_max: np.ndarray | None = None) -> mujoco.MjModel:
     """The MuJoCo model of ``robot`` (a :class:`~wbc.robot.model.RobotModel`) in ``environment``
     (shapes of :mod:`wbc.sim.environment`); ``points`` from :func:`contact_points`. See the
-    module docstring for what it contains; ``timestep`` in s; ``tau_max`` (nv, N·m or N) the
+    module docstring for what it contains; ``timestep`` in s; ``options``: its ``joint_limits``,
+    ``inertias``, ``joint_dynamics`` and ``link_geoms``; ``tau_max`` (nv, N·m or N) the
     motors' limits, the robot's by default. ``link_geoms``: (name, joint name, placement in the
     joint's frame, vertices n × 3 in m) of robot collision geometries to add as convex meshes
     (``wbc_link_<name>``) that collide with the environment: what MuJoCo's contact list then
     reports (:meth:`wbc.sim.mujoco_sim.MujocoSimulator.link_contacts`)."""
+    joint_limits, inertias, joint_dynamics, link_geoms = (options.joint_limits, options.inertias,
+                                                          options.joint_dynamics, options.link_geoms)
     if inertias not in ("model", "urdf"):
         raise WbcError(f"mujoco: inertias must be 'model' or 'urdf', got {inertias!r}")
     m = robot.model

@@ -79,6 +79,7 @@ import pinocchio as pin
 from ..errors import WbcError
 from .environment import Box, HalfSpace
 from .mujoco_model import build_model
+from .options import SimOptions
 from .simulator import Push, contact_points
 
 if TYPE_CHECKING:
@@ -96,11 +97,20 @@ class MujocoSimulator:
     """
 
     def __init__(self, robot: RobotModel, environment: Sequence[HalfSpace | Box], q0: np.ndarray | None = None,
-                 v0: np.ndarray | None = None, dt: float = 1e-3, substeps: int = 1, extra_points=(),
-                 noise_q: float = 0.0, noise_v: float = 0.0, latency_steps: int = 0, seed: int = 0,
-                 joint_limits: bool = True, inertias: str = "model", tau_limits: np.ndarray | None = None,
-                 baumgarte: float | None = None, margin: float | None = None, joint_dynamics: bool = False,
-                 link_geoms=()) -> None:
+                 v0: np.ndarray | None = None, extra_points=(), options: SimOptions | None = None,
+                 **settings) -> None:
+        """Args:
+            robot: the simulated robot.
+            environment: shapes of :mod:`wbc.sim.environment`.
+            q0: initial configuration (nq); None: the robot's default.
+            v0: initial velocity (nv); None: zero.
+            extra_points: more contact points, ``(frame name, offset in the frame, m)``.
+            options: :class:`~wbc.sim.options.SimOptions` (``baumgarte``, ``margin``,
+                ``contact_solver``, ``actuated``, ``differential_drive`` unused: the robot's).
+            **settings: its fields one by one, over ``options``.
+        """
+        o = self.options = SimOptions.of(options, settings, "MujocoSimulator")
+        dt, substeps, tau_limits, link_geoms = o.dt, o.substeps, o.tau_limits, o.link_geoms
         self.robot, self.model, self.root = robot, robot.model, robot.root
         m = self.model
         self.data = m.createData()
@@ -115,8 +125,7 @@ class MujocoSimulator:
         self.tau_limits = lim.copy() if lim.shape[0] == m.nv else np.where(self.actuated, 0.0, np.inf)
         if lim.shape[0] != m.nv:
             self.tau_limits[self.actuated] = lim
-        self.mj_model = mm = build_model(robot, self.env, pts, self.h, joint_limits, inertias, self.tau_limits,
-                                         joint_dynamics, link_geoms)
+        self.mj_model = mm = build_model(robot, self.env, pts, self.h, o, self.tau_limits)
         #: MuJoCo geom id -> name of the links' collision geometries added (``link_geoms``)
         self._link_geoms = {mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_GEOM, f"wbc_link_{g[0]}"): g[0]
                             for g in link_geoms}
@@ -154,9 +163,9 @@ class MujocoSimulator:
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(pts), 3))
         self._contacts: list[tuple[int, np.ndarray, np.ndarray]] = []   # (body, point, force), body frame
-        self._rng = np.random.default_rng(seed)
-        self.noise_q, self.noise_v = noise_q, noise_v
-        self._delay: deque = deque(maxlen=latency_steps + 1)
+        self._rng = np.random.default_rng(o.seed)
+        self.noise_q, self.noise_v = o.noise_q, o.noise_v
+        self._delay: deque = deque(maxlen=o.latency_steps + 1)
         self.solver_failures = self.saturated_steps = 0
         self._servo = False             # the joint motors turned position actuators (step_position)
         self._f6 = np.zeros(6)
@@ -165,12 +174,13 @@ class MujocoSimulator:
 
     @classmethod
     def for_robot(cls, robot: RobotModel, environment: Sequence[HalfSpace | Box], q0: np.ndarray | None = None,
-                  extra_points=(), **kwargs) -> MujocoSimulator:
+                  extra_points=(), options: SimOptions | None = None, v0: np.ndarray | None = None,
+                  **settings) -> MujocoSimulator:
         """Simulator.for_robot's arguments: the sole corners and point contacts of ``robot``'s
         YAML, ``extra_points`` more ``(frame name, offset in the frame)``; ``kwargs``: ``dt``,
         ``substeps``, ``tau_limits``, sensing (``noise_q``, ``noise_v``, ``latency_steps``,
         ``seed``), and ``joint_limits``, ``inertias``, ``v0``, ``joint_dynamics``."""
-        return cls(robot, environment, q0=q0, extra_points=extra_points, **kwargs)
+        return cls(robot, environment, q0, v0, extra_points, SimOptions.of(options, settings, "MujocoSimulator"))
 
     # ----------------------------------------------------------- conversions
     def _root_rotation(self, q: np.ndarray) -> np.ndarray:

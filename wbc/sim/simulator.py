@@ -51,6 +51,7 @@ from ..errors import WbcError
 from . import contact_rows as cr
 from .contact_solver import ContactSolver, solver_class
 from .joint_dynamics import JointDynamics, eliminate_lateral
+from .options import SimOptions
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -86,6 +87,10 @@ PGS_MAX_ITERATIONS = 300
 #: precision (N·s) or the relative one (unitless; pinocchio's PGS criteria, wbc.sim.contact_solver)
 PGS_ABSOLUTE_PRECISION = 1e-10
 PGS_RELATIVE_PRECISION = 1e-12
+#: default contact position correction per step (Baumgarte), unitless
+BAUMGARTE = 0.2
+#: default contact detection margin, m
+CONTACT_MARGIN = 2e-3
 
 
 @dataclass
@@ -115,11 +120,19 @@ class Simulator:
     (this pinocchio's binding), :data:`wbc.sim.contact_solver.SOLVERS`.
     """
 
-    def __init__(self, model: pin.Model, points, environment, q0, v0=None, dt: float = 1e-3,
-                 substeps: int = 1, actuated: np.ndarray | None = None, differential_drive: bool = False,
-                 baumgarte: float = 0.2, margin: float = 2e-3, noise_q: float = 0.0, noise_v: float = 0.0,
-                 latency_steps: int = 0, seed: int = 0, tau_limits: np.ndarray | None = None,
-                 joint_dynamics: bool = False, contact_solver: str = "compiled") -> None:
+    def __init__(self, model: pin.Model, points, environment, q0, v0=None, options: SimOptions | None = None,
+                 **settings) -> None:
+        """Args:
+            model: the simulated robot's pinocchio model.
+            points: contact points, ``(joint name, position in that joint's frame, m)``.
+            environment: shapes of :mod:`wbc.sim.environment`.
+            q0: initial configuration (nq).
+            v0: initial velocity (nv, rad/s or m/s); None: zero.
+            options: :class:`~wbc.sim.options.SimOptions` (the MuJoCo-only fields unused).
+            **settings: its fields one by one, over ``options``.
+        """
+        o = self.options = SimOptions.of(options, settings, "Simulator")
+        dt, substeps, actuated, contact_solver = o.dt, o.substeps, o.actuated, o.contact_solver
         self.model = model
         self.data = model.createData()
         # the contact surfaces (obstacles, wbc.sim.environment.Sphere/Cylinder, touch no contact point)
@@ -131,8 +144,9 @@ class Simulator:
         self.v = np.zeros(model.nv) if v0 is None else np.array(v0, dtype=float)
         self.t = 0.0
         self.actuated = np.ones(model.nv, bool) if actuated is None else np.asarray(actuated, bool)
-        self.differential_drive = differential_drive
-        self.baumgarte, self.margin = baumgarte, margin
+        self.differential_drive = o.differential_drive
+        self.baumgarte = BAUMGARTE if o.baumgarte is None else o.baumgarte
+        self.margin = CONTACT_MARGIN if o.margin is None else o.margin
         # PGS under-relaxation: with the default step, a friction block whose Delassus
         # eigenvalue ratio exceeds 2 (a box turned about the vertical) overshoots and
         # the resting body rattles; 0.6 converges on every case tested
@@ -159,14 +173,14 @@ class Simulator:
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
         self._warm = np.zeros((len(self.points), 3))          # last step's impulses, N·s, contact frames
-        self._rng = np.random.default_rng(seed)
-        self.noise_q, self.noise_v = noise_q, noise_v
-        self._delay: deque = deque(maxlen=latency_steps + 1)
+        self._rng = np.random.default_rng(o.seed)
+        self.noise_q, self.noise_v = o.noise_q, o.noise_v
+        self._delay: deque = deque(maxlen=o.latency_steps + 1)
         self.solver_failures = 0
         self._free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
-        self.tau_limits = self._full_limits(tau_limits)
+        self.tau_limits = self._full_limits(o.tau_limits)
         self.saturated_steps = 0    # control periods in which the driver clipped τ
-        self.joint_dynamics = JointDynamics.of_model(model) if joint_dynamics else None
+        self.joint_dynamics = JointDynamics.of_model(model) if o.joint_dynamics else None
 
     def _full_limits(self, tau_limits) -> np.ndarray | None:
         """``tau_limits`` (na or nv, N·m) as an nv vector, inf on the unactuated dofs."""
@@ -188,14 +202,17 @@ class Simulator:
 
     # ----------------------------------------------------------- construction
     @classmethod
-    def for_robot(cls, robot, environment, q0=None, extra_points=(), **kwargs) -> Simulator:
+    def for_robot(cls, robot, environment, q0=None, extra_points=(), options: SimOptions | None = None,
+                  v0=None, **settings) -> Simulator:
         """A simulator of ``robot`` (a :class:`~wbc.robot.model.RobotModel`): sole corners of its
         contact surfaces and the origins of its point contacts touch the environment;
-        ``extra_points``: more ``(frame name, offset in the frame)``."""
+        ``extra_points``: more ``(frame name, offset in the frame)``; ``options`` and
+        ``settings`` as the constructor's (``actuated``, ``differential_drive``: the robot's)."""
         pts = [(joint, offset) for joint, offset, *_ in contact_points(robot, extra_points)]
         q0 = robot.q_default if q0 is None else q0
-        return cls(robot.model, pts, environment, q0, actuated=robot.actuated_mask,
-                   differential_drive=robot.differential_drive, **kwargs)
+        o = SimOptions.of(options, {"actuated": robot.actuated_mask,
+                                    "differential_drive": robot.differential_drive, **settings}, "Simulator")
+        return cls(robot.model, pts, environment, q0, v0, o)
 
     def push(self, frame: str, force, start: float, duration: float) -> None:
         """Schedule an external force (N, world) on ``frame`` (a model frame name)."""

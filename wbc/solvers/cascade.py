@@ -119,15 +119,17 @@ class Step:
 
     @property
     def AZ(self) -> np.ndarray:
-        if self._AZ is None:
-            self._AZ = self._A if self._Z is None else self._A @ self._Z
-        return self._AZ
+        AZ = self._AZ
+        if AZ is None:
+            AZ = self._AZ = self._A if self._Z is None else self._A @ self._Z
+        return AZ
 
     @property
     def r(self) -> np.ndarray:
-        if self._r is None:
-            self._r = self._b - self._A @ self._x
-        return self._r
+        r = self._r
+        if r is None:
+            r = self._r = self._b - self._A @ self._x
+        return r
 
 
 class Cascade:
@@ -251,6 +253,7 @@ def adopt_run(levels: list, cas: Cascade, infos: list, start: int, run: tuple) -
     infos += decoded
     step = None
     if len(packed):
+        assert at is not None, "a run that stopped inside a level decodes that level"
         step = Step.unpacked(packed, Z_next, (at.rank, at.sigma_min, at.sigma_max, at.lambda2),
                              (levels[stop].A, levels[stop].b, x, None if identity else Z), at.dof, True, at.route)
     cas.adopt(x, Z, identity, calls)

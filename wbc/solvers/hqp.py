@@ -142,17 +142,18 @@ class HierarchicalQP:
             cas.x = np.array(x_ref, dtype=float)
         margin = self.margin if margin is None else margin
         rows = self._rows(levels, nx, dampings or {}, stacked, len(levels) if own is None else own)
-        infos, ok, qp_count, msg = [], True, 0, ""
+        infos: list[LevelInfo] = []
+        ok, qp_count, msg = True, 0, ""
         degraded: list[str] = []
         k, n_levels = 0, len(levels)
         while k < n_levels:
             # every level from k that needs no back-end QP, in one compiled call; it hands
             # over the step it took where it stopped
             Z, identity = cas.kernel_basis()
-            out = cascade_prefix(rows.A, rows.b, rows.e_end, rows.C, rows.lo, rows.hi, rows.i_end, cas.x, Z,
-                                 identity, k, cas.calls, self._hints, rows.rank_tol, rows.threshold,
-                                 rows.max_damping, GRAM_MIN_RATIO, self.tol, self.certify, self.regularization,
-                                 margin)
+            out = cascade_prefix((rows.A, rows.b, rows.e_end), (rows.C, rows.lo, rows.hi, rows.i_end),
+                                 (cas.x, Z, identity, k, cas.calls), self._hints,
+                                 (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
+                                  self.certify, self.regularization, margin))
             stop, pending, certified = adopt_run(levels, cas, infos, k, out)
             qp_count += certified
             if stop == n_levels:
@@ -330,7 +331,8 @@ class HierarchicalQP:
             Cq, lq, hq = nearest_feasible_rows(C, lo, hi, Ca, la, ha, cas.x, Z, identity, margin, tighten)
             res = self.backend.solve(H, g, Cq, lq, hq, key=key, feasible=False)
             # an answer off its rows (beyond a first-order solver's accuracy) or not finite: garbage
-            if res.ok and not (np.isfinite(res.z).all() and max_violation(Cq, lq, hq, res.z) <= 10 * self.qp_tol):
+            z = res.z
+            if res.ok and not (z is not None and np.isfinite(z).all() and max_violation(Cq, lq, hq, z) <= 10 * self.qp_tol):
                 self.backend_failures += 1
                 res = QPResult(None, False, f"{res.status}, but its answer is off its rows", res.iterations)
             if res.ok:
@@ -399,23 +401,25 @@ class HierarchicalQP:
             eps = 0.0 if self.backend.psd_ok else self.slack_regularization
         H[np.arange(r), np.arange(r)] += eps
         H[np.arange(r, n), np.arange(r, n)] = 1.0
-        rows, los, his = [], [], []
+        blocks: list[np.ndarray] = []
+        los: list[np.ndarray] = []
+        his: list[np.ndarray] = []
         if m:
             Cl = np.zeros((m, n))
             Cl[:, :r] = C @ cas.Z
             Cl[:, r:] = np.eye(m)
             y = C @ cas.x
-            rows.append(Cl)
+            blocks.append(Cl)
             los.append(lo - y)
             his.append(hi - y)
         if len(la):
             CaZ, lz, hz = self._higher_rows(cas, Ca, la, ha, margin)
             Cr = np.zeros((CaZ.shape[0], n))
             Cr[:, :r] = CaZ
-            rows.append(Cr)
+            blocks.append(Cr)
             los.append(lz)
             his.append(hz)
-        Cq = np.vstack(rows) if rows else np.zeros((0, n))
+        Cq = np.vstack(blocks) if blocks else np.zeros((0, n))
         lq = np.concatenate(los) if los else np.zeros(0)
         hq = np.concatenate(his) if his else np.zeros(0)
         return self._solve_qp(H, g, (Cq, lq, hq), (r, m, eps), key)
@@ -430,7 +434,7 @@ class HierarchicalQP:
         an error of 1e-6 at level 0 reached the levels below amplified (1e-5 to 1e-4 of
         their residuals, from one solve of the same stack to the next)."""
         res = backend.solve(H, g, Cq, lq, hq, key=key, feasible=True)
-        if res.ok and not np.isfinite(res.z).all():     # (max_violation passes a NaN)
+        if res.ok and (res.z is None or not np.isfinite(res.z).all()):     # (max_violation passes a NaN)
             return QPResult(None, False, f"{res.status}, but its answer is not finite", res.iterations)
         if res.ok and len(lq):
             v = max_violation(Cq, lq, hq, res.z)
@@ -468,5 +472,7 @@ class HierarchicalQP:
                     return None, np.zeros(m), f"{res.status}; {fb.name}: {res2.status}; regularised: {res3.status}"
                 res2 = res3
             res = res2
-        return res.z[:r], res.z[r:], res.status
+        z = res.z
+        assert z is not None, "an accepted QP result has its point"
+        return z[:r], z[r:], res.status
 

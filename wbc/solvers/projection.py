@@ -155,9 +155,9 @@ class RecursiveProjection:
         A, b, rows, tols = self._motion(levels, T, nv, problem.rows, layout.nf > 0)
         b_idx, b_lo, b_hi = box
         g_C, g_lo, g_hi = self.torque_rows(levels, layout)
-        out = projection_prefix(A, b, rows, nv, cas.x, b_idx, b_lo, b_hi, _NO_T if T is None else T, T is not None,
-                                self._hints, tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.box_tol,
-                                NO_DAMPING.rank_tol, g_C, g_lo, g_hi)
+        out = projection_prefix((A, b, rows, nv), cas.x, (b_idx, b_lo, b_hi), (_NO_T if T is None else T, T is not None),
+                                self._hints, (tols[0], tols[1], tols[2], GRAM_MIN_RATIO, self.box_tol,
+                                              NO_DAMPING.rank_tol), (g_C, g_lo, g_hi))
         infos: list = []
         adopt_run(levels, cas, infos, 0, out)
         return SolveResult(cas.x if T is None else T @ cas.x, infos)

@@ -16,7 +16,7 @@ worker process), :mod:`~wbc.sweep.executor`, :mod:`~wbc.sweep.local`,
 :mod:`~wbc.sweep.summary`, :mod:`~wbc.sweep.plots`, :mod:`~wbc.cli.sweep` (the command).
 Nothing heavy is imported here: ``wbc --help`` stays fast.
 
-May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.jsonable`, :mod:`wbc.blas`,
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.validation`, :mod:`wbc.jsonable`, :mod:`wbc.blas`,
 :mod:`wbc.robot`, :mod:`wbc.scenario`, :mod:`wbc.runner`. Not the CLI (its command is :mod:`wbc.cli.sweep`).
 """
 

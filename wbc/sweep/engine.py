@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..options import Options
 from .axes import max_probes
 from .bisect import Bisection
 from .cases import Case, grid_points, make_case, ordered_values, static_cases
@@ -96,17 +97,41 @@ def _row(spec: SweepSpec, case: Case, o: Outcome) -> dict[str, Any]:
     return row
 
 
-def run_sweep(spec: SweepSpec, *, executor: str | Executor | None = None, workers: int | None = None,
-              address: str | None = None, timeout: float | None = None, out_dir: str | Path | None = None,
-              retry: bool = False, stop_after: int | None = None, progress: bool = True) -> SweepResult:
+@dataclass(frozen=True)
+class SweepRunOptions(Options):
+    """How :func:`run_sweep` runs a spec's cases (None: the spec's setting)."""
+
+    executor: str | Executor | None = None
+    """``local`` | ``ray`` or an executor object (:class:`wbc.sweep.executor.Executor`, left open
+    for the caller to reuse); None: the spec's"""
+    workers: int | None = None
+    """processes or Ray CPUs; None: the spec's"""
+    address: str | None = None
+    """the Ray cluster's address; None: the spec's"""
+    timeout: float | None = None
+    """wall time per case, s; None: the spec's"""
+    out_dir: str | Path | None = None
+    """folder of ``results.csv``; None: the spec's ``output``"""
+    retry: bool = False
+    """run again the cases stored as error, failed or timeout"""
+    stop_after: int | None = None
+    """stop once that many cases have finished in this call (the next call finishes the rest)"""
+    progress: bool = True
+    """print the progress line to stderr"""
+
+
+def run_sweep(spec: SweepSpec, options: SweepRunOptions | None = None, /, **settings) -> SweepResult:
     """Run the cases of ``spec`` that the results store does not hold yet (module docstring).
 
-    ``executor`` ``local`` | ``ray`` (default: the spec's) or an executor object
-    (:class:`wbc.sweep.executor.Executor`, left open for the caller to reuse); ``workers``: processes or Ray
-    CPUs; ``timeout``: s per case (default: the spec's); ``out_dir``: folder of
-    ``results.csv`` (default: the spec's ``output``); ``retry``: run again the cases stored
-    as error, failed or timeout; ``stop_after``: stop once that many cases have finished in
-    this call (what an interruption does; the next call finishes the rest)."""
+    Args:
+        spec: the sweep (:func:`wbc.sweep.spec.load_spec`).
+        options: how to run it, :class:`SweepRunOptions` (None: its defaults).
+        **settings: its fields one by one (``executor``, ``workers``, ``address``, ``timeout``
+            in s, ``out_dir``, ``retry``, ``stop_after``, ``progress``), over ``options``.
+    """
+    how = SweepRunOptions.of(options, settings, "run_sweep")
+    executor, workers, address, timeout, out_dir = how.executor, how.workers, how.address, how.timeout, how.out_dir
+    retry, stop_after, progress = how.retry, how.stop_after, how.progress
     t0 = time.perf_counter()
     out = Path(out_dir) if out_dir is not None else spec.output
     store = ResultStore(out / "results.csv")

@@ -1,6 +1,6 @@
 """Task library: one task kind per module. Each returns affine rows over x = (q̈, f).
 
-May import: :mod:`wbc.errors`, :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.problem`,
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.problem`,
 :mod:`wbc.null_space`. Not the stack (the sugar is :mod:`.group`), the controller or the chapter.
 """
 

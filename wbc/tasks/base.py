@@ -21,6 +21,7 @@ from wbc.validation.inputs import finite_vector
 from wbc.validation.schema import found, is_number, number, show, vector
 
 from ..errors import TargetError, TaskDefinitionError
+from ..options import Options
 from ..problem.rows import Layout, Rows, RowSlot
 from .group import TaskGroup
 
@@ -70,6 +71,9 @@ class Task(ABC):
     #: its rows are the unactuated rows of the equation of motion (5.26), met by the forces
     #: in a solver that finds them after q̈ (``RowBlock.equation_of_motion``)
     equation_of_motion: bool = False
+    #: the record of the constructor's ``options`` (:class:`wbc.options.Options`; its fields
+    #: also given one by one as keywords, and in a YAML mapping); None: no ``options``
+    options_record: type[Options] | None = None
 
     def __init__(self, name: str, weight: float = 1.0) -> None:
         if not isinstance(name, str) or not name:

@@ -19,6 +19,8 @@ nearest pairs first; the unused rows are 0 ≤ 0 · x ≤ 1, always satisfied. U
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -26,11 +28,28 @@ import numpy as np
 from wbc.validation.schema import boolean, number, sequence, text
 
 from ..errors import TaskDefinitionError
+from ..options import Options
 from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task
 
 #: the bound of an unused row's 0 · x (any positive number: the row is always satisfied)
 _FREE = 1.0
+
+
+@dataclass(frozen=True)
+class CollisionOptions(Options):
+    """What a :class:`CollisionAvoidance` task monitors (each checked by the task)."""
+
+    max_rows: int = 16
+    """rows kept each cycle (the nearest pairs)"""
+    self_collision: bool = True
+    """the robot's self pairs are monitored"""
+    obstacles: Sequence[Any] = ()
+    """fixed obstacles (:class:`~wbc.collision.shapes.Obstacle` or their YAML mappings)"""
+    links: list[str] | None = None
+    """robot links checked against the obstacles (None: all)"""
+    environment: bool = False
+    """the scenario's ``environment:`` shapes are obstacles too"""
 
 
 class CollisionAvoidance(Task):
@@ -40,6 +59,11 @@ class CollisionAvoidance(Task):
         influence: d_i (m): pairs closer than this get a row.
         safety: d_s (m) < d_i: the distance never to go below.
         max_speed: v̄ (m/s), the fastest approach the damper stops in time; ω = v̄/(d_i − d_s).
+        name: the task's name in the stack (unique).
+        weight: its weight within its level (unitless, > 0).
+        options: what is monitored, below, in one :class:`CollisionOptions` (None: its defaults).
+        **settings: its fields one by one, over ``options`` (another name is a TypeError):
+
         max_rows: rows kept each cycle (the nearest pairs).
         self_collision: whether the robot's self pairs are monitored.
         obstacles: fixed obstacles (:class:`~wbc.collision.shapes.Obstacle` or their YAML mappings,
@@ -48,17 +72,20 @@ class CollisionAvoidance(Task):
         environment: whether the scenario's ``environment:`` shapes (ground, planes, boxes, spheres,
             cylinders) are obstacles too (against ``links``; the scenario loader hands them over,
             :meth:`use_environment`).
-        name: the task's name in the stack (unique).
-        weight: its weight within its level (unitless, > 0).
     """
 
     kind = "collision_avoidance"
 
-    def __init__(self, influence: float = 0.05, safety: float = 0.01, max_speed: float = 0.5, max_rows: int = 16,
-                 self_collision: bool = True, obstacles=(), links: list[str] | None = None,
-                 environment: bool = False, name: str = "collision_avoidance", weight: float = 1.0) -> None:
+    options_record = CollisionOptions
+
+    def __init__(self, influence: float = 0.05, safety: float = 0.01, max_speed: float = 0.5,
+                 name: str = "collision_avoidance", weight: float = 1.0, options: CollisionOptions | None = None,
+                 **settings) -> None:
         super().__init__(name, weight)
         owner = f"task '{self.name}'"
+        o = CollisionOptions.of(options, settings, owner)
+        max_rows, self_collision, obstacles, links, environment = (o.max_rows, o.self_collision, o.obstacles,
+                                                                   o.links, o.environment)
         self.influence = number(influence, "influence", gt=0, le=1, unit="m", error=TaskDefinitionError, owner=owner)
         self.safety = number(safety, "safety", ge=0, le=1, unit="m", error=TaskDefinitionError, owner=owner)
         if self.safety >= self.influence:

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
@@ -9,6 +12,7 @@ from wbc.robot.model import LOCAL, WORLD_ALIGNED, ContactSurface
 from wbc.validation.schema import boolean, number, text
 
 from ..errors import TaskDefinitionError
+from ..options import Options
 from ..problem.rows import ContactData, Layout, Rows, RowSlot
 from .base import MotionTask, eq_rows, motion_rows
 
@@ -77,6 +81,22 @@ def friction_pyramid(mu: float) -> np.ndarray:
 COP_MARGIN = 0.2
 
 
+@dataclass(frozen=True)
+class ContactOptions(Options):
+    """A contact's force model (:class:`Contact`'s ``Args``; each checked by Contact)."""
+
+    mu: float | None = None
+    """Coulomb friction coefficient μ of the pyramid (unitless, > 0); None: the robot's surface's"""
+    fmin: float = 0.0
+    """lower bound of the normal force f_z, N (≥ 0)"""
+    bilateral: bool = False
+    """True drops the force inequalities (a gripped handle, a welded foot)"""
+    cop_margin: float = COP_MARGIN
+    """fraction of the sole's half sizes kept between the CoP and its edges (unitless, in [0, 1))"""
+    sliding: bool = False
+    """the contact may slide along its surface"""
+
+
 class Contact(MotionTask):
     """A rigid contact of the robot surface ``contact`` (a name under ``contacts:`` in
     the robot YAML) with the environment.
@@ -119,6 +139,9 @@ class Contact(MotionTask):
         kd: its derivative gain K_d (1/s, ≥ 0), as ``kp``; None (default): critical damping 2√kp.
         weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
         name: the task's name, unique in a stack; None: ``"<contact>_contact"``.
+        options: the force model below in one :class:`ContactOptions` (None: its defaults).
+        **settings: its fields one by one, over ``options`` (another name is a TypeError):
+
         mu: Coulomb friction coefficient μ of the pyramid (unitless, > 0); None: the robot's
             (the surface's ``mu``).
         fmin: lower bound of the normal force f_z (N, ≥ 0); default 0 (unilateral).
@@ -131,15 +154,18 @@ class Contact(MotionTask):
 
     kind = "contact"
 
+    options_record = ContactOptions
+
     def __init__(self, contact: str, kp: float = 10.0, kd=None, weight: float = 1.0,
-                 name: str | None = None, mu: float | None = None, fmin: float = 0.0,
-                 bilateral: bool = False, cop_margin: float = COP_MARGIN, sliding: bool = False) -> None:
+                 name: str | None = None, options: ContactOptions | None = None, **settings) -> None:
         text(contact, "contact", what="a contact name (under contacts: in the robot YAML)",
              error=TaskDefinitionError, owner="task 'contact'")
         super().__init__(name or f"{contact}_contact", kp, kd, weight)
         self._za: tuple | None = None      # zero axes of :meth:`_zero_axes`
         self.contact = contact
         owner = f"task '{self.name}'"
+        o = ContactOptions.of(options, settings, owner)
+        mu, fmin, bilateral, cop_margin, sliding = o.mu, o.fmin, o.bilateral, o.cop_margin, o.sliding
         if mu is not None:
             mu = number(mu, "mu", gt=0, unit="unitless", error=TaskDefinitionError, owner=owner)
         fmin = number(fmin, "fmin", ge=0, unit="N", error=TaskDefinitionError, owner=owner)
@@ -159,12 +185,19 @@ class Contact(MotionTask):
         self.fmax = np.inf
         self._surface: ContactSurface | None = None
         self._fid = None
-        self._ineq = None
-        self._gen = None
+        self._ineq: tuple | None = None       # (key, C) of the friction rows
+        self._gen: tuple | None = None        # (key, f0, V) of the generators
 
     def bind(self, robot) -> None:
         self.surface(robot)
         self.check_gain_sizes(self.force_dim)
+
+    def _bound(self) -> ContactSurface:
+        """The contact surface (the task bound to a robot, :meth:`bind`)."""
+        s = self._surface
+        if s is None:
+            raise TaskDefinitionError(f"task '{self.name}' is not bound to a robot (Controller binds it)")
+        return s
 
     def surface(self, robot) -> ContactSurface:
         if self._surface is None:
@@ -239,7 +272,7 @@ class Contact(MotionTask):
     def cop_rectangle(self) -> tuple[float, float]:
         """(X, Y) (m): the half sizes of the rectangle the CoP is kept in, the sole's shrunk by
         ``cop_margin``."""
-        s = self._surface
+        s = self._bound()
         k = 1.0 - self.cop_margin
         return k * s.half_length, k * s.half_width
 
@@ -247,7 +280,7 @@ class Contact(MotionTask):
         sl = layout.contact_slices[self.name]
         key = (layout.nx, sl.start, self.cop_margin)
         if self._ineq is None or self._ineq[0] != key:
-            s = self._surface
+            s = self._bound()
             mu = s.mu if self.mu is None else self.mu
             U = wrench_cone(mu, *self.cop_rectangle()) if s.kind == "surface" else friction_pyramid(mu)[:4]
             unilateral = np.zeros((2, s.force_dim))
@@ -270,7 +303,7 @@ class Contact(MotionTask):
         """(f0, V): every admissible force is f0 + V λ with λ ≥ 0 (f0 carries ``fmin``);
         a bilateral contact gets V = [I, −I]. Both live in the contact frame: built once,
         rebuilt only when ``mu``, ``fmin`` or ``bilateral`` change."""
-        s = self._surface
+        s = self._bound()
         mu = s.mu if self.mu is None else self.mu
         key = (mu, self.fmin, self.bilateral, s.kind, s.half_length, s.half_width, self.cop_margin)
         if self._gen is not None and self._gen[0] == key:
@@ -295,7 +328,7 @@ class Contact(MotionTask):
         return float(f[2])
 
     def params(self) -> dict:
-        p = {"contact": self.contact}
+        p: dict[str, Any] = {"contact": self.contact}
         p.update(super().params())
         if p["name"] == f"{self.contact}_contact":
             del p["name"]

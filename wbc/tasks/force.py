@@ -55,6 +55,7 @@ S_fᵀ S_v = 0 (5.33) between them.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -62,6 +63,7 @@ import numpy as np
 from wbc.validation.schema import found, is_number, number, show, text, vector
 
 from ..errors import StackError, TargetError, TaskDefinitionError
+from ..options import Options
 from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task, eq_rows
 
@@ -82,6 +84,28 @@ def selection_basis(directions: np.ndarray, owner: str = "task 'force'") -> tupl
     S = Q * np.sign(np.diag(R))
     U = np.linalg.svd(S, full_matrices=True)[0]
     return S, U[:, m:]
+
+
+@dataclass(frozen=True)
+class ForceFeedback(Options):
+    """The measured-force feedback of a :class:`Force` task (each checked by the task)."""
+
+    kp: float = 0.0
+    """K_P of the PI feedback (unitless, in [0, 1): < 1 for a rigid contact); 0: feed-forward only"""
+    ki: float = 0.0
+    """K_I, 1/s (in [0, 1e4])"""
+    integral_limit: float = 50.0
+    """anti-windup bound on |K_I ∫e|, N (≥ 0, may be inf)"""
+    max_force: float = 1000.0
+    """bound on the command |λ|, N (> 0, may be inf)"""
+    ramp: float = 0.0
+    """duration of the quintic rise of λ_D from 0 after the first feed, s (in [0, 3600])"""
+    source: str = "simulator"
+    """the measurement: ``"simulator"`` (its contact force) or ``"observer"`` (the momentum observer's)"""
+    observer_gain: float = 100.0
+    """K_O of the momentum observer, 1/s (in (0, 1e4])"""
+    tangential: str = "free"
+    """the force outside S_f: ``"free"`` (no rows) or ``"measured"`` (rows S_cᵀ f = S_cᵀ f_m)"""
 
 
 class Force(Task):
@@ -105,6 +129,12 @@ class Force(Task):
         directions: S_f, one direction (3 numbers for a point contact, 6 for a surface) or a
             list of m linearly independent ones, in the contact's force axes (unitless); None:
             the contact normal.
+        motion: the name of the hybrid partner, a Frame task on the contact's frame; None: none.
+        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
+        name: the task's name, unique in a stack; None: ``"<contact>_force"``.
+        options: the feedback below in one :class:`ForceFeedback` (None: its defaults).
+        **settings: its fields one by one, over ``options`` (another name is a TypeError):
+
         kp: K_P of the PI feedback (unitless, in [0, 1): < 1 for a rigid contact); default 0
             (feed-forward only).
         ki: K_I (1/s, in [0, 1e4]); default 0.
@@ -117,24 +147,24 @@ class Force(Task):
         observer_gain: K_O of the momentum observer (1/s, in (0, 1e4]); default 100.
         tangential: the force outside S_f: ``"free"`` (default, no rows) or ``"measured"``
             (rows S_cᵀ f = S_cᵀ f_m, module docstring).
-        motion: the name of the hybrid partner, a Frame task on the contact's frame; None: none.
-        weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
-        name: the task's name, unique in a stack; None: ``"<contact>_force"``.
     """
 
     kind = "force"
     on_forces = True
     layout_only_A = True
 
-    def __init__(self, contact: str, target=10.0, directions=None, kp: float = 0.0, ki: float = 0.0,
-                 integral_limit: float = 50.0, max_force: float = 1000.0, ramp: float = 0.0,
-                 source: str = "simulator", observer_gain: float = 100.0, tangential: str = "free",
-                 motion: str | None = None, weight: float = 1.0, name: str | None = None) -> None:
+    options_record = ForceFeedback
+
+    def __init__(self, contact: str, target=10.0, directions=None, motion: str | None = None, weight: float = 1.0,
+                 name: str | None = None, options: ForceFeedback | None = None, **settings) -> None:
         text(contact, "contact", what="the name of a contact task in the stack (e.g. hand_pad_contact)",
              error=TaskDefinitionError, owner="task 'force'")
         super().__init__(name or f"{contact}_force", weight)
         self.contact = contact
         owner = f"task '{self.name}'"
+        o = ForceFeedback.of(options, settings, owner)
+        kp, ki, integral_limit, max_force, ramp = o.kp, o.ki, o.integral_limit, o.max_force, o.ramp
+        source, observer_gain, tangential = o.source, o.observer_gain, o.tangential
         self._directions = self._check_directions(directions, owner)
         #: (S_f, S_c) per contact force size: the given directions' (one size), else the normal's
         if self._directions is not None:

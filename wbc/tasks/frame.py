@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba as nb
 import numpy as np
 import pinocchio as pin
@@ -87,6 +89,7 @@ class Frame(MotionTask):
         self.frame = frame
         owner = f"task '{self.name}'"
         expected = f"one of {list(_MASKS)} or 6 flags (linear x y z, angular x y z: true/false), at least one set"
+        flags: tuple[int, ...]
         if isinstance(mask, str):
             if mask not in _MASKS:
                 raise TaskDefinitionError(f"must be {expected}, got {show(mask)}{suggest(mask, _MASKS)}", key="mask",
@@ -117,20 +120,20 @@ class Frame(MotionTask):
                 self._target = checked
         self.target_velocity = np.zeros(6)
         self.target_acceleration = np.zeros(6)
-        self._fid = None
+        self._fid: int | None = None
 
     @property
     def target(self) -> pin.SE3 | None:
         return self._target
 
+    @target.setter
+    def target(self, value) -> None:
+        self._target = to_se3(self.name, value, self._target)
+
     @property
     def axes(self) -> np.ndarray:
         """The controlled axes of ``mask``: indices into (linear x, y, z, angular x, y, z), world-aligned."""
         return self._sel.copy()
-
-    @target.setter
-    def target(self, value) -> None:
-        self._target = to_se3(self.name, value, self._target)
 
     def set_reference(self, placement, velocity=None, acceleration=None) -> None:
         """Pose, twist (m/s, rad/s; world-aligned) and acceleration references at once."""
@@ -143,9 +146,10 @@ class Frame(MotionTask):
         self._fid = robot.frame_id(self.frame)
 
     def _frame(self, robot) -> int:
-        if self._fid is None:
-            self._fid = robot.frame_id(self.frame)
-        return self._fid
+        fid = self._fid
+        if fid is None:
+            fid = self._fid = robot.frame_id(self.frame)
+        return fid
 
     def _target_at(self, oMf: pin.SE3) -> pin.SE3:
         if self._target is None:
@@ -191,7 +195,7 @@ class Frame(MotionTask):
         return Rows(A=A, b=b)
 
     def params(self) -> dict:
-        p = {"frame": self.frame}
+        p: dict[str, Any] = {"frame": self.frame}
         p.update(super().params())
         if p["name"] == self.frame:
             del p["name"]

@@ -94,6 +94,8 @@ configuration at the first cycle).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 from scipy.linalg import solve_triangular
@@ -181,7 +183,7 @@ class NullSpaceImpedance(Task):
         self._fids: list[int] = []
         self._com = False
         self._Z0: np.ndarray | None = None
-        self._data = None
+        self._data: Any = None              # pinocchio Data of the bound robot (bind)
         self._kq_vec: np.ndarray | None = None
         #: times Z₀ was taken again because the rank of the higher levels' Jacobian changed
         self.rebases = 0
@@ -291,7 +293,10 @@ class NullSpaceImpedance(Task):
         Li_Z = np.linalg.solve(L, T.Z.T)
         w, V = np.linalg.eigh((Li_Z * self._kq_vec) @ Li_Z.T)
         LV = L @ V
-        return 2.0 * self.zeta * (LV * np.sqrt(np.clip(w, 0.0, None))) @ LV.T
+        zeta = self.zeta
+        if zeta is None:
+            raise TaskDefinitionError(f"task '{self.name}': damping(T) needs zeta (B_nu is given)")
+        return 2.0 * zeta * (LV * np.sqrt(np.clip(w, 0.0, None))) @ LV.T
 
     def error(self, robot) -> np.ndarray | None:
         if self.last is None or self.target is None:
@@ -306,7 +311,7 @@ class NullSpaceImpedance(Task):
         return (unit,) * (0 if self.last is None else self.last.Zsharp.shape[0])
 
     def params(self) -> dict:
-        p = {"k_q": self.k_q if np.ndim(self.k_q) == 0 else list(self.k_q)}
+        p: dict[str, Any] = {"k_q": self.k_q if np.ndim(self.k_q) == 0 else list(np.atleast_1d(self.k_q))}
         if self.frame is not None:
             p["frame"] = self.frame
         if self.zeta is not None:

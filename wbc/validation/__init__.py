@@ -3,4 +3,4 @@ YAML documents with line numbers (:mod:`~wbc.validation.yamlio`) and the Python-
 checks of tasks and chapter controllers (:mod:`~wbc.validation.inputs`), each raising the
 typed errors of :mod:`wbc.errors`.
 
-May import: :mod:`wbc.errors` only (so the tasks can check values without loading scenarios)."""
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`) only (so the tasks can check values without loading scenarios)."""

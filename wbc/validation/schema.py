@@ -90,13 +90,52 @@ def _bounds_text(gt, ge, lt, le) -> str:
     return ""
 
 
-def number(value: Any, key: str | None = None, *, unit: str = "", gt: float | None = None,
-           ge: float | None = None, lt: float | None = None, le: float | None = None, allow_inf: bool = False,
-           error: type[WbcError] = ConfigError, owner: str | None = None, what: str = "a number") -> float:
+#: the keyword bounds of :func:`number` and :func:`vector`
+BOUNDS = ("gt", "ge", "lt", "le", "allow_inf")
+
+
+_BOUND_SET = frozenset(BOUNDS)
+_UNBOUNDED = (None, None, None, None, False)
+
+
+def _bounds(bounds: dict[str, Any]) -> tuple[Any, Any, Any, Any, bool]:
+    """(gt, ge, lt, le, allow_inf) of a ``**bounds`` (absent: None, None, None, None, False)."""
+    if not bounds:
+        return _UNBOUNDED
+    if not _BOUND_SET.issuperset(bounds):
+        raise TypeError(f"unknown bound(s) {sorted(bounds.keys() - _BOUND_SET)}: expected one of {list(BOUNDS)}")
+    get = bounds.get
+    return get("gt"), get("ge"), get("lt"), get("le"), bool(get("allow_inf", False))
+
+
+def number(value: Any, key: str | None = None, *, unit: str = "", error: type[WbcError] = ConfigError,
+           owner: str | None = None, what: str = "a number", **bounds: Any) -> float:
     """``value`` as a float: a finite number (``allow_inf``: or ±inf) within the bounds
     (``gt`` < value, ``ge`` <= value, value < ``lt``, value <= ``le``); ``unit`` for the
-    message (``"s"``, ``"1/s²"``)."""
+    message (``"s"``, ``"1/s²"``).
+
+    Args:
+        value: what to check.
+        key: its key path, for the message.
+        unit: its unit, for the message.
+        error: the error class raised.
+        owner: what it belongs to, for the message.
+        what: what is expected, for the message.
+        **bounds: :data:`BOUNDS` by name: ``gt``, ``ge``, ``lt``, ``le`` (float or None) and
+            ``allow_inf`` (bool, default False); another name is a TypeError.
+    """
+    limits = _bounds(bounds)
+    gt, ge, lt, le, _ = limits
     expected = what + _bounds_text(gt, ge, lt, le) + (f" ({unit})" if unit else "")
+    return _checked(value, key, expected, limits, (error, owner))
+
+
+def _checked(value: Any, key: str | None, expected: str, limits: tuple, raised: tuple) -> float:
+    """:func:`number`'s check, its message's ``expected`` text and (gt, ge, lt, le,
+    allow_inf) worked out by the caller (once for a whole :func:`vector`); ``raised`` =
+    (the error class, the owner)."""
+    gt, ge, lt, le, allow_inf = limits
+    error, owner = raised
 
     def bad(found: str) -> WbcError:
         return error(f"must be {expected}, got {found}", key=key, owner=owner)
@@ -160,12 +199,14 @@ def sequence(value: Any, key: str | None = None, *, min_len: int = 0, max_len: i
 
 
 def vector(value: Any, key: str | None = None, n: int | Sequence[int] | None = None, *, unit: str = "",
-           gt: float | None = None, ge: float | None = None, lt: float | None = None, le: float | None = None,
-           allow_inf: bool = False, max_len: int = 100_000, error: type[WbcError] = ConfigError,
-           owner: str | None = None) -> np.ndarray:
+           max_len: int = 100_000, error: type[WbcError] = ConfigError, owner: str | None = None,
+           **bounds: Any) -> np.ndarray:
     """``value`` as a float vector: a list (or numpy array) of ``n`` numbers (any of the
     lengths if ``n`` is a sequence, any length >= 1 if None), each checked by :func:`number`
-    under ``key[i]``."""
+    under ``key[i]`` (``unit``, ``error``, ``owner`` and the ``bounds`` as :func:`number`'s);
+    at most ``max_len`` of them."""
+    limits = _bounds(bounds)
+    gt, ge, lt, le, _ = limits
     lengths = (n,) if isinstance(n, int) else (tuple(n) if n is not None else None)
     count = " or ".join(str(k) for k in lengths) if lengths else "1 or more"
     what = f"a list of {count} number{'s' if lengths != (1,) else ''}" + _bounds_text(gt, ge, lt, le) + \
@@ -179,9 +220,11 @@ def vector(value: Any, key: str | None = None, n: int | Sequence[int] | None = N
     if (lengths and len(value) not in lengths) or not value or len(value) > max_len:
         raise error(f"must be {what}, got {len(value)}: {show(value)}", key=key, owner=owner)
     out = np.empty(len(value))
+    expected = "a number" + _bounds_text(gt, ge, lt, le) + (f" ({unit})" if unit else "")   # as number()'s
+    raised = (error, owner)
     for i, v in enumerate(value):
         sub = f"{key}[{i}]" if key else f"[{i}]"
-        out[i] = number(v, sub, unit=unit, gt=gt, ge=ge, lt=lt, le=le, allow_inf=allow_inf, error=error, owner=owner)
+        out[i] = _checked(v, sub, expected, limits, raised)
     return out
 
 

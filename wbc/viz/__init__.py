@@ -3,7 +3,7 @@
 :class:`Scene`): robot, targets, CoM and support polygon, contact forces, pushes, priority
 diagnostics, force tasks' desired and measured forces, a glass's frame. docs/viewer.md.
 
-May import: :mod:`wbc.errors`, :mod:`wbc.sim`, :mod:`wbc.robot`, :mod:`wbc.tasks`. Not the runner.
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.sim`, :mod:`wbc.robot`, :mod:`wbc.tasks`. Not the runner.
 """
 
 from .diagnostics import text_table

@@ -49,6 +49,7 @@ from .collisions import draw_witnesses
 from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
 from .meshes import cluster, geometry_mesh, visual_model
+from .scene_options import SceneOptions
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
 #: a hidden node's scale in a recording (with a ``visible`` track set to false; not 0: singular matrices)
@@ -58,7 +59,6 @@ COLORS = {"target": 0x2E86DE, "com": 0xE74C3C, "support": 0x27AE60, "force": 0xF
 PUSH_MIN_LENGTH = 0.05       # m: the shortest push arrow drawn
 TASK_FORCE_RADII = {"desired": 0.012, "measured": 0.005}   # m: the sleeve and its core
 FRAME_AXES = 0.12            # m: the axes of a frame drawn where it is (frames=...)
-MESH_CELL = 0.005            # m: the robot meshes' clustering grid (wbc.viz.meshes.cluster)
 
 
 #: a node under the camera object: it moves with the view (a head-up display)
@@ -114,18 +114,24 @@ def _three_decomposition(T: np.ndarray, scale) -> tuple[np.ndarray, list[float]]
 
 
 class Scene:
-    """See the module docstring. ``force_scale``: N per mm of contact-force arrow (default
-    1 mm per 2 N); ``push_scale``: N per mm of push arrow (default 2 mm per N);
-    ``task_force_scale``: N per mm of a force task's arrows (default 1 cm per N);
-    ``fps``: frame rate of a recording's animation (match :func:`viewer_callback`'s);
-    ``live``: also draw on the server's page while recording (default: only without
-    ``record``); ``host``: the address the page listens on (``zmq_url``: draw through a
-    server already running there instead)."""
+    """See the module docstring.
 
-    def __init__(self, robot, environment=(), open_browser: bool = False, record: bool = False,
-                 force_scale: float = 2.0, zmq_url: str | None = None, fps: float = 30.0,
-                 live: bool | None = None, host: str = server.DEFAULT_HOST, push_scale: float = 0.5,
-                 task_force_scale: float = 0.1, mesh_cell: float = MESH_CELL) -> None:
+    Args:
+        robot: the robot drawn.
+        environment: shapes of :mod:`wbc.sim.environment` drawn.
+        open_browser: open the page in a browser.
+        zmq_url: draw through a Meshcat server already running there; None: start one.
+        host: the address the started server's page listens on.
+        options: :class:`SceneOptions` (None: its defaults).
+        **settings: its fields one by one (``record``, ``live``, ``fps``, ``force_scale``,
+            ``push_scale``, ``task_force_scale``, ``mesh_cell``), over ``options``.
+    """
+
+    def __init__(self, robot, environment=(), open_browser: bool = False, zmq_url: str | None = None,
+                 host: str = server.DEFAULT_HOST, options: SceneOptions | None = None, **settings) -> None:
+        o = self.options = SceneOptions.of(options, settings, "Scene")
+        record, live, fps, mesh_cell = o.record, o.live, o.fps, o.mesh_cell
+        force_scale, push_scale, task_force_scale = o.force_scale, o.push_scale, o.task_force_scale
         self.robot = robot
         self.server = None          # the server process this scene started (stopped by close)
         if not zmq_url:

@@ -32,8 +32,7 @@ from .records import (
 
 
 @nb.njit(cache=True)
-def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0, hints, rank_tol, threshold,
-                   max_damping, gram_min_ratio, tol, certify, regularization, margin):
+def cascade_prefix(eq, ineq, start, hints, settings):
     """The strict cascade's levels, one after the other, for as long as none needs a
     back-end QP: the hierarchical QP's common case in one call (``tests/helpers/reference_hqp.py``
     is the same mathematics, step for step, in Python).
@@ -58,7 +57,17 @@ def cascade_prefix(A, b, e_end, C, lo, hi, i_end, x0, Z0, identity0, k0, calls0,
     Returns (stop level, x, Z (empty while the identity), whether Z is the identity,
     ints, floats, the stop level's step as :func:`level_step` packs it and its next basis
     (both empty if it took none)); (ints, floats) in the format of :mod:`.records`, read
-    with :func:`.records.decode`."""
+    with :func:`.records.decode`.
+
+    The arguments, grouped (plain tuples: numba types them fast):
+    ``eq`` = (A, b, e_end), the equality rows; ``ineq`` = (C, lo, hi, i_end), the inequality
+    rows; ``start`` = (x0, Z0, identity0, k0, calls0), where the run starts; ``hints``;
+    ``settings`` = (rank_tol, threshold, max_damping, gram_min_ratio, tol, certify,
+    regularization, margin)."""
+    A, b, e_end = eq
+    C, lo, hi, i_end = ineq
+    x0, Z0, identity0, k0, calls0 = start
+    rank_tol, threshold, max_damping, gram_min_ratio, tol, certify, regularization, margin = settings
     L = e_end.shape[0]
     n = x0.shape[0]
     x = x0.copy()

@@ -49,8 +49,7 @@ def sns_box(idx, lo, hi, margin, nv):
 
 
 @nb.njit(cache=True)
-def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints, rank_tol, threshold,
-                      max_damping, gram_min_ratio, box_tol, saturation_rank_tol, g_C, g_lo, g_hi):
+def projection_prefix(motion, x0, box, weighting, hints, settings, general):
     """The projection solver's levels in q̈, one after the other, each with Saturation in
     the Null Space where a joint limit is in the way (the steps of
     :class:`~wbc.solvers.projection.RecursiveProjection`; ``tests/helpers/reference_projection.py``
@@ -68,7 +67,17 @@ def projection_prefix(A, b, rows, nv, x0, b_idx, b_lo, b_hi, T, weighted, hints,
     is never scaled). Then, below level 0, the step kept is scaled by the largest s ∈ [0, 1]
     that keeps the general rows g_lo ≤ g_C q̈ ≤ g_hi (:func:`.qp_rows.rows_scale`: level 0's
     torque limits when q̈ alone gives τ; no rows: nothing done). Returns as
-    :func:`cascade_prefix` (the stop level, if any, with no step taken there)."""
+    :func:`cascade_prefix` (the stop level, if any, with no step taken there).
+
+    The arguments, grouped (plain tuples: numba types them fast): ``motion`` = (A, b, rows,
+    nv), the levels' motion rows; ``x0``; ``box`` = (b_idx, b_lo, b_hi); ``weighting`` =
+    (T, weighted); ``hints``; ``settings`` = (rank_tol, threshold, max_damping (per level),
+    gram_min_ratio, box_tol, saturation_rank_tol); ``general`` = (g_C, g_lo, g_hi)."""
+    A, b, rows, nv = motion
+    b_idx, b_lo, b_hi = box
+    T, weighted = weighting
+    rank_tol, threshold, max_damping, gram_min_ratio, box_tol, saturation_rank_tol = settings
+    g_C, g_lo, g_hi = general
     L = rows.shape[0]
     nb = b_idx.shape[0]
     x = x0.copy()
