@@ -91,9 +91,9 @@ def served(tmp_path_factory):
     proc, port = launch_devtools(CHROMIUM, url, root)
     try:
         t_end = time.monotonic() + 60
-        while not view.server.get_clients() and time.monotonic() < t_end:
+        while not view.clients() and time.monotonic() < t_end:
             time.sleep(0.1)
-        assert view.server.get_clients(), "the page never connected to the view's server"
+        assert view.clients(), "the page never connected to the view's server"
         yield view, sc.stack, port, root
     finally:
         _kill(proc)
@@ -145,14 +145,12 @@ def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
     from wbc.viz.controls import GIZMO_SCALE
 
     view, stack, port, root = served
-    gizmos = view.controls.gizmos
     start_target = stack["right_hand"].target.translation.copy()
     start_hand = _hand(view, view.latest())
 
     async def drag():
         dt = await DevTools.attach(port)
-        for name, g in gizmos.items():          # the left hand's, between the camera and the right hand's
-            g.visible = name == "right_hand"
+        view.send("gizmos", ["right_hand"])    # not the left hand's, between the camera and the right hand's
         await asyncio.sleep(3.0)                            # meshes and gizmos drawn
         w, h = await dt.evaluate("[window.innerWidth, window.innerHeight]")
         # the gizmo sits at the view's centre (the camera looks at the target from 1 m); its x
@@ -168,17 +166,16 @@ def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
                   clickCount=1 if kind in ("mousePressed", "mouseReleased") else 0)
             await asyncio.sleep(0.1)
         t_end = time.monotonic() + 60
-        while "right_hand" not in view.controls.dragged and time.monotonic() < t_end:
+        while ("target", "right_hand") not in view.from_page and time.monotonic() < t_end:
             await asyncio.sleep(0.2)
         await asyncio.sleep(2.0)                            # the rest of the drag
         await dt.screenshot(root / "dragged.png")
-        for g in gizmos.values():
-            g.visible = True
+        view.send("gizmos", None)
         dt.conn.close()
         return None, (x0, y0)
 
     _, grabbed = _run(drag())
-    assert "right_hand" in view.controls.dragged, f"the drag at {grabbed} reached no gizmo"
+    assert ("target", "right_hand") in view.from_page, f"the drag at {grabbed} reached no gizmo"
     view.mailbox.post("step", 2)         # the posted target applies at the start of the next cycle
     assert _wait(lambda: not np.allclose(stack["right_hand"].target.translation, start_target), 30)
     moved = stack["right_hand"].target.translation - start_target
@@ -236,7 +233,7 @@ def test_pause_stops_simulated_time(served):
         dt.conn.close()
         return ok
 
-    if view.controls.paused is False and view.latest().paused:      # paused by the fixture, not the page
+    if view.latest().paused:        # paused by the fixture
         view.mailbox.post("pause", False)
     assert _wait(lambda: not view.latest().paused, 30)
     t_run = view.latest().t
