@@ -10,7 +10,13 @@ see a still robot) and one Chromium on its page, for every test of this module:
 - the CoM task's kp slider, moved with the keyboard (End: its top), sets the task's gain to
   the top of its range (:func:`wbc.tasks.tuning.gain_range`);
 - the Pause button stops simulated time (the snapshots' ``t`` stays put for a second of wall
-  time) and the same button resumes it.
+  time) and the same button resumes it;
+- a second tab opened after the robot moved shows the robot where it is now (its 3D view matches
+  the first tab's, not the first tab's from before the move);
+- two tabs moving the same kp slider at once (one to its top, one to zero): both commands reach
+  the loop and the gain is the last one's, inside the slider's range; closing one tab mid-run
+  leaves the run going and the drawing on;
+- (its own run) a browser killed mid-run: the run finishes its duration, its metrics complete.
 
 Skipped with a reason when Chromium (Debian package ``chromium``) or viser is absent.
 """
@@ -94,7 +100,7 @@ def served(tmp_path_factory):
         while not view.clients() and time.monotonic() < t_end:
             time.sleep(0.1)
         assert view.clients(), "the page never connected to the view's server"
-        yield view, sc.stack, port, root
+        yield view, sc.stack, port, root, url
     finally:
         _kill(proc)
         view.mailbox.post("stop", True)
@@ -144,7 +150,7 @@ def _hand(view, snap) -> np.ndarray:
 def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
     from wbc.viz.controls import GIZMO_SCALE
 
-    view, stack, port, root = served
+    view, stack, port, root, _ = served
     start_target = stack["right_hand"].target.translation.copy()
     start_hand = _hand(view, view.latest())
 
@@ -195,7 +201,7 @@ def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
 def test_the_kp_slider_sets_the_task_gain_within_its_range(served):
     from wbc.tasks.tuning import gain_range
 
-    view, stack, port, root = served
+    view, stack, port, root, _ = served
     com = stack["com"]
     top = gain_range(com, float(com.kp))[1]
     assert com.kp != top
@@ -225,7 +231,7 @@ def test_the_kp_slider_sets_the_task_gain_within_its_range(served):
 
 
 def test_pause_stops_simulated_time(served):
-    view, stack, port, root = served
+    view, stack, port, root, _ = served
 
     async def toggle(label: str):
         dt = await DevTools.attach(port)
@@ -246,3 +252,189 @@ def test_pause_stops_simulated_time(served):
     assert t2 == t1, f"simulated time moved from {t1} to {t2} while paused"
     assert _run(toggle("Resume")), "the button does not say Resume"
     assert _wait(lambda: view.latest().t > t2 + 0.05, 60), "the run did not resume"
+
+
+# ------------------------------------------------------------------ more than one tab
+def _tabs(port: int) -> list[dict]:
+    import http.client
+    import json
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("GET", "/json/list")
+    pages = [t for t in json.loads(c.getresponse().read()) if t["type"] == "page"]
+    c.close()
+    return pages
+
+
+def _new_tab(port: int, url: str) -> dict:
+    """A new tab on ``url`` (DevTools' HTTP endpoint): its target (id, webSocketDebuggerUrl)."""
+    import http.client
+    import json
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("PUT", "/json/new?" + url)
+    tab = json.loads(c.getresponse().read())
+    c.close()
+    return tab
+
+
+def _close_tab(port: int, tab: dict) -> None:
+    import http.client
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("GET", f"/json/close/{tab['id']}")
+    c.getresponse().read()
+    c.close()
+
+
+async def _attach(tab: dict) -> DevTools:
+    from tornado.websocket import websocket_connect
+
+    return DevTools(await websocket_connect(tab["webSocketDebuggerUrl"], max_message_size=256 << 20))
+
+
+def _scene_share(a: np.ndarray, b: np.ndarray) -> float:
+    """The share of the 3D view's pixels (the left half: the control panel is on the right, its
+    folders open or closed per tab) that differ."""
+    w = a.shape[1] // 2
+    return float(np.mean(np.linalg.norm(a[:, :w] - b[:, :w], axis=2) > 30.0))
+
+
+def _pause(view) -> None:
+    view.mailbox.post("pause", True)
+    assert _wait(lambda: view.latest().paused, 30)
+
+
+def test_a_second_tab_gets_the_current_scene(served):
+    view, stack, port, root, url = served
+    _pause(view)
+    first = next(t for t in _tabs(port) if t["url"].startswith(view.url))
+    target = stack["right_hand"].target.translation + np.array([0.0, 0.0, 0.15])
+
+    async def shots():
+        dt = await _attach(first)
+        await asyncio.sleep(2.0)
+        before = await dt.screenshot(root / "tab1_before.png")
+        t0 = view.latest().t
+        view.mailbox.post(("target", "right_hand"), target)       # the hand 15 cm up, 0.5 s of motion
+        view.mailbox.post("step", 500)
+        t_end = time.monotonic() + 120
+        while view.latest().t < t0 + 0.49 and time.monotonic() < t_end:
+            await asyncio.sleep(0.2)
+        await asyncio.sleep(3.0)                            # drawn
+        after = await dt.screenshot(root / "tab1_after.png")
+        dt.conn.close()
+        tab = _new_tab(port, url)
+        try:
+            dt2 = await _attach(tab)
+            t_end = time.monotonic() + 60
+            while view.clients() < 2 and time.monotonic() < t_end:
+                await asyncio.sleep(0.2)
+            clients = view.clients()
+            await asyncio.sleep(5.0)                        # meshes received and drawn
+            second = await dt2.screenshot(root / "tab2.png")
+            dt2.conn.close()
+        finally:
+            _close_tab(port, tab)
+        return before, after, second, clients
+
+    before, after, second, clients = _run(shots())
+    moved, same = _scene_share(before, after), _scene_share(after, second)
+    print(f"the first tab's 3D view changed by {moved:.1%} as the hand moved; the second tab's differs from "
+          f"it by {same:.1%}; screenshots in {root}")
+    assert clients == 2
+    assert moved > 0.005, "the hand's motion did not show in the first tab"
+    assert same < 0.25 * moved
+
+
+async def _focus_kp(dt: DevTools) -> bool:
+    """Focus the com task's kp slider (opening its folder if closed)."""
+    expr = f"""(function () {{ {FIND}
+        var e = wbcFind('com');
+        while (e && !e.querySelector('[role=slider]')) {{ e = e.parentElement; }}
+        if (!e) {{ return false; }}
+        var s = e.querySelector('[role=slider]'); s.focus(); return document.activeElement === s; }})()"""
+    if await dt.evaluate(expr):
+        return True
+    await _click(dt, "com")
+    await asyncio.sleep(1.0)
+    return bool(await dt.evaluate(expr))
+
+
+def test_two_tabs_sending_at_once_the_last_command_wins(served):
+    view, stack, port, root, url = served
+    com = stack["com"]
+    top = next(t["kp_range"][1] for t in view.spec["tasks"] if t["name"] == "com")     # the page's slider top
+    first = next(t for t in _tabs(port) if t["url"].startswith(view.url))
+    tab = _new_tab(port, url)
+    seen = len(view.page_log)
+
+    async def both():
+        dt1, dt2 = await _attach(first), await _attach(tab)
+        t_end = time.monotonic() + 60
+        while view.clients() < 2 and time.monotonic() < t_end:
+            await asyncio.sleep(0.2)
+        await asyncio.sleep(3.0)
+        assert await _focus_kp(dt1) and await _focus_kp(dt2), "no com kp slider to focus"
+        for dt, key, code in ((dt1, "End", 35), (dt2, "Home", 36)):      # at once: no answer awaited
+            for kind in ("keyDown", "keyUp"):
+                _send(dt, "Input.dispatchKeyEvent", type=kind, key=key, code=key, windowsVirtualKeyCode=code)
+        await asyncio.sleep(3.0)
+        dt1.conn.close()
+        dt2.conn.close()
+
+    try:
+        _run(both())
+        view.mailbox.post("step", 1)
+        sent = [v for k, v in list(view.page_log)[seen:] if k == ("kp", "com")]
+        assert _wait(lambda: float(com.kp) == float(np.clip(sent[-1], 0.0, top)) if sent else False, 30)
+        sent = [v for k, v in list(view.page_log)[seen:] if k == ("kp", "com")]
+        print(f"kp commands from the two tabs, in arrival order: {sent}; the gain: {com.kp}")
+        assert {0.0, top} <= set(sent), f"both tabs' commands did not arrive: {sent}"
+        assert float(com.kp) == float(np.clip(sent[-1], 0.0, top))
+        # one tab closes while the run goes on: the run and the drawing go on
+        view.mailbox.post("pause", False)
+        assert _wait(lambda: not view.latest().paused, 30)
+    finally:
+        _close_tab(port, tab)
+    assert _wait(lambda: view.clients() == 1, 30)
+    t0, frames = view.latest().t, view.stats()["frames_drawn"]
+    assert _wait(lambda: view.latest().t > t0 + 0.1 and view.stats()["frames_drawn"] > frames + 3, 60)
+
+
+def test_a_browser_killed_mid_run_leaves_the_run_and_its_metrics(tmp_path):
+    if CHROMIUM is None:
+        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    pytest.importorskip("viser", reason="the live view needs viser")
+    from wbc.cli.live import run_with_view
+    from wbc.runner.options import RunOptions
+    from wbc.scenario.loader import load_config
+
+    sc = load_config(ROOT / "wbc" / "data" / "scenarios" / "talos_reach.yaml")
+    views: list = []
+    result: dict = {}
+
+    def serve():
+        try:
+            result["metrics"] = run_with_view(sc, RunOptions(duration=1.0), port=8230, wait=True, on_ready=views.append)
+        except BaseException as exc:
+            result["error"] = exc
+
+    runner = threading.Thread(target=serve, daemon=True)
+    runner.start()
+    assert _wait(lambda: bool(views) or "error" in result, 120), "the live view did not start"
+    view = views[0]
+    proc, _ = launch_devtools(CHROMIUM, view.url, tmp_path)
+    try:
+        assert _wait(lambda: view.latest() is not None and view.latest().t > 0.2, 120), "the run did not start"
+    finally:
+        _kill(proc)                             # mid-run, without closing its websocket
+    runner.join(timeout=300)
+    assert not runner.is_alive() and "error" not in result, result.get("error")
+    m = result["metrics"]
+    print(f"killed at t = 0.2 s: the run ran {m['duration']} s, {m['live_view']['frames_drawn']} frames drawn")
+    assert m["duration"] == pytest.approx(1.0, abs=sc.dt / 2)
+    assert m["solver_failures"] == 0 and not m["fell"]
+    assert {"com", "right_hand"} <= set(m["tasks"])
+    assert all(np.isfinite(e["rms"]) for e in m["tasks"].values() if "rms" in e)
+    assert m["live_view"]["frames_drawn"] > 0

@@ -6,8 +6,8 @@ imports nothing of the caller's main module), sends it a plain description of th
 (:func:`view_spec`) on a socket pair, and keeps, in the control process, only:
 
 - :meth:`LiveView.publish`, which the control loop calls every ``1/fps`` s of simulated time:
-  the snapshot's arrays, the run's overlays and, ``DIAG_HZ`` times per wall second, its
-  solution's diagnostics rows are pickled and copied into one shared-memory slot under a
+  the snapshot's arrays, the run's overlays and, at most ``DIAG_HZ`` times per wall and per
+  simulated second, its solution's diagnostics rows are pickled and copied into one shared-memory slot under a
   sequence lock (:mod:`wbc.viz.shared_state`: no lock to wait on, no thread; about 0.1 ms per
   drawn frame, 0.3 ms more with the diagnostics rows); the drawing process takes the latest;
 - :meth:`LiveView.drain`, the feed of the mailbox the loop takes its commands from once per
@@ -32,6 +32,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections import deque
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,7 @@ from . import shared_state as ss
 from .diagnostics import diagnostics_rows
 
 START_TIMEOUT = 300.0       # s: the drawing process loads the meshes (slow on a loaded machine)
+PAGE_LOG = 256              # commands from the page kept in LiveView.page_log (tests, logs)
 DIAG_HZ = 5.0               # snapshots per wall second that carry the diagnostics rows
 
 
@@ -71,7 +73,7 @@ def task_specs(stack) -> list[dict]:
 
 def view_spec(robot, environment=(), stack=None, host: str = "127.0.0.1", port: int = 8080, fps: float = 30.0,
               speed: float = 1.0, frames=(), shown_frames=(), overlays: dict | None = None,
-              force_scale: float = 2.0, push_scale: float = 0.5) -> dict:
+              force_scale: float = 2.0, push_scale: float = 0.5, camera=None) -> dict:
     """What the drawing process needs, picklable (see :class:`LiveView` for the arguments)."""
     return {"model": robot.model, "environment": list(environment), "host": host, "port": int(port), "fps": float(fps),
             "visual": {"urdf_path": str(robot.urdf_path), "root": robot.root, "package_dirs": list(robot.package_dirs),
@@ -79,14 +81,16 @@ def view_spec(robot, environment=(), stack=None, host: str = "127.0.0.1", port: 
             "tasks": [] if stack is None else task_specs(stack), "levels": 0 if stack is None else len(stack.levels),
             "contacts": [] if stack is None else [c.name for c in stack.contacts()], "speed": float(speed),
             "push_frames": tuple(frames), "shown_frames": tuple(shown_frames), "overlays": dict(overlays or {}),
-            "force_scale": force_scale, "push_scale": push_scale}
+            "force_scale": force_scale, "push_scale": push_scale,
+            "camera": ((2.2, -2.2, 1.6), (0.0, 0.0, 0.8)) if camera is None else tuple(map(tuple, camera))}
 
 
 def encode(snap, rows: bool = True) -> bytes:
     """A snapshot (:class:`wbc.runner.interactive.Snapshot`) as the drawing process reads it: its
     arrays and flags, and with ``rows`` the solution's diagnostics rows instead of the solution
     (else None: evaluating a solution's diagnostics, its levels' ranks and σ_min, costs about
-    three control cycles, so :meth:`LiveView.publish` asks for them ``DIAG_HZ`` times per second)."""
+    three control cycles, so :meth:`LiveView.publish` asks for them at most ``DIAG_HZ`` times per wall
+    second and per simulated second)."""
     d = {k: getattr(snap, k) for k in ("t", "q", "points", "forces", "pushes", "targets", "normal", "levels",
                                        "disabled", "paused", "speed", "rtf", "done")}
     d["rows"] = None if not rows else diagnostics_rows(snap.sol) if snap.sol is not None else []
@@ -108,15 +112,19 @@ class LiveView:
         frames: the robot's frames a push may act on.
         shown_frames: frames drawn with their axes (a glass).
         overlays: the run's overlays {name: shown at start} (:mod:`wbc.viz.overlays`).
+        force_scale: N per mm of a contact-force arrow.
+        push_scale: N per mm of a push arrow.
+        camera: the page's initial camera (position, look-at point), m; None: a humanoid's view.
     """
 
     def __init__(self, robot, environment=(), stack=None, host: str = "127.0.0.1", port: int = 8080,
                  fps: float = 30.0, speed: float = 1.0, frames=(), shown_frames=(), overlays: dict | None = None,
-                 force_scale: float = 2.0, push_scale: float = 0.5) -> None:
+                 force_scale: float = 2.0, push_scale: float = 0.5, camera=None) -> None:
         _check_host(host)
         self.robot, self.host, self.fps = robot, host, float(fps)
         spec = view_spec(robot, environment, stack, host, port, fps, speed, frames, shown_frames, overlays,
-                         force_scale, push_scale)
+                         force_scale, push_scale, camera)
+        self.spec = spec
         self.slot = ss.SharedSlot()
         mine, theirs = socket.socketpair()
         self._conn = Connection(mine.detach())
@@ -129,6 +137,7 @@ class LiveView:
         self._send_lock = threading.Lock()
         self._latest = None
         self._publish_ns = self._publish_max_ns = self._rows_ns = 0
+        self._rows_t = -float("inf")
         self.published = 0
         try:
             self._conn.send(spec)
@@ -139,6 +148,7 @@ class LiveView:
             raise
         self.mailbox: Any = None        # the run's mailbox, once made (tests post to it)
         self.from_page: set = set()     # the keys the page has sent
+        self.page_log: deque = deque(maxlen=PAGE_LOG)      # the page's last commands (key, value), in order
         self.page_commands = 0
         self._page_gone = False
 
@@ -170,9 +180,11 @@ class LiveView:
         """Hand ``snap`` to the drawing process (called by the control loop: never waits)."""
         t0 = time.perf_counter_ns()
         self._latest = snap
-        rows = snap.done or snap.paused or t0 - self._rows_ns >= 1e9 / DIAG_HZ
+        # the rows at most DIAG_HZ times per wall second and per simulated second (a slow run's
+        # publishes are fewer per wall second: they would all carry them)
+        rows = snap.done or snap.paused or (t0 - self._rows_ns >= 1e9 / DIAG_HZ and snap.t >= self._rows_t + 1 / DIAG_HZ)
         if rows:
-            self._rows_ns = t0
+            self._rows_ns, self._rows_t = t0, snap.t
         self.slot.write(encode(snap, rows))
         self.published += 1
         dt = time.perf_counter_ns() - t0
@@ -189,6 +201,7 @@ class LiveView:
                 msg = self._conn.recv()
                 if msg[0] == "post":
                     self.from_page.add(msg[1])
+                    self.page_log.append((msg[1], msg[2]))
                     self.page_commands += 1
                     mailbox.post(msg[1], msg[2])
         except (EOFError, OSError):      # the drawing process is gone: the run goes on without a page
