@@ -160,10 +160,10 @@ class Drawer:
         moved = np.flatnonzero(np.max(np.abs(poses - self._sent), axis=1) > POSE_TOLERANCE)
         self._sent[moved] = poses[moved]
         with self.server.atomic():
-            for i in moved:
-                h = self.visuals[i][1]
-                h.position = poses[i, :3]
-                h.wxyz = poses[i, 3:]
+            for j in moved.tolist():
+                h = self.visuals[j][1]
+                h.position = poses[j, :3]
+                h.wxyz = poses[j, 3:]
             show = self.overlays
             self.com.visible = self.com_ground.visible = show["CoM"]
             if show["CoM"]:
