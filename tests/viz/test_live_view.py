@@ -13,8 +13,9 @@ see a still robot) and one Chromium on its page, for every test of this module:
   time) and the same button resumes it;
 - a second tab opened after the run moved on gets the current scene: the robot drawn, the
   status line at the current simulated time;
-- two tabs moving the same kp slider at once (one to its top, one to zero): both commands reach
-  the loop and the gain is the last one's, inside the slider's range; closing one tab mid-run
+- two tabs moving the same kp slider, one right after the other (one to zero, one to its top,
+  neither waiting for the page): both commands reach the loop and the gain is the last one's,
+  inside the slider's range; closing one tab mid-run
   leaves the run going and the drawing on;
 - (its own run) a browser killed mid-run: the run finishes its duration, its metrics complete.
 
@@ -288,6 +289,9 @@ def _close_tab(port: int, tab: dict) -> None:
     c.request("GET", f"/json/close/{tab['id']}")
     c.getresponse().read()
     c.close()
+    t_end = time.monotonic() + 20        # gone from the list (else the next test may pick it)
+    while any(t["id"] == tab["id"] for t in _tabs(port)) and time.monotonic() < t_end:
+        time.sleep(0.2)
 
 
 async def _attach(tab: dict) -> DevTools:
@@ -398,10 +402,13 @@ def test_two_tabs_sending_at_once_the_last_command_wins(served):
         while view.clients() < 2 and time.monotonic() < t_end:
             await asyncio.sleep(0.2)
         await asyncio.sleep(3.0)
-        for dt, key, code in ((dt1, "End", 35), (dt2, "Home", 36)):      # each tab in front, keyed, not awaited
+        # each tab in front, keyed, not awaited: the first to zero (a step down first, in case it is
+        # there already: an unchanged slider sends nothing), the second to the top
+        for dt, keys in ((dt1, (("ArrowLeft", 37), ("Home", 36))), (dt2, (("End", 35),))):
             assert await _focus_kp(dt), "no com kp slider to focus"
-            for kind in ("keyDown", "keyUp"):
-                _send(dt, "Input.dispatchKeyEvent", type=kind, key=key, code=key, windowsVirtualKeyCode=code)
+            for key, code in keys:
+                for kind in ("keyDown", "keyUp"):
+                    _send(dt, "Input.dispatchKeyEvent", type=kind, key=key, code=key, windowsVirtualKeyCode=code)
         await asyncio.sleep(3.0)
         dt1.conn.close()
         dt2.conn.close()
