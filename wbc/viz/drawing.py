@@ -47,6 +47,7 @@ ROBOT_GREY = (125, 132, 145)
 PLOT_HZ = 5.0               # plot refreshes per wall second
 AXES_LENGTH = 0.1           # m: a shown frame's axes
 MIN_ARROW = 1e-3            # m: shorter arrows are hidden
+NICE = 10                   # the drawing process's niceness increment (lower priority than the loop)
 POSE_TOLERANCE = 1e-4       # m and quaternion units: a mesh that moved less keeps its last sent pose
 
 
@@ -261,7 +262,13 @@ class Drawer:
 
 
 def main(conn, slot_name: str) -> None:
-    """The drawing process's body (see the module docstring): the spec comes first on ``conn``."""
+    """The drawing process's body (see the module docstring): the spec comes first on ``conn``.
+    It runs at a lower scheduling priority (``NICE``): on a machine with few cores the control
+    loop gets the CPU first, the drawing what is left."""
+    try:
+        os.nice(NICE)
+    except OSError:         # not permitted here: the default priority
+        pass
     spec = conn.recv()
     poster = Poster(conn)
     try:

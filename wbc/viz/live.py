@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import select
 import socket
 import subprocess
 import sys
@@ -135,6 +136,8 @@ class LiveView:
                                         pass_fds=(theirs.fileno(),), env=env, start_new_session=True)
         theirs.close()
         self._send_lock = threading.Lock()
+        self._poller = select.poll()
+        self._poller.register(self._conn.fileno(), select.POLLIN)
         self._latest = None
         self._publish_ns = self._publish_max_ns = self._rows_ns = 0
         self._rows_t = -float("inf")
@@ -194,7 +197,7 @@ class LiveView:
     def drain(self, mailbox) -> None:
         """Post the page's commands that arrived to ``mailbox`` (never waits; the control loop,
         through the mailbox's ``feed``, once per cycle)."""
-        if self._page_gone:
+        if self._page_gone or not self._poller.poll(0):      # a registered poll: 0.5 µs (Connection.poll: 6 µs)
             return
         try:
             while self._conn.poll():
