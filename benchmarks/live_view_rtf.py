@@ -5,7 +5,9 @@ headless Chromium (drawing at 30 fps) against headless, in alternated runs.
 
 Each pair: one headless run (``--headless``), one live run (``--wait``: the run starts once the
 page has connected; Chromium is killed after the run). Prints, per run, the real-time factor,
-the control cycle's median and p99 (ms), and ``uptime``'s load; then the ranges. The results
+the control cycle's median and p99 (ms), and ``uptime``'s load; for a live run also the drawing
+process's frames, wall time per frame and CPU time, the control process's CPU time and its
+publish time per snapshot; then the ranges. The results
 go in benchmarks/live_view.md by hand.
 """
 
@@ -71,8 +73,9 @@ def main() -> None:
                 rows.append(r)
                 print(f"{'live    ' if live else 'headless'} rtf {r['rtf']:.3f}  cycle median {r['median_ms']:.3f} ms  "
                       f"p99 {r['p99_ms']:.3f} ms  load {r['load']}"
-                      + (f"  drawn {r['view']['frames_drawn']} frames, {r['view']['draw_ms_mean']:.2f} ms each"
-                         if r["view"] else ""), flush=True)
+                      + (f"  drawn {r['view']['frames_drawn']} frames, {r['view']['draw_ms_mean']:.2f} ms each; CPU s: "
+                         f"drawing process {r['view']['drawing_cpu_s']:.2f}, control process {r['view']['control_cpu_s']:.2f}; "
+                         f"publish {r['view']['publish_ms_mean']:.3f} ms" if r["view"] else ""), flush=True)
     for live in (False, True):
         sel = [r for r in rows if r["live"] == live]
         print(f"{'live' if live else 'headless'}: rtf {min(r['rtf'] for r in sel):.3f}-{max(r['rtf'] for r in sel):.3f}, "

@@ -91,7 +91,8 @@ def test_live_view_listens_on_its_host_only(panda, host):
         port = urlsplit(view.url).port
         expected = host or "127.0.0.1"
         assert urlsplit(view.url).hostname == expected
-        mine = {a for a in listening(os.getpid()) if a[1] == port}
+        assert not {a for a in listening(os.getpid()) if a[1] == port}    # the drawing process serves, not this one
+        mine = {a for a in listening(view.pid) if a[1] == port}
         assert mine == {(expected, port)}, mine
         with urllib.request.urlopen(f"http://{expected}:{port}/", timeout=10) as r:   # the page is served
             assert r.status == 200

@@ -10,7 +10,14 @@ see a still robot) and one Chromium on its page, for every test of this module:
 - the CoM task's kp slider, moved with the keyboard (End: its top), sets the task's gain to
   the top of its range (:func:`wbc.tasks.tuning.gain_range`);
 - the Pause button stops simulated time (the snapshots' ``t`` stays put for a second of wall
-  time) and the same button resumes it.
+  time) and the same button resumes it;
+- a second tab opened after the run moved on gets the current scene: the robot drawn, the
+  status line at the current simulated time;
+- two tabs moving the same kp slider, one right after the other (one to zero, one to its top,
+  neither waiting for the page): both commands reach the loop and the gain is the last one's,
+  inside the slider's range; closing one tab mid-run
+  leaves the run going and the drawing on;
+- (its own run) a browser killed mid-run: the run finishes its duration, its metrics complete.
 
 Skipped with a reason when Chromium (Debian package ``chromium``) or viser is absent.
 """
@@ -91,10 +98,10 @@ def served(tmp_path_factory):
     proc, port = launch_devtools(CHROMIUM, url, root)
     try:
         t_end = time.monotonic() + 60
-        while not view.server.get_clients() and time.monotonic() < t_end:
+        while not view.clients() and time.monotonic() < t_end:
             time.sleep(0.1)
-        assert view.server.get_clients(), "the page never connected to the view's server"
-        yield view, sc.stack, port, root
+        assert view.clients(), "the page never connected to the view's server"
+        yield view, sc.stack, port, root, url
     finally:
         _kill(proc)
         view.mailbox.post("stop", True)
@@ -144,15 +151,13 @@ def _hand(view, snap) -> np.ndarray:
 def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
     from wbc.viz.controls import GIZMO_SCALE
 
-    view, stack, port, root = served
-    gizmos = view.controls.gizmos
+    view, stack, port, root, _ = served
     start_target = stack["right_hand"].target.translation.copy()
     start_hand = _hand(view, view.latest())
 
     async def drag():
         dt = await DevTools.attach(port)
-        for name, g in gizmos.items():          # the left hand's, between the camera and the right hand's
-            g.visible = name == "right_hand"
+        view.send("gizmos", ["right_hand"])    # not the left hand's, between the camera and the right hand's
         await asyncio.sleep(3.0)                            # meshes and gizmos drawn
         w, h = await dt.evaluate("[window.innerWidth, window.innerHeight]")
         # the gizmo sits at the view's centre (the camera looks at the target from 1 m); its x
@@ -161,24 +166,26 @@ def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
         x0, y0 = w / 2 - 0.75 * GIZMO_SCALE * px_per_m, h / 2
         # sent without waiting for each acknowledgement (headless Chromium acknowledges an input
         # event once a frame is drawn, which a loaded machine may take long to do)
-        events = [("mouseMoved", x0, 0), ("mousePressed", x0, 1)]
+        # the pointer first rests on the arrow (the gizmo picks its axis on hover, at the page's next
+        # frame: a second on a loaded machine), then presses and moves
+        events = [("mouseMoved", x0 + 2, 0), ("mouseMoved", x0, 0), ("mousePressed", x0, 1)]
         events += [("mouseMoved", x0 - 6 * i, 1) for i in range(1, 13)] + [("mouseReleased", x0 - 72, 0)]
         for kind, x, buttons in events:
             _send(dt, "Input.dispatchMouseEvent", type=kind, x=x, y=y0, button="left", buttons=buttons,
                   clickCount=1 if kind in ("mousePressed", "mouseReleased") else 0)
-            await asyncio.sleep(0.1)
+            await asyncio.sleep(1.0 if kind == "mouseMoved" and buttons == 0 else 0.1)
         t_end = time.monotonic() + 60
-        while "right_hand" not in view.controls.dragged and time.monotonic() < t_end:
+        while ("target", "right_hand") not in view.from_page and time.monotonic() < t_end:
             await asyncio.sleep(0.2)
         await asyncio.sleep(2.0)                            # the rest of the drag
         await dt.screenshot(root / "dragged.png")
-        for g in gizmos.values():
-            g.visible = True
+        view.send("gizmos", None)
         dt.conn.close()
         return None, (x0, y0)
 
     _, grabbed = _run(drag())
-    assert "right_hand" in view.controls.dragged, f"the drag at {grabbed} reached no gizmo"
+    assert ("target", "right_hand") in view.from_page, \
+        f"the drag at {grabbed} reached no gizmo; the page sent {list(view.page_log)}"
     view.mailbox.post("step", 2)         # the posted target applies at the start of the next cycle
     assert _wait(lambda: not np.allclose(stack["right_hand"].target.translation, start_target), 30)
     moved = stack["right_hand"].target.translation - start_target
@@ -198,7 +205,7 @@ def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
 def test_the_kp_slider_sets_the_task_gain_within_its_range(served):
     from wbc.tasks.tuning import gain_range
 
-    view, stack, port, root = served
+    view, stack, port, root, _ = served
     com = stack["com"]
     top = gain_range(com, float(com.kp))[1]
     assert com.kp != top
@@ -228,7 +235,7 @@ def test_the_kp_slider_sets_the_task_gain_within_its_range(served):
 
 
 def test_pause_stops_simulated_time(served):
-    view, stack, port, root = served
+    view, stack, port, root, _ = served
 
     async def toggle(label: str):
         dt = await DevTools.attach(port)
@@ -236,7 +243,7 @@ def test_pause_stops_simulated_time(served):
         dt.conn.close()
         return ok
 
-    if view.controls.paused is False and view.latest().paused:      # paused by the fixture, not the page
+    if view.latest().paused:        # paused by the fixture
         view.mailbox.post("pause", False)
     assert _wait(lambda: not view.latest().paused, 30)
     t_run = view.latest().t
@@ -249,3 +256,215 @@ def test_pause_stops_simulated_time(served):
     assert t2 == t1, f"simulated time moved from {t1} to {t2} while paused"
     assert _run(toggle("Resume")), "the button does not say Resume"
     assert _wait(lambda: view.latest().t > t2 + 0.05, 60), "the run did not resume"
+
+
+# ------------------------------------------------------------------ more than one tab
+def _tabs(port: int) -> list[dict]:
+    import http.client
+    import json
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("GET", "/json/list")
+    pages = [t for t in json.loads(c.getresponse().read()) if t["type"] == "page"]
+    c.close()
+    return pages
+
+
+def _new_tab(port: int, url: str) -> dict:
+    """A new tab on ``url`` (DevTools' HTTP endpoint): its target (id, webSocketDebuggerUrl)."""
+    import http.client
+    import json
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("PUT", "/json/new?" + url)
+    tab = json.loads(c.getresponse().read())
+    c.close()
+    return tab
+
+
+def _close_tab(port: int, tab: dict) -> None:
+    import http.client
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("GET", f"/json/close/{tab['id']}")
+    c.getresponse().read()
+    c.close()
+    t_end = time.monotonic() + 20        # gone from the list (else the next test may pick it)
+    while any(t["id"] == tab["id"] for t in _tabs(port)) and time.monotonic() < t_end:
+        time.sleep(0.2)
+
+
+async def _attach(tab: dict) -> DevTools:
+    from tornado.websocket import websocket_connect
+
+    return DevTools(await websocket_connect(tab["webSocketDebuggerUrl"], max_message_size=256 << 20))
+
+
+def _scene_share(a: np.ndarray, b: np.ndarray) -> float:
+    """The share of the 3D view's pixels (the left half: the control panel is on the right, its
+    folders open or closed per tab) that differ."""
+    w = a.shape[1] // 2
+    return float(np.mean(np.linalg.norm(a[:, :w] - b[:, :w], axis=2) > 30.0))
+
+
+async def _viewport(dt: DevTools) -> None:
+    """One viewport size for every tab (a new tab's window differs from the first's)."""
+    await dt.call("Emulation.setDeviceMetricsOverride", width=800, height=480, deviceScaleFactor=1, mobile=False)
+
+
+def _pause(view) -> None:
+    view.mailbox.post("pause", True)
+    assert _wait(lambda: view.latest().paused, 30)
+
+
+def _dark_share(img: np.ndarray) -> float:
+    """The share of the 3D view's pixels that are dark (the robot's black and dark grey parts; the
+    empty scene's floor and sky are light)."""
+    w = img.shape[1] // 2
+    return float(np.mean(np.all(img[:, :w] < 90.0, axis=2)))
+
+
+STATUS = f"""(function () {{ {FIND} var all = document.querySelectorAll('p, div, span');
+  for (var i = 0; i < all.length; i++) {{ var s = all[i].textContent;
+    if (s.indexOf('t = ') === 0 && s.indexOf('paused') > 0 && all[i].children.length === 0) {{ return s; }} }}
+  return null; }})()"""
+
+
+def test_a_second_tab_gets_the_current_scene(served):
+    """A tab opened after the run moved on: the robot drawn, the run's status as it is now (the
+    camera of each tab is its own: the 3D views are not compared pixel by pixel)."""
+    view, stack, port, root, url = served
+    _pause(view)
+    target = stack["right_hand"].target.translation + np.array([0.0, 0.0, 0.15])
+    t0 = view.latest().t
+    view.mailbox.post(("target", "right_hand"), target)       # the hand 15 cm up, 0.5 s of motion
+    view.mailbox.post("step", 500)
+    assert _wait(lambda: view.latest().t >= t0 + 0.5 - 5e-4, 120)      # all 500 steps taken (dt = 1 ms)
+    now = f"t = {view.latest().t:.3f} s"
+
+    async def second_tab():
+        tab = _new_tab(port, url)
+        try:
+            dt = await _attach(tab)
+            t_end = time.monotonic() + 60
+            while view.clients() < 2 and time.monotonic() < t_end:
+                await asyncio.sleep(0.2)
+            clients = view.clients()
+            t_end = time.monotonic() + 60       # the meshes received, parsed and drawn (slow under load)
+            while True:
+                await asyncio.sleep(3.0)
+                shot = await dt.screenshot(root / "tab2.png")
+                status = await dt.evaluate(STATUS)
+                if (_dark_share(shot) > 0.05 and status and status.startswith(now)) or time.monotonic() > t_end:
+                    break
+            dt.conn.close()
+        finally:
+            _close_tab(port, tab)
+        return shot, status, clients
+
+    shot, status, clients = _run(second_tab())
+    print(f"second tab: status {status!r} (the run: {now}), {_dark_share(shot):.0%} of its 3D view dark (the "
+          f"robot); screenshot in {root}")
+    assert clients == 2
+    assert status is not None and status.startswith(now), (status, now)
+    assert _dark_share(shot) > 0.05
+
+
+async def _focus_kp(dt: DevTools) -> bool:
+    """Focus the com task's kp slider, opening its folder if closed (the folder: the nearest
+    ancestor of its title holding a slider, not the Run folder's speed slider)."""
+    expr = f"""(function () {{ {FIND}
+        var e = wbcFind('com');
+        while (e && !e.querySelector('[role=slider]')) {{ e = e.parentElement; }}
+        if (!e || e.textContent.indexOf('speed (') >= 0) {{ return false; }}
+        var s = e.querySelector('[role=slider]'); s.focus(); return document.activeElement === s; }})()"""
+    await dt.call("Page.bringToFront")           # focus goes to the tab in front only
+    t_end = time.monotonic() + 60
+    while time.monotonic() < t_end:
+        if await dt.evaluate(expr):
+            return True
+        await _click(dt, "com")
+        await asyncio.sleep(2.0)
+    return False
+
+
+def test_two_tabs_sending_at_once_the_last_command_wins(served):
+    view, stack, port, root, url = served
+    com = stack["com"]
+    top = next(t["kp_range"][1] for t in view.spec["tasks"] if t["name"] == "com")     # the page's slider top
+    first = next(t for t in _tabs(port) if t["url"].startswith(view.url))
+    tab = _new_tab(port, url)
+    seen = len(view.page_log)
+
+    async def both():
+        dt1, dt2 = await _attach(first), await _attach(tab)
+        t_end = time.monotonic() + 60
+        while view.clients() < 2 and time.monotonic() < t_end:
+            await asyncio.sleep(0.2)
+        await asyncio.sleep(3.0)
+        # each tab in front, keyed, not awaited: the first to zero (a step down first, in case it is
+        # there already: an unchanged slider sends nothing), the second to the top
+        for dt, keys in ((dt1, (("ArrowLeft", 37), ("Home", 36))), (dt2, (("End", 35),))):
+            assert await _focus_kp(dt), "no com kp slider to focus"
+            for key, code in keys:
+                for kind in ("keyDown", "keyUp"):
+                    _send(dt, "Input.dispatchKeyEvent", type=kind, key=key, code=key, windowsVirtualKeyCode=code)
+        await asyncio.sleep(3.0)
+        dt1.conn.close()
+        dt2.conn.close()
+
+    try:
+        _run(both())
+        view.mailbox.post("step", 1)
+        sent = [v for k, v in list(view.page_log)[seen:] if k == ("kp", "com")]
+        assert _wait(lambda: float(com.kp) == float(np.clip(sent[-1], 0.0, top)) if sent else False, 30)
+        sent = [v for k, v in list(view.page_log)[seen:] if k == ("kp", "com")]
+        print(f"kp commands from the two tabs, in arrival order: {sent}; the gain: {com.kp}")
+        assert {0.0, top} <= set(sent), f"both tabs' commands did not arrive: {sent}"
+        assert float(com.kp) == float(np.clip(sent[-1], 0.0, top))
+        # one tab closes while the run goes on: the run and the drawing go on
+        view.mailbox.post("pause", False)
+        assert _wait(lambda: not view.latest().paused, 30)
+    finally:
+        _close_tab(port, tab)
+    assert _wait(lambda: view.clients() == 1, 30)
+    t0, frames = view.latest().t, view.stats()["frames_drawn"]
+    assert _wait(lambda: view.latest().t > t0 + 0.1 and view.stats()["frames_drawn"] > frames + 3, 60)
+
+
+def test_a_browser_killed_mid_run_leaves_the_run_and_its_metrics(tmp_path):
+    if CHROMIUM is None:
+        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    pytest.importorskip("viser", reason="the live view needs viser")
+    from wbc.cli.live import run_with_view
+    from wbc.runner.options import RunOptions
+    from wbc.scenario.loader import load_config
+
+    sc = load_config(ROOT / "wbc" / "data" / "scenarios" / "talos_reach.yaml")
+    views: list = []
+    result: dict = {}
+
+    def serve():
+        try:
+            result["metrics"] = run_with_view(sc, RunOptions(duration=1.0), port=8230, wait=True, on_ready=views.append)
+        except BaseException as exc:
+            result["error"] = exc
+
+    runner = threading.Thread(target=serve, daemon=True)
+    runner.start()
+    assert _wait(lambda: bool(views) or "error" in result, 120), "the live view did not start"
+    view = views[0]
+    proc, _ = launch_devtools(CHROMIUM, view.url, tmp_path)
+    try:
+        assert _wait(lambda: view.latest() is not None and view.latest().t > 0.2, 120), "the run did not start"
+    finally:
+        _kill(proc)                             # mid-run, without closing its websocket
+    runner.join(timeout=300)
+    assert not runner.is_alive() and "error" not in result, result.get("error")
+    m = result["metrics"]
+    print(f"killed at t = 0.2 s: the run ran {m['duration']} s, {m['live_view']['frames_drawn']} frames drawn")
+    assert m["duration"] == pytest.approx(1.0, abs=sc.dt / 2)
+    assert m["solver_failures"] == 0 and not m["fell"]
+    assert {"com", "right_hand"} <= set(m["tasks"])
+    assert all(np.isfinite(e["rms"]) for e in m["tasks"].values() if "rms" in e)
+    assert m["live_view"]["frames_drawn"] > 0

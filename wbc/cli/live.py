@@ -1,5 +1,5 @@
 """``wbc run`` with the live browser view: the viser page (:mod:`wbc.viz.live`,
-:mod:`wbc.viz.controls`) on a drawing thread, the control loop paced to real time and taking the
+:mod:`wbc.viz.drawing`, :mod:`wbc.viz.controls`) drawn by a process of its own, the control loop paced to real time and taking the
 page's commands (:func:`wbc.runner.interactive.run_live`); a ``--record`` replay alongside
 (Meshcat, :class:`wbc.viz.Scene`, as a run observer that only keeps frames)."""
 
@@ -45,13 +45,16 @@ def run_with_view(sc, options: RunOptions, view_options: ViewOptions | None = No
     """
     o = ViewOptions.of(view_options, settings, "run_with_view")
     host, port, fps, speed, wait, keep = o.host, o.port, o.fps, o.speed, o.wait, o.keep
-    from wbc.viz.controls import Controls
-    from wbc.viz.live import LiveView
+    import time
 
-    view = LiveView(sc.robot, sc.environment, host=host, port=port, fps=fps)
+    from wbc.viz import shown_frames
+    from wbc.viz.live import LiveView
+    from wbc.viz.run_overlays import overlay_data, overlay_names
+
+    view = LiveView(sc.robot, sc.environment, sc.stack, host=host, port=port, fps=fps, speed=speed,
+                    frames=tuple(sc.robot.frames), shown_frames=shown_frames(sc), overlays=overlay_names(sc))
     try:
-        mailbox = Mailbox()
-        view.controls = Controls(view, sc.stack, mailbox, frames=tuple(sc.robot.frames), speed=speed)
+        mailbox = Mailbox(feed=view.drain)
         view.mailbox = mailbox
         print(f"wbc: browser view at {view.url}  (Ctrl-C to stop)", flush=True)
         if on_ready is not None:
@@ -59,21 +62,33 @@ def run_with_view(sc, options: RunOptions, view_options: ViewOptions | None = No
         if wait:
             print("wbc: waiting for a browser to connect (--wait)", flush=True)
             view.wait_for_client()
-        metrics = run_live(sc, options, view.publish, mailbox, fps=fps, speed=speed)
-        # the drawing thread's own cost: frames drawn and the wall time each took (ms), in this process
-        metrics["live_view"] = {"frames_drawn": view.frames_drawn, "commands": mailbox.posted,
-                                "draw_ms_mean": 1e3 * view.draw_seconds / max(view.frames_drawn, 1)}
+        cpu0 = time.process_time()
+        metrics = run_live(sc, options, view.publish, mailbox, fps=fps, speed=speed, extras=overlay_data)
+        # the drawing process's cost (frames drawn, wall time per frame, its CPU time) and this
+        # process's (CPU time of the run, publish time per snapshot)
+        metrics["live_view"] = {**view.stats(), "commands": mailbox.posted, "page_commands": view.page_commands,
+                                "control_cpu_s": time.process_time() - cpu0}
         if keep:
             print("wbc: run finished; the page keeps the last state (--keep): Enter or Ctrl-C to stop", flush=True)
+            import threading
+
+            done = threading.Event()
+
+            def discard() -> None:      # the page's commands after the run: read (the pipe never fills), dropped
+                box = Mailbox()
+                while not done.wait(0.1):
+                    view.drain(box)
+                    box.take()
+
+            threading.Thread(target=discard, daemon=True).start()
             try:
                 if sys.stdin.isatty():
                     input()
                 else:
-                    import threading
-
                     threading.Event().wait()
             except (EOFError, KeyboardInterrupt):
                 print()
+            done.set()
         return metrics
     finally:
         view.close()

@@ -1,5 +1,5 @@
 """A live run a person can act in: commands from a page, applied at the start of a control cycle,
-and snapshots of the state published for a drawing thread.
+and snapshots of the state published for a drawing process.
 
 Two threads meet here and only here:
 
@@ -47,9 +47,12 @@ SPEED_RANGE = (0.05, 4.0)       # × real time
 
 
 class Mailbox:
-    """Thread-safe commands from a page to the control loop: per key, the last posted wins."""
+    """Thread-safe commands from a page to the control loop: per key, the last posted wins.
+    ``feed``: called with the mailbox at the start of each :meth:`take` (a page in another
+    process: :meth:`wbc.viz.live.LiveView.drain` posts what arrived from it)."""
 
-    def __init__(self) -> None:
+    def __init__(self, feed: Callable[[Mailbox], None] | None = None) -> None:
+        self.feed = feed
         self._lock = threading.Lock()
         self._box: dict = {}
         self.posted = 0             # commands posted (the page's count, for tests and logs)
@@ -69,6 +72,8 @@ class Mailbox:
 
     def take(self) -> dict:
         """Every command posted since the last take (and empty the box)."""
+        if self.feed is not None:
+            self.feed(self)
         with self._lock:
             box, self._box = self._box, {}
         return box
@@ -83,7 +88,7 @@ class Snapshot:
     {task: 3-vector or 4×4 pose}, ``sol`` the cycle's :class:`wbc.Solution` (immutable once
     returned), ``normal`` {contact task: normal force N}, ``levels`` [[task names]] of the stack
     now, ``disabled`` [task names], ``paused``, ``speed``, ``rtf`` (real-time factor so far),
-    ``done`` (the run has ended)."""
+    ``done`` (the run has ended), ``overlays`` the run's overlays (``extras`` of :func:`run_live`)."""
 
     t: float
     q: np.ndarray
@@ -99,6 +104,7 @@ class Snapshot:
     speed: float = 1.0
     rtf: float = 0.0
     done: bool = False
+    overlays: dict = field(default_factory=dict)
 
 
 class LiveControl:
@@ -179,8 +185,9 @@ class LiveControl:
         return changed
 
 
-def snapshot(run: ScenarioRun, t: float, live: LiveControl | None = None, done: bool = False) -> Snapshot:
-    """The run's state now, as copies (:class:`Snapshot`)."""
+def snapshot(run: ScenarioRun, t: float, live: LiveControl | None = None, done: bool = False,
+             extras: Callable[[ScenarioRun, float], dict] | None = None) -> Snapshot:
+    """The run's state now, as copies (:class:`Snapshot`); ``extras(run, t)``: its overlays."""
     sim, stack = run.sim, run.stack
     forces = np.array(sim.point_forces, dtype=float)
     targets: dict[str, np.ndarray] = {}
@@ -197,11 +204,13 @@ def snapshot(run: ScenarioRun, t: float, live: LiveControl | None = None, done: 
                     forces=forces, pushes=pushes, targets=targets, sol=run.last_sol, normal=normal,
                     levels=[[task.name for task in lvl] for lvl in stack.levels],
                     disabled=sorted(live.disabled) if live else [], paused=bool(live and live.paused),
-                    speed=live.speed if live else 1.0, rtf=run.real_time_factor(), done=done)
+                    speed=live.speed if live else 1.0, rtf=run.real_time_factor(), done=done,
+                    overlays=extras(run, t) if extras is not None else {})
 
 
 def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], None], mailbox: Mailbox | None = None,
-             fps: float = 30.0, speed: float = 1.0, realtime: bool = True) -> dict:
+             fps: float = 30.0, speed: float = 1.0, realtime: bool = True,
+             extras: Callable[[ScenarioRun, float], dict] | None = None) -> dict:
     """Run ``sc`` paced to ``speed`` × real time (``realtime``), applying ``mailbox``'s commands at
     the start of each cycle and publishing a :class:`Snapshot` every ``1/fps`` s of simulated time
     (and while paused, at ``fps`` per wall second); returns the metrics dict.
@@ -214,6 +223,7 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
         fps: snapshots per simulated second.
         speed: initial playback speed, × real time.
         realtime: pace the loop (False: as fast as it goes, pause and step still hold).
+        extras: ``extras(run, t)`` gives each snapshot's ``overlays``.
     """
     import dataclasses
 
@@ -228,7 +238,7 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
             break
         if live.paused and not live.steps:
             paused_at = time.perf_counter()
-            publish(snapshot(r, k * sc.dt, live))
+            publish(snapshot(r, k * sc.dt, live, extras=extras))
             while live.paused and not live.steps and not live.stop:
                 time.sleep(1.0 / fps)
                 live.poll()
@@ -241,7 +251,7 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
         ok = r.cycle(k)
         k += 1
         if k % every == 0 or not ok:
-            publish(snapshot(r, k * sc.dt, live))
+            publish(snapshot(r, k * sc.dt, live, extras=extras))
         if not ok:
             break
         if live.speed != speed_before:
@@ -251,5 +261,5 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
             if lag > 2e-3:          # sleep in ≥ 2 ms slices: the OS's timer does not do better
                 time.sleep(lag)
     metrics = r.metrics()
-    publish(snapshot(r, k * sc.dt, live, done=True))
+    publish(snapshot(r, k * sc.dt, live, done=True, extras=extras))
     return metrics

@@ -1,5 +1,6 @@
-"""Browser views: the live page you act in (viser: :mod:`~wbc.viz.live` draws on a thread of its own,
-:mod:`~wbc.viz.controls` holds the gizmos, sliders, buttons and plots) and offline replays (Meshcat:
+"""Browser views: the live page you act in (viser: :mod:`~wbc.viz.live` hands the state to a drawing
+process, :mod:`~wbc.viz.drawing`, through shared memory; :mod:`~wbc.viz.controls` holds the gizmos,
+sliders, buttons and plots, :mod:`~wbc.viz.overlays` the run's overlays) and offline replays (Meshcat:
 :class:`Scene`): robot, targets, CoM and support polygon, contact forces, pushes, priority
 diagnostics, force tasks' desired and measured forces, a glass's frame. docs/viewer.md.
 

@@ -1,56 +1,58 @@
-"""The live browser view (viser): the robot and its overlays drawn by a thread of their own, and
-a page to act in (:mod:`wbc.viz.controls`).
+"""The live browser view (viser), drawn by a process of its own: the control process's side.
 
-The control loop only publishes (:meth:`LiveView.publish`: stores a reference to the latest
-snapshot under a lock, a few µs); a drawing thread wakes ``fps`` times per wall second, takes
-the latest snapshot if it is new, computes the visual geometry's placements on its own
-``pinocchio.Data`` and sends the poses in one batch (``server.atomic()``). viser's server runs
-its own event-loop thread; nothing in the control loop waits on it or on a browser.
+:class:`LiveView` starts the drawing process (:mod:`wbc.viz.drawing`: viser's server and event
+loop, the scene, the page's controls, plots and diagnostics; ``python -m wbc.viz.drawing``, which
+imports nothing of the caller's main module), sends it a plain description of the scene
+(:func:`view_spec`) on a socket pair, and keeps, in the control process, only:
 
-Drawn: the robot's visual meshes (sent once per browser, then poses only), each CoM/frame task's
-target as a gizmo (:mod:`wbc.viz.controls`), contact forces as arrows (1 mm per ``force_scale``
-N), the CoM and its ground projection, the support polygon (convex hull of the loaded contact
-points), pushes acting now (1 mm per 0.5 N), the priority diagnostics (HTML table, sacrificed
-levels in red) and plots of each level's residual and each contact's normal force.
+- :meth:`LiveView.publish`, which the control loop calls every ``1/fps`` s of simulated time:
+  the snapshot's arrays, the run's overlays and, at most ``DIAG_HZ`` times per wall and per
+  simulated second, its solution's diagnostics rows are pickled and copied into one shared-memory slot under a
+  sequence lock (:mod:`wbc.viz.shared_state`: no lock to wait on, no thread; about 0.1 ms per
+  drawn frame, 0.3 ms more with the diagnostics rows); the drawing process takes the latest;
+- :meth:`LiveView.drain`, the feed of the mailbox the loop takes its commands from once per
+  cycle (:class:`wbc.runner.interactive.Mailbox`, ``feed``): it moves the page's commands that
+  arrived on the socket into the mailbox without waiting (one ``poll``, a system call), where the
+  last one per key wins.
+
+So the control process's interpreter lock is never held by drawing: the loop's cycle time and
+real-time factor are those of a headless run plus the publish (benchmarks/live_view.md).
 
 The page listens on 127.0.0.1 unless ``host`` says otherwise. A second tab gets the current
-scene (viser replays its scene state to every new client). The viewer's page is viser's own
-built client (no internet).
+scene (viser replays its scene state to every new client). The page is viser's own built
+client (no internet).
 """
 
 from __future__ import annotations
 
+import os
+import pickle
+import select
+import socket
+import subprocess
+import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from pathlib import Path
 from typing import Any
 
-import numpy as np
-import pinocchio as pin
-
-from ..sim.environment import Box, HalfSpace
+from ..errors import WbcError
+from ..options import Options
+from ..tasks.tuning import adjustable, gain_range, weight_range
+from . import shared_state as ss
 from .diagnostics import diagnostics_rows
-from .meshes import geometry_mesh, visual_model
 
-COLORS = {"target": (46, 134, 222), "com": (231, 76, 60), "support": (39, 174, 96), "force": (243, 156, 18),
-          "push": (142, 68, 173)}
-ROBOT_GREY = (125, 132, 145)
-PLOT_SECONDS = 5.0          # s of simulated time in the live plots
-PLOT_HZ = 5.0               # plot refreshes per wall second
-DIAG_HZ = 5.0               # diagnostics table refreshes per wall second
-
-
-def _quat_wxyz(R: np.ndarray) -> np.ndarray:
-    q = pin.Quaternion(R)
-    return np.array([q.w, q.x, q.y, q.z])
+START_TIMEOUT = 300.0       # s: the drawing process loads the meshes (slow on a loaded machine)
+PAGE_LOG = 256              # commands from the page kept in LiveView.page_log (tests, logs)
+DIAG_HZ = 5.0               # snapshots per wall second that carry the diagnostics rows
 
 
 def _check_host(host: str) -> None:
     """Raise :class:`~wbc.errors.WbcError` if this machine cannot listen on ``host``."""
     import socket
-
-    from ..errors import WbcError
 
     try:
         family = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)[0][0]
@@ -60,202 +62,221 @@ def _check_host(host: str) -> None:
         raise WbcError(f"the live view could not listen on {host!r}: {exc}") from None
 
 
+def task_specs(stack) -> list[dict]:
+    """Each task's name, kind, level and slider ranges (:mod:`wbc.tasks.tuning`) as plain values."""
+    out = []
+    for task in stack:
+        kp = float(task.kp) if adjustable(task) else None
+        out.append({"name": task.name, "kind": task.kind, "level": stack.level_of(task.name),
+                    "rotate": task.kind == "frame" and bool(getattr(task, "moves_orientation", False)),
+                    "kp": kp, "kp_range": None if kp is None else gain_range(task, kp),
+                    "weight": float(task.weight), "weight_range": weight_range(task)})
+    return out
+
+
+@dataclass(frozen=True)
+class PageOptions(Options):
+    """How the live page is served and drawn (:class:`LiveView`, :func:`view_spec`)."""
+
+    host: str = "127.0.0.1"
+    """where the page listens (127.0.0.1 unless asked)"""
+    port: int = 8080
+    """its port (the next free one from there)"""
+    fps: float = 30.0
+    """drawing rate, frames per wall second"""
+    speed: float = 1.0
+    """the speed slider's initial value, × real time"""
+    frames: tuple = ()
+    """the robot's frames a push may act on"""
+    shown_frames: tuple = ()
+    """frames drawn with their axes (a glass)"""
+    overlays: dict | None = None
+    """the run's overlays {name: shown at start} (:mod:`wbc.viz.overlays`); None: none"""
+    force_scale: float = 2.0
+    """N per mm of a contact-force arrow"""
+    push_scale: float = 0.5
+    """N per mm of a push arrow"""
+    camera: Any = None
+    """the page's initial camera (position, look-at point), m; None: a humanoid's view"""
+
+
+def view_spec(robot, environment=(), stack=None, options: PageOptions | None = None, **settings) -> dict:
+    """What the drawing process needs, picklable (see :class:`LiveView` for the arguments)."""
+    o = PageOptions.of(options, settings, "view_spec")
+    return {"model": robot.model, "environment": list(environment), "host": o.host, "port": int(o.port),
+            "fps": float(o.fps),
+            "visual": {"urdf_path": str(robot.urdf_path), "root": robot.root, "package_dirs": list(robot.package_dirs),
+                       "locked_joints": list(robot.locked_joints)},
+            "tasks": [] if stack is None else task_specs(stack), "levels": 0 if stack is None else len(stack.levels),
+            "contacts": [] if stack is None else [c.name for c in stack.contacts()], "speed": float(o.speed),
+            "push_frames": tuple(o.frames), "shown_frames": tuple(o.shown_frames), "overlays": dict(o.overlays or {}),
+            "force_scale": o.force_scale, "push_scale": o.push_scale,
+            "camera": ((2.2, -2.2, 1.6), (0.0, 0.0, 0.8)) if o.camera is None else tuple(map(tuple, o.camera))}
+
+
+def encode(snap, rows: bool = True) -> bytes:
+    """A snapshot (:class:`wbc.runner.interactive.Snapshot`) as the drawing process reads it: its
+    arrays and flags, and with ``rows`` the solution's diagnostics rows instead of the solution
+    (else None: evaluating a solution's diagnostics, its levels' ranks and σ_min, costs about
+    three control cycles, so :meth:`LiveView.publish` asks for them at most ``DIAG_HZ`` times per wall
+    second and per simulated second)."""
+    d = {k: getattr(snap, k) for k in ("t", "q", "points", "forces", "pushes", "targets", "normal", "levels",
+                                       "disabled", "paused", "speed", "rtf", "done")}
+    d["rows"] = None if not rows else diagnostics_rows(snap.sol) if snap.sol is not None else []
+    d["overlays"] = getattr(snap, "overlays", None) or {}
+    return pickle.dumps(d, protocol=pickle.HIGHEST_PROTOCOL)
+
+
 class LiveView:
-    """See the module docstring. ``robot``: the controller's :class:`~wbc.robot.RobotModel`;
-    ``environment``: the scenario's surfaces; ``host``/``port``: where the page listens (port 0:
-    the first free one from 8080); ``fps``: drawing rate, frames per wall second."""
+    """The live view of a run (module docstring).
 
-    def __init__(self, robot, environment=(), host: str = "127.0.0.1", port: int = 8080, fps: float = 30.0,
-                 force_scale: float = 2.0, push_scale: float = 0.5) -> None:
-        import viser
+    Args:
+        robot: the controller's :class:`~wbc.robot.RobotModel`.
+        environment: the scenario's surfaces.
+        stack: its stack (gizmos, sliders, plots); None: the robot only.
+        options: the page's :class:`PageOptions` (None: its defaults).
+        **settings: :class:`PageOptions` fields one by one (``host``, ``port``, ``fps``, ``speed``,
+            ``frames``, ``shown_frames``, ``overlays``, ``force_scale``, ``push_scale``,
+            ``camera``), over ``options``.
+    """
 
-        _check_host(host)
-        self.robot = robot
-        self.fps = float(fps)
-        self.force_scale, self.push_scale = force_scale, push_scale
-        self.server = viser.ViserServer(host=host, port=port, label="wbc", verbose=False)
-        self.host = host
-        self.server.scene.set_up_direction("+z")
-        self.server.initial_camera.position = (2.2, -2.2, 1.6)
-        self.server.initial_camera.look_at = (0.0, 0.0, 0.8)
-        self.data = robot.model.createData()
-        self.geom = visual_model(robot)
-        self.geom_data = pin.GeometryData(self.geom)
-        self._lock = threading.Lock()
+    def __init__(self, robot, environment=(), stack=None, options: PageOptions | None = None, **settings) -> None:
+        o = PageOptions.of(options, settings, "LiveView")
+        _check_host(o.host)
+        self.robot, self.host, self.fps = robot, o.host, float(o.fps)
+        spec = view_spec(robot, environment, stack, o)
+        self.spec = spec
+        self.slot = ss.SharedSlot()
+        mine, theirs = socket.socketpair()
+        self._conn = Connection(mine.detach())
+        root = str(Path(__file__).resolve().parents[2])      # the tree this wbc comes from
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])]))
+        # its own session: a Ctrl-C in the terminal reaches the control process, which stops it
+        self.process = subprocess.Popen([sys.executable, "-m", "wbc.viz.drawing", str(theirs.fileno()), self.slot.name],
+                                        pass_fds=(theirs.fileno(),), env=env, start_new_session=True)
+        theirs.close()
+        self._send_lock = threading.Lock()
+        self._poller = select.poll()
+        self._poller.register(self._conn.fileno(), select.POLLIN)
         self._latest = None
-        self._seq = 0
-        self._drawn = 0
-        self.frames_drawn = 0
-        self.draw_seconds = 0.0       # wall time the drawing thread spent drawing (s)
-        self.overlays = {"contact forces": True, "CoM": True, "support polygon": True, "diagnostics": True}
-        #: called in the drawing thread: with each new snapshot, with the recent ones (plots,
-        #: PLOT_HZ), with a snapshot and its diagnostics rows (DIAG_HZ)
-        self.on_snapshot: list[Callable] = []
-        self.controls: Any = None       # the page's controls (wbc.viz.controls.Controls), once made
-        self.mailbox: Any = None        # where they post
-        self.on_plot: list[Callable] = []
-        self.on_diagnostics: list[Callable] = []
-        self._history: deque = deque(maxlen=600)
-        self._last_plot = self._last_diag = 0.0
-        self._robot_nodes()
-        self._environment(environment)
-        self._overlay_nodes()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._draw_loop, name="wbc-live-view", daemon=True)
-        self._thread.start()
+        self._publish_ns = self._publish_max_ns = self._rows_ns = 0
+        self._rows_t = -float("inf")
+        self.published = 0
+        try:
+            self._conn.send(spec)
+            self.port = self._await_ready()
+        except BaseException:
+            self._end_process()
+            self.slot.close()
+            raise
+        self.mailbox: Any = None        # the run's mailbox, once made (tests post to it)
+        self.from_page: set = set()     # the keys the page has sent
+        self.page_log: deque = deque(maxlen=PAGE_LOG)      # the page's last commands (key, value), in order
+        self.page_commands = 0
+        self._page_gone = False
 
-    # ------------------------------------------------------------------ setup
+    def _await_ready(self) -> int:
+        t_end = time.monotonic() + START_TIMEOUT
+        while time.monotonic() < t_end:
+            if self._conn.poll(0.1):
+                msg = self._conn.recv()
+                if msg[0] == "ready":
+                    return int(msg[1])
+                if msg[0] == "error":
+                    raise WbcError(f"the live view could not start: {msg[1]}")
+            elif self.process.poll() is not None:
+                raise WbcError(f"the live view's drawing process ended at start (exit code {self.process.returncode})")
+        raise WbcError(f"the live view's drawing process did not start within {START_TIMEOUT:.0f} s")
+
+    @property
+    def pid(self) -> int | None:
+        """The drawing process's id."""
+        return self.process.pid
+
     @property
     def url(self) -> str:
         host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.server.get_port()}/"
+        return f"http://{host}:{self.port}/"
 
-    def _robot_nodes(self) -> None:
-        self.visuals = []
-        for k, go in enumerate(self.geom.geometryObjects):
-            mesh = geometry_mesh(go)
-            if mesh is None:
-                continue
-            r, g, b = (int(255 * c) for c in np.asarray(go.meshColor)[:3])
-            color = (r, g, b)
-            if np.allclose(go.meshColor[:3], 0.9, atol=1e-3):     # pinocchio's default grey: darker on a light page
-                color = ROBOT_GREY
-            h = self.server.scene.add_mesh_simple(f"/robot/{k}", mesh[0], mesh[1], color=color)
-            self.visuals.append((k, h))
-
-    def _environment(self, environment) -> None:
-        for i, s in enumerate(environment):
-            if isinstance(s, Box):
-                self.server.scene.add_box(f"/env/{s.name}", color=(141, 110, 99), dimensions=tuple(s.size),
-                                          position=tuple(s.center))
-            elif isinstance(s, HalfSpace):
-                self.server.scene.add_box(f"/env/{s.name}{i}", color=(170, 175, 182), dimensions=(6.0, 6.0, 0.01),
-                                          wxyz=tuple(_quat_wxyz(s.R)),
-                                          position=tuple(s.point - 0.005 * s.normal), opacity=0.8)
-
-    def _overlay_nodes(self) -> None:
-        sc = self.server.scene
-        self.com = sc.add_icosphere("/overlay/com", radius=0.02, color=COLORS["com"])
-        self.com_ground = sc.add_cylinder("/overlay/com_ground", radius=0.02, height=0.002, color=COLORS["com"],
-                                          opacity=0.6)
-        self.support = sc.add_line_segments("/overlay/support", points=np.zeros((1, 2, 3), np.float32),
-                                            colors=COLORS["support"], thickness=0.006)
-        self.forces: Any = None       # contact-force segments (made at the first snapshot)
-        self.pushes: Any = None
-
-    # ------------------------------------------------------------------ control thread side
+    # ------------------------------------------------------------------ control loop
     def publish(self, snap) -> None:
-        """Store the latest snapshot (called by the control loop: never waits on the page)."""
-        with self._lock:
-            self._latest = snap
-            self._seq += 1
+        """Hand ``snap`` to the drawing process (called by the control loop: never waits)."""
+        t0 = time.perf_counter_ns()
+        self._latest = snap
+        # the rows at most DIAG_HZ times per wall second and per simulated second (a slow run's
+        # publishes are fewer per wall second: they would all carry them)
+        rows = snap.done or snap.paused or (t0 - self._rows_ns >= 1e9 / DIAG_HZ and snap.t >= self._rows_t + 1 / DIAG_HZ)
+        if rows:
+            self._rows_ns, self._rows_t = t0, snap.t
+        self.slot.write(encode(snap, rows))
+        self.published += 1
+        dt = time.perf_counter_ns() - t0
+        self._publish_ns += dt
+        self._publish_max_ns = max(self._publish_max_ns, dt)
+
+    def drain(self, mailbox) -> None:
+        """Post the page's commands that arrived to ``mailbox`` (never waits; the control loop,
+        through the mailbox's ``feed``, once per cycle)."""
+        if self._page_gone or not self._poller.poll(0):      # a registered poll: 0.5 µs (Connection.poll: 6 µs)
+            return
+        try:
+            while self._conn.poll():
+                msg = self._conn.recv()
+                if msg[0] == "post":
+                    self.from_page.add(msg[1])
+                    self.page_log.append((msg[1], msg[2]))
+                    self.page_commands += 1
+                    mailbox.post(msg[1], msg[2])
+        except (EOFError, OSError):      # the drawing process is gone: the run goes on without a page
+            self._page_gone = True
 
     def latest(self):
         """The latest published snapshot (None before the first)."""
-        with self._lock:
-            return self._latest
+        return self._latest
 
-    # ------------------------------------------------------------------ drawing thread
-    def _draw_loop(self) -> None:
-        period = 1.0 / self.fps
-        next_t = time.perf_counter()
-        while not self._stop.is_set():
-            with self._lock:
-                snap, seq = self._latest, self._seq
-            if snap is not None and seq != self._drawn:
-                t0 = time.perf_counter()
-                try:
-                    self.draw(snap)
-                except Exception as exc:      # a drawing error must not end the view silently
-                    print(f"wbc: live view: drawing failed: {exc!r}", flush=True)
-                self._drawn = seq
-                self.frames_drawn += 1
-                self.draw_seconds += time.perf_counter() - t0
-            next_t += period
-            delay = next_t - time.perf_counter()
-            if delay < 0:
-                next_t = time.perf_counter()
-                delay = 0.0
-            self._stop.wait(delay)
+    # ------------------------------------------------------------------ the drawing process's state
+    def clients(self) -> int:
+        """Browsers connected now."""
+        return int(self.slot.header[ss.CLIENTS])
 
-    def draw(self, snap) -> None:
-        """Draw one snapshot (the drawing thread; callable directly, e.g. from a test)."""
-        m, d = self.robot.model, self.data
-        pin.forwardKinematics(m, d, snap.q)
-        pin.updateGeometryPlacements(m, d, self.geom, self.geom_data)
-        com = pin.centerOfMass(m, d, snap.q, False)
-        with self.server.atomic():
-            for k, h in self.visuals:
-                M = self.geom_data.oMg[k]
-                h.position = M.translation
-                h.wxyz = _quat_wxyz(M.rotation)
-            show = self.overlays
-            self.com.visible = self.com_ground.visible = show["CoM"]
-            if show["CoM"]:
-                self.com.position = com
-                self.com_ground.position = (com[0], com[1], 0.001)
-            self._draw_contacts(snap)
-            for cb in self.on_snapshot:
-                cb(snap)
-        now = time.perf_counter()
-        self._history.append(snap)
-        if now - self._last_plot > 1.0 / PLOT_HZ:
-            self._last_plot = now
-            for cb in self.on_plot:
-                cb(list(self._history))
-        if now - self._last_diag > 1.0 / DIAG_HZ:
-            self._last_diag = now
-            for cb in self.on_diagnostics:
-                cb(snap, diagnostics_rows(snap.sol) if snap.sol is not None else [])
-
-    def _draw_contacts(self, snap) -> None:
-        sc = self.server.scene
-        n = np.linalg.norm(snap.forces, axis=1) if len(snap.forces) else np.zeros(0)
-        loaded = n > 1e-3
-        if self.forces is None and len(snap.points):      # one segment per contact point, kept
-            self.forces = sc.add_line_segments("/overlay/forces", np.zeros((len(snap.points), 2, 3), np.float32),
-                                               colors=COLORS["force"], thickness=0.008)
-        if self.forces is not None:
-            self.forces.visible = self.overlays["contact forces"]
-            if self.overlays["contact forces"]:
-                ends = snap.points + snap.forces / self.force_scale * 1e-3
-                self.forces.points = np.stack([snap.points, ends], axis=1).astype(np.float32)
-        pts = snap.points[loaded] if len(snap.points) else snap.points
-        self.support.visible = self.overlays["support polygon"]
-        if self.overlays["support polygon"] and len(pts) >= 3:
-            from scipy.spatial import ConvexHull, QhullError
-
-            try:
-                hull = pts[ConvexHull(pts[:, :2]).vertices] + np.array([0.0, 0.0, 0.002])
-                self.support.points = np.stack([hull, np.roll(hull, -1, axis=0)], axis=1).astype(np.float32)
-            except QhullError:      # collinear points: keep the last polygon
-                pass
-        if self.pushes is not None:
-            self.pushes.remove()
-            self.pushes = None
-        if snap.pushes:
-            segs = []
-            for frame, force in snap.pushes:
-                fid = self.robot.frame_id(frame)
-                pin.updateFramePlacement(self.robot.model, self.data, fid)
-                end = self.data.oMf[fid].translation
-                fn = float(np.linalg.norm(force))
-                length = max(fn / self.push_scale * 1e-3, 0.05)
-                segs.append(np.stack([end - force / max(fn, 1e-9) * length, end]))
-            self.pushes = sc.add_arrows("/overlay/pushes", np.array(segs, np.float32), COLORS["push"],
-                                        shaft_radius=0.01, head_radius=0.025, head_length=0.05)
+    def stats(self) -> dict:
+        """Frames drawn, wall time per drawn frame in the drawing process (mean and max, ms), its
+        CPU time (s), and the control process's publish time per snapshot (mean and max, ms)."""
+        h = self.slot.header
+        frames = int(h[ss.FRAMES])
+        return {"frames_drawn": frames, "draw_ms_mean": 1e-6 * int(h[ss.DRAW_NS]) / max(frames, 1),
+                "draw_ms_max": 1e-6 * int(h[ss.DRAW_MAX_NS]), "drawing_cpu_s": 1e-9 * int(h[ss.CPU_NS]),
+                "published": self.published, "publish_ms_mean": 1e-6 * self._publish_ns / max(self.published, 1),
+                "publish_ms_max": 1e-6 * self._publish_max_ns}
 
     def wait_for_client(self, timeout: float | None = None) -> bool:
         """Block until a browser has connected (True), or ``timeout`` s passed (False)."""
         t_end = None if timeout is None else time.perf_counter() + timeout
-        while not self.server.get_clients():
+        while not self.clients():
             if t_end is not None and time.perf_counter() > t_end:
                 return False
             time.sleep(0.05)
         return True
 
+    def send(self, *msg) -> None:
+        """A message to the drawing process: ``("overlay", name, on)``, ``("gizmos", names or None)``."""
+        with self._send_lock:
+            self._conn.send(msg)
+
+    def _end_process(self) -> None:
+        try:
+            self.send("stop")
+        except OSError:
+            pass
+        try:
+            self.process.wait(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+
     def close(self) -> None:
-        """Stop the drawing thread and the server."""
-        self._stop.set()
-        self._thread.join(timeout=2.0)
-        self.server.stop()
+        """Stop the drawing process (and its server) and free the shared slot."""
+        self._end_process()
+        self._conn.close()
+        self.slot.close()
+

@@ -10,6 +10,7 @@ viewer's distance). Each array goes into a page once, never per frame.
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -24,7 +25,11 @@ def geometry_mesh(go) -> tuple[np.ndarray, np.ndarray] | None:
     mesh: Any
     shape = type(go.geometry).__name__
     if go.meshPath and shape.startswith("BVH"):
-        mesh = trimesh.load(go.meshPath, force="mesh")
+        with warnings.catch_warnings():
+            # pycollada 0.9 (trimesh's COLLADA reader) sets ndarray.shape, deprecated in NumPy 2.5: its
+            # warnings, one per triangle set, not ours (the meshes read the same)
+            warnings.filterwarnings("ignore", "Setting the shape on a NumPy array", DeprecationWarning, r"collada(\.|$)")
+            mesh = trimesh.load(go.meshPath, force="mesh")
     elif shape == "Box":
         mesh = trimesh.creation.box(extents=2.0 * np.asarray(go.geometry.halfSide))
     elif shape == "Cylinder":

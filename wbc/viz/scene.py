@@ -50,6 +50,7 @@ from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
 from .meshes import cluster, geometry_mesh, visual_model
 from .scene_options import SceneOptions
+from .task_forces import task_forces
 
 HIDDEN = np.diag([0.0, 0.0, 0.0, 1.0])   # a zero-scale transform: hides a node on the live page
 #: a hidden node's scale in a recording (with a ``visible`` track set to false; not 0: singular matrices)
@@ -337,19 +338,9 @@ class Scene:
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
 
     def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """(point, desired, measured) of a force task at the last drawn state: its contact's
-        point (m, world) and the forces S_f λ_D and S_f λ_m (N, world; their force part for a
-        surface contact; measured None before the task's first measurement)."""
-        m, d = self.robot.model, self.viz.data
-        surface = stack[task.contact].surface(self.robot)
-        fid = self.robot.frame_id(surface.frame)
-        pin.updateFramePlacement(m, d, fid)
-        M = d.oMf[fid]
-        S = task.selection(surface.force_dim)[0]
-        R = np.eye(3) if surface.force_dim == 3 else M.rotation     # a surface's forces: LOCAL
-        desired = R @ (S @ task.reference())[:3]
-        measured = None if task.measured is None else R @ (S @ (S.T @ task.measured))[:3]
-        return M.translation.copy(), desired, measured
+        """(point, desired, measured) of a force task at the last drawn state
+        (:func:`wbc.viz.task_forces.task_forces`)."""
+        return task_forces(self.robot, self.viz.data, task, stack)
 
     def _draw_task_force(self, task, stack) -> list[tuple[str, str]]:
         """Place a force task's two arrows (hidden below 1 mN); returns its legend lines."""
