@@ -8,23 +8,16 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 
-from wbc.options import Options
 from wbc.runner.interactive import Mailbox, run_live
 from wbc.runner.options import RunOptions
+from wbc.viz.live import PageOptions
 
 
 @dataclass(frozen=True)
-class ViewOptions(Options):
-    """How ``wbc run`` serves its live page."""
+class ViewOptions(PageOptions):
+    """How ``wbc run`` serves its live page: the page's :class:`~wbc.viz.live.PageOptions`
+    (``host``, ``port``, ``fps``, ``speed``, …) and when the run starts and ends."""
 
-    host: str = "127.0.0.1"
-    """the page's address (127.0.0.1 unless asked)"""
-    port: int = 8080
-    """its port (the next free one from there)"""
-    fps: float = 30.0
-    """frames drawn per wall second, and snapshots per simulated second"""
-    speed: float = 1.0
-    """initial speed, × real time"""
     wait: bool = False
     """start the run once a browser has connected"""
     keep: bool = False
@@ -44,15 +37,15 @@ def run_with_view(sc, options: RunOptions, view_options: ViewOptions | None = No
             ``speed``, ``wait``, ``keep``), over ``view_options``.
     """
     o = ViewOptions.of(view_options, settings, "run_with_view")
-    host, port, fps, speed, wait, keep = o.host, o.port, o.fps, o.speed, o.wait, o.keep
+    fps, speed, wait, keep = o.fps, o.speed, o.wait, o.keep
     import time
 
     from wbc.viz import shown_frames
     from wbc.viz.live import LiveView
     from wbc.viz.run_overlays import overlay_data, overlay_names
 
-    view = LiveView(sc.robot, sc.environment, sc.stack, host=host, port=port, fps=fps, speed=speed,
-                    frames=tuple(sc.robot.frames), shown_frames=shown_frames(sc), overlays=overlay_names(sc))
+    view = LiveView(sc.robot, sc.environment, sc.stack, o, frames=tuple(sc.robot.frames),
+                    shown_frames=shown_frames(sc), overlays=overlay_names(sc))
     try:
         mailbox = Mailbox(feed=view.drain)
         view.mailbox = mailbox
