@@ -109,15 +109,10 @@ class Push:
 class Simulator:
     """See the module docstring. Units: s, m, rad, N, N·m.
 
-    ``points``: contact points as ``(joint name, position in that joint's frame)``;
-    ``environment``: shapes from :mod:`wbc.sim.environment`; ``dt`` the control
-    period, ``substeps`` physics steps per control period; ``tau_limits`` the
-    driver's torque limits (N·m, ≥ 0, ``inf`` = none), per actuated joint (na) or
-    per dof (nv, unactuated entries ignored), ``None`` for no saturation;
-    ``joint_dynamics``: the model's URDF damping and friction act on the joints
-    (:mod:`wbc.sim.joint_dynamics`; ``self.joint_dynamics`` None when off or all zero);
-    ``contact_solver``: "compiled" (pinocchio 4's PGS in numba, the default) or "pinocchio"
-    (this pinocchio's binding), :data:`wbc.sim.contact_solver.SOLVERS`.
+    The constructor takes the model, the contact points, the environment and the initial
+    state; every setting (``dt``, ``substeps``, ``tau_limits``, ``joint_dynamics``,
+    ``contact_solver``, …) is a field of :class:`~wbc.sim.options.SimOptions`, given as
+    ``options=`` or one by one as keywords (each field's meaning and unit are in its docstring).
     """
 
     def __init__(self, model: pin.Model, points, environment, q0, v0=None, options: SimOptions | None = None,
