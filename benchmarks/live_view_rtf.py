@@ -1,7 +1,7 @@
 """Real-time factor and control-cycle time of ``wbc run talos_reach``: live with the page open in
 headless Chromium (drawing at 30 fps) against headless, in alternated runs.
 
-    python benchmarks/live_view_rtf.py [--pairs 3] [--duration 4] [--chromium chromium]
+    python benchmarks/live_view_rtf.py [--pairs 3] [--duration 4] [--chromium chromium] [--pin]
 
 Each pair: one headless run (``--headless``), one live run (``--wait``: the run starts once the
 page has connected; Chromium is killed after the run). Prints, per run, the real-time factor,
@@ -33,19 +33,32 @@ def load() -> str:
     return Path("/proc/loadavg").read_text().split()[0]
 
 
-def one(live: bool, duration: float, chromium: str, work: Path) -> dict:
+def _children(pid: int) -> list[int]:
+    """The child processes of ``pid`` (Linux /proc)."""
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except OSError:
+        return []
+
+
+def one(live: bool, duration: float, chromium: str, work: Path, pin: bool = False) -> dict:
     out = work / f"m_{'live' if live else 'headless'}_{time.monotonic_ns()}.json"
     cmd = [sys.executable, "-m", "wbc.cli", "run", "talos_reach", "--duration", str(duration), "--metrics", str(out)]
     cmd += ["--wait", "--port", "8290"] if live else ["--headless"]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
+    pre = ["taskset", "-c", "0"] if pin else []      # --pin: the control process on CPU 0, the page's on CPU 1
+    proc = subprocess.Popen(pre + cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
     browser = None
     try:
         if live:
             for line in proc.stdout:
                 if "browser view at" in line:
                     url = line.split("browser view at ")[1].split()[0]
-                    browser = subprocess.Popen([chromium, *FLAGS, f"--user-data-dir={work / 'profile'}", url],
+                    if pin:
+                        for child in _children(proc.pid):       # the drawing process
+                            os.sched_setaffinity(child, {1})
+                    browser = subprocess.Popen([*(["taskset", "-c", "1"] if pin else []), chromium, *FLAGS,
+                                                f"--user-data-dir={work / 'profile'}", url],
                                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                                start_new_session=True)
                     break
@@ -64,12 +77,14 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, default=3)
     ap.add_argument("--duration", type=float, default=4.0)
     ap.add_argument("--chromium", default=shutil.which("chromium") or "chromium")
+    ap.add_argument("--pin", action="store_true", help="control process on CPU 0; drawing process and Chromium on "
+                    "CPU 1 (both runs): whether what is left is CPU sharing, not waiting")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for _ in range(args.pairs):
             for live in (False, True):
-                r = one(live, args.duration, args.chromium, Path(d))
+                r = one(live, args.duration, args.chromium, Path(d), args.pin)
                 rows.append(r)
                 print(f"{'live    ' if live else 'headless'} rtf {r['rtf']:.3f}  cycle median {r['median_ms']:.3f} ms  "
                       f"p99 {r['p99_ms']:.3f} ms  load {r['load']}"
