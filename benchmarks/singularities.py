@@ -27,25 +27,16 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import yaml
 
-STANDING = """name: {name}
-robot: {robot}
-solver: {{type: hqp, backend: daqp}}
-control: {{dt: 0.001}}
-duration: 2.0
-environment:
-  - {{type: ground, mu: 0.8}}
-stack:
-  - - {{type: joint_limits}}
-    - {{type: torque_limits}}
-    - {{type: contact, contact: fl_foot}}
-    - {{type: contact, contact: fr_foot}}
-    - {{type: contact, contact: rl_foot}}
-    - {{type: contact, contact: rr_foot}}
-  - - {{type: com}}
-  - - {{type: frame, frame: base, mask: orientation}}
-  - - {{type: posture}}
-"""
+
+def standing(name: str, robot) -> str:
+    """The bundled go2_stand scenario as YAML text, named ``name``, with ``robot`` (a name or a
+    YAML path), standing still for 2 s (its CoM target held where it starts, no sway)."""
+    doc = yaml.safe_load(Path("wbc/data/scenarios/go2_stand.yaml").read_text())
+    doc.update(name=name, robot=str(robot), duration=2.0, description="The Go2 standing still.")
+    doc["stack"][1] = [{"type": "com"}]
+    return yaml.safe_dump(doc)
 
 
 def _outside_cone(sol, cones: dict) -> bool:
@@ -96,8 +87,8 @@ def main(out: str | None, which: list[str]) -> None:
     urdf = load_robot("go2").urdf_path
     subprocess.run([sys.executable, "-m", "wbc.cli", "robot", "init", str(urdf), "-o", str(tmp / "go2_init.yaml")],
                    check=True, capture_output=True)
-    (tmp / "go2_zero.yaml").write_text(STANDING.format(name="go2_zero", robot=tmp / "go2_init.yaml"))
-    (tmp / "go2_bent.yaml").write_text(STANDING.format(name="go2_bent", robot="go2"))
+    (tmp / "go2_zero.yaml").write_text(standing("go2_zero", tmp / "go2_init.yaml"))
+    (tmp / "go2_bent.yaml").write_text(standing("go2_bent", "go2"))
     bent_g1 = (Path("wbc/data/scenarios/g1_straight_legs.yaml").read_text().replace("robot: g1_straight", "robot: g1")
                .replace("frame: left_ankle,", "frame: left_ankle_pitch_link,")
                .replace("frame: right_ankle,", "frame: right_ankle_pitch_link,"))

@@ -8,8 +8,11 @@ row as one planned feet pulling on the ground."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 from scipy.optimize import nnls
 
 import wbc
@@ -76,24 +79,14 @@ def test_relaxing_every_row_alike_pulls_on_the_ground(go2, monkeypatch):
     assert sum(_outside(sol, cs) > 0 for sol, cs in _relaxed_runs(go2, "hqp")) >= 3
 
 
-STANDING = """name: go2_zero
-robot: {robot}
-solver: {{type: hqp, backend: daqp}}
-control: {{dt: 0.001}}
-duration: 1.5
-environment:
-  - {{type: ground, mu: 0.8}}
-stack:
-  - - {{type: joint_limits}}
-    - {{type: torque_limits}}
-    - {{type: contact, contact: fl_foot}}
-    - {{type: contact, contact: fr_foot}}
-    - {{type: contact, contact: rl_foot}}
-    - {{type: contact, contact: rr_foot}}
-  - - {{type: com}}
-  - - {{type: frame, frame: base, mask: orientation}}
-  - - {{type: posture}}
-"""
+def standing(robot) -> dict:
+    """The bundled go2_stand scenario with ``robot`` (a name or a YAML path), standing still
+    (its CoM target held where it starts, no sway)."""
+    doc = yaml.safe_load((Path(__file__).resolve().parents[2] / "wbc" / "data" / "scenarios" / "go2_stand.yaml")
+                         .read_text())
+    doc.update(name="go2_zero", robot=str(robot), description="The Go2 standing still.")
+    doc["stack"][1] = [{"type": "com"}]
+    return doc
 
 
 @pytest.mark.parametrize("duration", [pytest.param(1.5, marks=pytest.mark.slow), 0.4])
@@ -112,7 +105,7 @@ def test_the_go2_of_robot_init_stands_in_mujoco(tmp_path, capsys, go2, solver, d
     assert main(["robot", "init", str(go2.urdf_path), "-o", str(robot_yaml)]) == 0
     capsys.readouterr()
     path = tmp_path / "go2_zero.yaml"
-    path.write_text(STANDING.format(robot=robot_yaml))
+    path.write_text(yaml.safe_dump(standing(robot_yaml)))
     r = ScenarioRun(load_config(path), solver=solver, simulator="mujoco", progress=False, duration=duration)
     contacts = [t for t in r.stack if t.kind == "contact"]
     relaxed = 0
