@@ -24,7 +24,6 @@ of each level's residual and each contact's normal force.
 from __future__ import annotations
 
 import os
-import pickle
 import threading
 import time
 from collections import deque
@@ -36,6 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..sim.environment import Box, HalfSpace
+from . import plain_codec
 from . import shared_state as ss
 from .controls import Controls
 from .meshes import geometry_mesh, visual_model
@@ -291,7 +291,7 @@ def main(conn, slot_name: str) -> None:
             if payload is not None:
                 t0 = time.perf_counter_ns()
                 try:
-                    drawer.draw(SimpleNamespace(**pickle.loads(payload)))
+                    drawer.draw(SimpleNamespace(**plain_codec.decode(payload)))
                 except Exception as exc:      # a drawing error must not end the view silently
                     print(f"wbc: live view: drawing failed: {exc!r}", flush=True)
                 dt = time.perf_counter_ns() - t0

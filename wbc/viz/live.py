@@ -7,7 +7,8 @@ imports nothing of the caller's main module), sends it a plain description of th
 
 - :meth:`LiveView.publish`, which the control loop calls every ``1/fps`` s of simulated time:
   the snapshot's arrays, the run's overlays and, at most ``DIAG_HZ`` times per wall and per
-  simulated second, its solution's diagnostics rows are pickled and copied into one shared-memory slot under a
+  simulated second, its solution's diagnostics rows are encoded as JSON
+  (:mod:`wbc.viz.plain_codec`: no pickle) and copied into one shared-memory slot under a
   sequence lock (:mod:`wbc.viz.shared_state`: no lock to wait on, no thread; about 0.1 ms per
   drawn frame, 0.3 ms more with the diagnostics rows); the drawing process takes the latest;
 - :meth:`LiveView.drain`, the feed of the mailbox the loop takes its commands from once per
@@ -26,7 +27,6 @@ client (no internet).
 from __future__ import annotations
 
 import os
-import pickle
 import select
 import socket
 import subprocess
@@ -42,6 +42,7 @@ from typing import Any
 from ..errors import WbcError
 from ..options import Options
 from ..tasks.tuning import adjustable, gain_range, weight_range
+from . import plain_codec
 from . import shared_state as ss
 from .diagnostics import diagnostics_rows
 
@@ -124,7 +125,7 @@ def encode(snap, rows: bool = True) -> bytes:
                                        "disabled", "paused", "speed", "rtf", "done")}
     d["rows"] = None if not rows else diagnostics_rows(snap.sol) if snap.sol is not None else []
     d["overlays"] = getattr(snap, "overlays", None) or {}
-    return pickle.dumps(d, protocol=pickle.HIGHEST_PROTOCOL)
+    return plain_codec.encode(d)
 
 
 class LiveView:
