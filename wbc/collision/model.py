@@ -188,6 +188,7 @@ class CollisionModel:
         self._moved = np.zeros(len(self.pairs))
         self._q_last: np.ndarray | None = None
         self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        self._check_map = np.zeros_like(self._map)        # rows_at's active pairs (its own, reused)
         #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
         self.computed = 0
 
@@ -420,7 +421,8 @@ class CollisionModel:
         model, gm, gd = self.robot.model, self.geometry_model, geometry_data
         pin.computeJointJacobians(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
-        cmap = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        cmap = self._check_map
+        cmap[:] = False
         cmap[self._pa[ks], self._pb[ks]] = True
         gd.setActiveCollisionPairs(gm, cmap)
         pin.computeDistances(gm, gd)
