@@ -32,7 +32,7 @@ def split(ctrl, q) -> dict[str, int]:
     import pinocchio as pin
 
     from wbc.controller.diagnostics import level_diagnostics
-    from wbc.controller.solution import solve_status
+    from wbc.controller.solution import SolutionReport, solve_status
     from wbc.controller.velocity import VelocitySolution
     from wbc.problem.buffer import row_values
 
@@ -78,8 +78,8 @@ def split(ctrl, q) -> dict[str, int]:
     q_next = pin.integrate(robot.model, q, qd * ctrl.dt)
     t7 = ns()
     t["integration (pin.integrate)"] = t7 - t6
-    VelocitySolution(qd, q_next, robot.na, status=status, message=message, qp_count=res.qp_count,
-                     evaluate=evaluate, relaxed=relaxed)
+    VelocitySolution(qd, q_next, robot.na, status, message,
+                     SolutionReport(qp_count=res.qp_count, relaxed=relaxed, evaluate=evaluate))
     t["solution object"] = ns() - t7
     return t
 

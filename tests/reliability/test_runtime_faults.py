@@ -95,11 +95,13 @@ def test_a_long_fault_stops_the_controller_and_the_stop_latches(panda):
     ctrl.solve(q, v)
     bad = q.copy()
     bad[0] = np.nan
-    got = [ctrl.solve(bad, v).status for _ in range(6)]
-    assert got == ["failed"] * 5 + ["stopped"]
+    sols = [ctrl.solve(bad, v) for _ in range(6)]
+    assert [s.status for s in sols] == ["failed"] * 5 + ["stopped"]
+    assert [s.conditions for s in sols] == [("failed",)] * 5 + [("stopped",)]
     sol = ctrl.solve(q, v)                                        # a good state again: still stopped
     _within_limits(panda, sol)
     assert sol.status == "stopped" and "stopped after 6 consecutive faulty cycles" in sol.message
+    assert sol.conditions == ("stopped",)
     assert "not finite" in sol.message
     counts = ctrl.fault_counts()
     assert counts["state_faults"] == 6 and counts["held_cycles"] == 5 and counts["stops"] == 1

@@ -43,7 +43,7 @@ from wbc.controller.faults import FaultMonitor, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
 from wbc.controller.options import ControllerOptions
 from wbc.controller.singular import velocity_names
-from wbc.controller.solution import Solution, solve_status
+from wbc.controller.solution import Solution, SolutionReport, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
 from wbc.errors import ConfigError, SolverError, StackError
@@ -383,16 +383,11 @@ class Controller:
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel),
                            saturated_torques=at_limit, singular=(self._joint_names, self._below_threshold))
-        if status == "failed":
-            conditions: tuple[str, ...] = ("failed",)
-        else:
-            conditions = tuple(c for c, on in (("relaxed", relaxed), ("degraded", degraded), ("saturated", saturated))
-                               if on)
         singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0]
-        return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
-                        x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
-                        relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit,
-                        conditions=conditions, singular_levels=singular)
+        return Solution(qdd, tau_full[robot.actuated_idx], tau_full, forces, x, status, message,
+                        SolutionReport(qp_count=qp_count, relaxed=relaxed, degraded=degraded, saturated=saturated,
+                                       tau_ratio=ratio, saturated_torques=at_limit, singular_levels=singular,
+                                       evaluate=evaluate))
 
     def _below_threshold(self, sigma: float) -> bool:
         """Whether a singular value of a level's projected Jacobian is below the solver's
@@ -419,9 +414,9 @@ class Controller:
         ratio, n_sat = saturate(tau, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
         forces = {name: f.copy() for name, f in self._last_forces.items()}
         x = np.concatenate([np.zeros(robot.nv)] + list(forces.values()))
-        return Solution(qdd=np.zeros(robot.nv), tau=tau[robot.actuated_idx], tau_full=tau, forces=forces, x=x,
-                        status="failed", message=message, residuals=[], task_residuals={}, diagnostics=[],
-                        saturated=n_sat > 0, tau_ratio=ratio)
+        return Solution(np.zeros(robot.nv), tau[robot.actuated_idx], tau, forces, x, "failed", message,
+                        SolutionReport(saturated=n_sat > 0, tau_ratio=ratio, residuals=[], task_residuals={},
+                                       diagnostics=[]))
 
 
 _NO_FORCES = np.zeros((0, 0))

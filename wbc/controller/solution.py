@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -84,9 +85,44 @@ class LevelDiagnostics:
         return head + ("; " + "; ".join(causes) if causes else "")
 
 
-#: the keywords of :class:`Solution`'s report (its ``Args``)
-REPORT_FIELDS = frozenset({"qp_count", "residuals", "task_residuals", "diagnostics", "evaluate", "relaxed",
-                           "saturated", "tau_ratio", "saturated_torques", "conditions", "singular_levels"})
+class SolutionReport(NamedTuple):
+    """What a cycle reports besides its q̈, τ and forces (:class:`Solution`'s ``report``),
+    every field by name and optional. A named tuple: the controller builds one every cycle,
+    and a tuple is the cheapest record to build (``benchmarks/layout_ab.md``).
+
+    Args:
+        qp_count: QPs the solver solved this cycle (0 when every level was analytic).
+        relaxed: a level's inequalities gave way; default False.
+        degraded: a level's QP failed numerically and was held at the feasible point the
+            higher levels left; default False (a ``"degraded"`` status says it too).
+        saturated: τ was clipped at ±τ_max on some joint; default False.
+        tau_ratio: the worst |τ_i|/τ_max,i the solver asked for, before saturation
+            (unitless); default 0.
+        saturated_torques: velocity indices of the joints held at ±τ_max; None: none.
+        singular_levels: indices of the levels whose σ_min fell below the damping threshold;
+            None: none.
+        evaluate: ``evaluate() -> (residuals, task_residuals, diagnostics)``, called on the
+            first access of one of them; None: they are given (or absent).
+        residuals: one float per level (units of its rows), or None: from ``evaluate``.
+        task_residuals: task name -> residual, or None: from ``evaluate``.
+        diagnostics: one :class:`LevelDiagnostics` per level, or None: from ``evaluate``.
+    """
+
+    qp_count: int = 0
+    relaxed: bool = False
+    degraded: bool = False
+    saturated: bool = False
+    tau_ratio: float = 0.0
+    saturated_torques: list[int] | None = None
+    singular_levels: list[int] | None = None
+    evaluate: Callable[[], tuple] | None = None
+    residuals: list[float] | None = None
+    task_residuals: dict[str, float] | None = None
+    diagnostics: list[LevelDiagnostics] | None = None
+
+
+#: the report of a cycle with nothing to report
+NO_REPORT = SolutionReport()
 
 
 class Solution:
@@ -129,52 +165,36 @@ class Solution:
         status: ``"ok"``, ``"degraded"``, ``"relaxed"``, ``"saturated"``, ``"failed"`` or
             ``"stopped"`` (above).
         message: the solver's or the fault policy's note in words; "" when nothing to say.
-        **report: the cycle's report, each by name (:data:`REPORT_FIELDS`; another name is a
-            TypeError):
-
-        qp_count: QPs the solver solved this cycle (0 when every level was analytic).
-        residuals: one float per level (units of its rows), or None: from ``evaluate``.
-        task_residuals: task name -> residual, or None: from ``evaluate``.
-        diagnostics: one :class:`LevelDiagnostics` per level, or None: from ``evaluate``.
-        evaluate: ``evaluate() -> (residuals, task_residuals, diagnostics)``, called on the
-            first access of one of them; None: they are given (or absent).
-        relaxed: a level's inequalities gave way; default False.
-        saturated: τ was clipped at ±τ_max on some joint; default False.
-        tau_ratio: the worst |τ_i|/τ_max,i the solver asked for, before saturation (unitless);
-            default 0.
-        saturated_torques: velocity indices of the joints held at ±τ_max; None: none.
-        conditions: every condition that holds (above); None: worked out from ``status``,
-            ``relaxed`` and ``saturated``.
-        singular_levels: indices of the levels whose σ_min fell below the damping threshold;
-            None: none.
+        report: the cycle's :class:`SolutionReport` (QP count, relaxed, saturated, the
+            diagnostics or how to work them out, ...); default: nothing to report.
     """
 
     def __init__(self, qdd: np.ndarray, tau: np.ndarray, tau_full: np.ndarray, forces: dict[str, np.ndarray],
-                 x: np.ndarray, status: str, message: str, **report) -> None:
-        unknown = report.keys() - REPORT_FIELDS
-        if unknown:
-            raise TypeError(f"Solution: unknown field(s) {sorted(unknown)}: expected {sorted(REPORT_FIELDS)}")
-        get = report.get
-        qp_count, relaxed, saturated = get("qp_count", 0), get("relaxed", False), get("saturated", False)
-        saturated_torques, conditions = get("saturated_torques"), get("conditions")
+                 x: np.ndarray, status: str, message: str = "", report: SolutionReport = NO_REPORT) -> None:
         self.qdd, self.tau, self.tau_full, self.forces, self.x = qdd, tau, tau_full, forces, x
-        self.status, self.message, self.qp_count = status, message, qp_count
-        self.relaxed, self.saturated, self.tau_ratio = bool(relaxed), bool(saturated), float(get("tau_ratio", 0.0))
-        self.saturated_torques = list(saturated_torques or [])
-        if conditions is None:
-            if status in ("failed", "stopped"):
-                conditions = (status,)
-            else:
-                conditions = tuple(c for c, on in (("relaxed", self.relaxed), ("degraded", status == "degraded"),
-                                                  ("saturated", self.saturated)) if on)
-        self.conditions = tuple(conditions)
-        self.singular_levels = list(get("singular_levels") or [])
+        self.status, self.message, self.qp_count = status, message, report.qp_count
+        self.relaxed, self.saturated, self.tau_ratio = report.relaxed, report.saturated, report.tau_ratio
+        self._degraded = report.degraded
+        got = report.saturated_torques
+        self.saturated_torques = [] if got is None else got
+        got = report.singular_levels
+        self.singular_levels = [] if got is None else got
         self.fault = ""
         # given, or None until ``evaluate`` fills them (the properties)
-        self._residuals: Any = get("residuals")
-        self._task_residuals: Any = get("task_residuals")
-        self._diagnostics: Any = get("diagnostics")
-        self._evaluate = get("evaluate")
+        self._residuals: Any = report.residuals
+        self._task_residuals: Any = report.task_residuals
+        self._diagnostics: Any = report.diagnostics
+        self._evaluate = report.evaluate
+
+    @property
+    def conditions(self) -> tuple[str, ...]:
+        """Every one of ``"relaxed"``, ``"degraded"``, ``"saturated"`` that holds, in that order;
+        ``(status,)`` for a ``"failed"`` or ``"stopped"`` cycle (class docstring)."""
+        status = self.status
+        if status == "failed" or status == "stopped":
+            return (status,)
+        return tuple(c for c, on in (("relaxed", self.relaxed), ("degraded", self._degraded or status == "degraded"),
+                                     ("saturated", self.saturated)) if on)
 
     def _ensure(self) -> None:
         if self._diagnostics is None and self._evaluate is not None:
@@ -217,7 +237,11 @@ def solve_status(ok: bool, res) -> tuple[str, bool]:
         ok: whether the solve succeeded and its x is finite.
         res: the solver's :class:`~wbc.problem.result.SolveResult`.
     """
-    relaxed = any(info.relaxed for info in res.levels)
+    relaxed = False
+    for info in res.levels:
+        if info.relaxed:
+            relaxed = True
+            break
     if not ok:
         return "failed", relaxed
     if relaxed:

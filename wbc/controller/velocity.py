@@ -36,7 +36,7 @@ import pinocchio as pin
 from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor
 from wbc.controller.options import ControllerOptions
-from wbc.controller.solution import Solution, solve_status
+from wbc.controller.solution import NO_REPORT, Solution, SolutionReport, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.velocity_plan import VelocityPlan
 from wbc.errors import ConfigError, SolverError
@@ -67,13 +67,15 @@ class VelocitySolution(Solution):
         qd: the joint velocity q̇ (nv).
         q_next: the configuration after one period at q̇ (nq).
         na: the number of actuated coordinates (the zero ``tau``'s length).
-        **kwargs: :class:`Solution`'s ``status``, ``message``, ``qp_count``, ``evaluate``,
-            ``relaxed``, ``residuals``, ``task_residuals``, ``diagnostics``.
+        status: as :class:`Solution`'s.
+        message: as :class:`Solution`'s.
+        report: as :class:`Solution`'s (``qp_count``, ``relaxed``, ``evaluate`` or the diagnostics).
     """
 
-    def __init__(self, qd: np.ndarray, q_next: np.ndarray, na: int, **kwargs) -> None:
+    def __init__(self, qd: np.ndarray, q_next: np.ndarray, na: int, status: str, message: str = "",
+                 report: SolutionReport = NO_REPORT) -> None:
         nv = len(qd)
-        super().__init__(qdd=_zeros(nv), tau=_zeros(na), tau_full=_zeros(nv), forces={}, x=qd, **kwargs)
+        super().__init__(_zeros(nv), _zeros(na), _zeros(nv), {}, qd, status, message, report)
         self.qd, self.q_next = qd, q_next
 
 
@@ -209,8 +211,8 @@ class VelocityController:
         evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel))
-        return VelocitySolution(qd, pin.integrate(robot.model, q, qd * self.dt), robot.na, status=status,
-                                message=message, qp_count=res.qp_count, evaluate=evaluate, relaxed=relaxed)
+        return VelocitySolution(qd, pin.integrate(robot.model, q, qd * self.dt), robot.na, status, message,
+                                SolutionReport(qp_count=res.qp_count, relaxed=relaxed, evaluate=evaluate))
 
     def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):
         """The solve again with the collision rows re-linearised where the command breaks them
@@ -236,5 +238,5 @@ class VelocityController:
     def _hold(self, v: np.ndarray, message: str) -> VelocitySolution:
         """A faulty cycle: hold the model's last configuration (q̇ = 0)."""
         robot = self.robot
-        return VelocitySolution(np.zeros(robot.nv), robot.q.copy(), robot.na, status="failed", message=message,
-                                residuals=[], task_residuals={}, diagnostics=[])
+        return VelocitySolution(np.zeros(robot.nv), robot.q.copy(), robot.na, "failed", message,
+                                SolutionReport(residuals=[], task_residuals={}, diagnostics=[]))

@@ -144,6 +144,9 @@ class RecursiveProjection:
         self._force_plan: _ForcePlan | None = None
         #: each level's motion rows in the problem's stacked arrays, for one structure
         self._prefix: _MotionPlan | None = None
+        #: (level 0's C, its in_slices, the torque rows as views of C, lo, hi) while level 0
+        #: keeps its arrays (the stack refills them in place): :meth:`torque_rows`
+        self._torque_views: tuple | None = None
 
     # ----------------------------------------------------------------- q̈
     def solve_accelerations(self, levels: list[Level], layout: Layout, problem: Problem) -> SolveResult:
@@ -162,14 +165,17 @@ class RecursiveProjection:
         adopt_run(levels, cas, infos, 0, out)
         return SolveResult(cas.x if T is None else T @ cas.x, infos)
 
-    @staticmethod
-    def torque_rows(levels: list[Level], layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def torque_rows(self, levels: list[Level], layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(C, lo, hi) of level 0's torque-limit rows on q̈ (N·m or N), lo ≤ C q̈ ≤ hi, when
         q̈ alone gives τ (no contact forces: τ = S_a (M q̈ + h)); no rows otherwise. The
-        cascade scales each lower level's step to keep them (module docstring)."""
+        cascade scales each lower level's step to keep them (module docstring). One
+        TorqueLimits task's rows are views of level 0's arrays, kept while level 0 keeps them."""
         if layout.nf or not levels:
             return _NO_ROWS
         lvl = levels[0]
+        got = self._torque_views
+        if got is not None and got[0] is lvl.C and got[1] is lvl.in_slices:
+            return got[2]
         Cs, los, his = [], [], []
         for name, kind in zip(lvl.names, lvl.kinds):
             sl = lvl.in_slices.get(name)
@@ -179,6 +185,10 @@ class RecursiveProjection:
                 his.append(lvl.hi[sl])
         if not Cs:
             return _NO_ROWS
+        if len(Cs) == 1 and Cs[0].flags.c_contiguous:     # the usual: views, no copy
+            rows = (Cs[0], los[0], his[0])
+            self._torque_views = (lvl.C, lvl.in_slices, rows)
+            return rows
         return np.ascontiguousarray(np.vstack(Cs)), np.concatenate(los), np.concatenate(his)
 
     def _start(self, levels: list[Level], problem: Problem, nv: int) -> tuple:
