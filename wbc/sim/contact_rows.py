@@ -27,7 +27,7 @@ from .pgs import pgs_solve
 
 __all__ = ["shape_table", "find_contacts", "point_positions", "contact_jacobian", "contact_velocity", "delassus", "point_forces",
            "symmetrise_upper", "supports",
-           "contact_step", "free_acceleration", "driver_torque"]
+           "contact_step", "free_acceleration", "driver_torque", "free_velocity"]
 
 
 def supports(model, joints) -> np.ndarray:
@@ -247,6 +247,27 @@ def driver_torque(tau, actuated, limits, out):
             for i in range(out.shape[0]):
                 out[i] = min(max(out[i], -limits[i]), limits[i])
     return finite, clipped
+
+
+@nb.njit(cache=True)
+def free_velocity(v, a_free, h, free_flyer):
+    """(v + h a_free, u): the free motion's explicit Euler step and, for a free-flyer root
+    (velocity coordinates 0-5: linear then angular, body frame), u = v_lin + h (a_lin +
+    ω × v_lin), which the caller rotates by exp(−[ω] h) into v_free's first three entries
+    (:meth:`Simulator._substep`); u is empty otherwise. The same operations in the same
+    order as numpy's, so the same numbers."""
+    v_free = v + h * a_free
+    if not free_flyer:
+        return v_free, np.empty(0)
+    w0, w1, w2 = v[3], v[4], v[5]
+    c0 = w1 * v[2] - w2 * v[1]
+    c1 = w2 * v[0] - w0 * v[2]
+    c2 = w0 * v[1] - w1 * v[0]
+    u = np.empty(3)
+    u[0] = v[0] + h * (a_free[0] + c0)
+    u[1] = v[1] + h * (a_free[1] + c1)
+    u[2] = v[2] + h * (a_free[2] + c2)
+    return v_free, u
 
 
 @nb.njit(cache=True)
