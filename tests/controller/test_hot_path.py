@@ -559,3 +559,33 @@ def test_unit_rows_are_read_off_the_basis_bit_for_bit():
         AZ, r = projected_rows(B, b, x, Z, False)
         np.testing.assert_allclose(AZ, B @ Z, rtol=0, atol=1e-15)
         np.testing.assert_allclose(r, b - B @ x, rtol=0, atol=1e-15)
+
+
+def test_a_full_posture_level_takes_its_step_without_the_gram_matrix():
+    """Unit rows on every coordinate once (a fixed-base robot's posture over all of q̈) make
+    A Z orthonormal: the step is (AZ)ᵀ r with σ = 1, equal to the Cholesky route's (which
+    forms and factors G) to rounding; repeated or missing coordinates take the usual route."""
+    from wbc.solvers.kernels.factorizations import GRAM, level_step, projected_rows_full, step_from
+
+    rng = np.random.default_rng(5)
+    n = 40
+    for k in (40, 31, 9):
+        Z = np.ascontiguousarray(np.linalg.qr(rng.standard_normal((n, k)))[0])
+        x, b = rng.standard_normal(n), rng.standard_normal(n)
+        A = np.eye(n)[rng.permutation(n)]
+        AZ, r, full = projected_rows_full(A, b, x, Z, False)
+        assert full
+        fast = step_from(AZ, r, x, Z, False, GRAM, True, 1e-9, 1e-3, 1e-2, 1e-8, True)
+        slow = step_from(AZ, r, x, Z, False, GRAM, True, 1e-9, 1e-3, 1e-2, 1e-8, False)
+        assert fast[0] and slow[0] and fast[1] == slow[1] == GRAM and fast[2] == slow[2] == k
+        assert fast[3] == fast[4] == 1.0
+        np.testing.assert_allclose(fast[6][:k + n], slow[6][:k + n], rtol=0, atol=1e-12)
+        # the least-squares optimum: the residual is orthogonal to the columns of A Z
+        z = fast[6][:k]
+        np.testing.assert_allclose(AZ.T @ (AZ @ z - r), 0.0, atol=1e-12)
+        got = level_step(A, b, x, Z, False, GRAM, True, 1e-9, 1e-3, 1e-2, 1e-8)
+        np.testing.assert_array_equal(got[6], fast[6])
+    A = np.eye(n)[rng.permutation(n)]
+    A[3] = A[4]                                    # a coordinate twice, one missing
+    assert not projected_rows_full(A, b, x, Z, False)[2]
+    assert not projected_rows_full(A[:-1], b[:-1], x, Z, False)[2]

@@ -135,8 +135,8 @@ def test_one_call_contact_step_equals_the_step_piece_by_piece():
         warm = np.abs(rng.standard_normal((len(sim.points), 3)))   # points out of contact too: dropped
         forces = np.zeros((len(sim.points), 3))
         warm_fused = warm.copy()
-        v_fused, sweeps, _, finite = cr.contact_step(J, Minv, v_free, depths, 0.2, 1e-3, mus, 0.6, 300, 1e-10, 1e-12,
-                                                     frames, ids, warm_fused, forces)
+        v_fused, sweeps, _, finite = cr.contact_step((J, depths, mus, frames, ids), Minv, v_free,
+                                                     (0.2, 1e-3, 0.6, 300, 1e-10, 1e-12), (warm_fused, forces))
         assert finite and sweeps >= 1
         G = J @ Minv @ J.T
         g = J @ v_free

@@ -332,6 +332,34 @@ def test_driver_clips_torques_to_limits_and_counts_saturated_steps():
         Simulator(m, pts, [], q0, actuated=actuated, tau_limits=[1.0, -1.0, 1.0])
 
 
+
+def test_compiled_driver_torque_is_the_masked_clip():
+    """The step's driver in one compiled call equals np.clip(np.where(actuated, τ, 0), −lim, lim)
+    bit for bit, says whether it clipped anything, and refuses a non-finite actuated torque
+    (a NaN on an unactuated dof is dropped, as np.where drops it)."""
+    from wbc.sim.contact_rows import driver_torque
+
+    rng = np.random.default_rng(11)
+    n = 9
+    clipped_seen = 0
+    for _ in range(300):
+        tau = 20.0 * rng.standard_normal(n)
+        act = rng.random(n) < 0.7
+        lim = np.where(rng.random(n) < 0.2, np.inf, rng.uniform(1.0, 30.0, n))
+        out = np.empty(n)
+        finite, clipped = driver_torque(tau, act, lim, out)
+        ref = np.where(act, tau, 0.0)
+        assert finite and clipped == bool(np.any(np.abs(ref) > lim))
+        assert np.array_equal(out, np.clip(ref, -lim, lim))
+        finite, clipped = driver_torque(tau, act, np.empty(0), out)
+        assert finite and not clipped and np.array_equal(out, ref)
+        clipped_seen += clipped or bool(np.any(np.abs(ref) > lim))
+    assert clipped_seen > 100
+    tau[~act] = np.nan
+    assert driver_torque(tau, act, lim, out)[0]
+    tau[np.flatnonzero(act)[0]] = np.inf
+    assert not driver_torque(tau, act, lim, out)[0]
+
 # ---------------------------------------------------------------- (g) differential drive + contact
 def test_differential_drive_base_with_contact_keeps_zero_lateral_velocity():
     """A planar base (10 kg, x, y, yaw; differential drive: no lateral velocity) carrying a

@@ -27,7 +27,7 @@ from .pgs import pgs_solve
 
 __all__ = ["shape_table", "find_contacts", "point_positions", "contact_jacobian", "contact_velocity", "delassus", "point_forces",
            "symmetrise_upper", "supports",
-           "contact_step", "free_acceleration"]
+           "contact_step", "free_acceleration", "driver_torque", "free_velocity"]
 
 
 def supports(model, joints) -> np.ndarray:
@@ -43,14 +43,14 @@ def supports(model, joints) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def point_positions(Rj, tj, slot, offsets, P):
+def point_positions(Hj, slot, offsets, P):
     """P[i] = R_{slot i} offsets[i] + t_{slot i} (m): every point's world position from its
-    joint's placement (Rj: joints × 3 × 3, tj: joints × 3)."""
+    joint's placement (Hj: joints × 4 × 4, the homogeneous matrices [R t; 0 1])."""
     for i in range(P.shape[0]):
         s = slot[i]
         for a in range(3):
-            P[i, a] = (Rj[s, a, 0] * offsets[i, 0] + Rj[s, a, 1] * offsets[i, 1]
-                       + Rj[s, a, 2] * offsets[i, 2]) + tj[s, a]
+            P[i, a] = (Hj[s, a, 0] * offsets[i, 0] + Hj[s, a, 1] * offsets[i, 1]
+                       + Hj[s, a, 2] * offsets[i, 2]) + Hj[s, a, 3]
 
 
 #: shape kinds of :func:`find_contacts` (wbc.sim.environment's HalfSpace and Box)
@@ -91,12 +91,21 @@ def shape_depth(kind, point, normal, size, s, p0, p1, p2):
 
 
 @nb.njit(cache=True)
-def find_contacts(Rj, tj, slot, offsets, kind, point, normal, size, shape_frames, margin, Jw, S,
-                  P, ids, shape_of, depths, frames, J):
+def find_contacts(points, shapes, margin, Jw, out):
     """Every point's position (into P), the points within ``margin`` of a shape (the
     deepest; the first of equally deep ones) into ``ids`` with that shape (``shape_of``),
-    depth and frame, and their rows into J[:3k] (:func:`contact_jacobian`). Returns k."""
-    point_positions(Rj, tj, slot, offsets, P)
+    depth and frame, and their rows into J[:3k] (:func:`contact_jacobian`). Returns k.
+
+    The arguments, grouped (plain tuples, built once by the simulator):
+    ``points`` = (Hj, slot, offsets, S): the joints' placements (joints × 4 × 4, refilled
+    each step), each point's joint slot and offset (m), the support mask (:func:`supports`);
+    ``shapes`` = (kind, point, normal, size, frames), :func:`shape_table`'s first five;
+    ``margin`` (m); ``Jw`` pinocchio's ``data.J``; ``out`` = (P, ids, shape_of, depths,
+    frames, J), the buffers written."""
+    Hj, slot, offsets, S = points
+    kind, point, normal, size, shape_frames = shapes
+    P, ids, shape_of, depths, frames, J = out
+    point_positions(Hj, slot, offsets, P)
     k = 0
     for i in range(P.shape[0]):
         best = -1
@@ -177,13 +186,21 @@ def point_forces(frames, lam, active, h, out):
 
 
 @nb.njit(cache=True)
-def contact_step(J, Minv, v_free, depths, baumgarte, h, mus, over_relax, max_sweeps, abs_tol, rel_tol,
-                 frames, ids, warm, forces):
+def contact_step(rows, Minv, v_free, settings, state):
     """The contact impulses of one step in one call, with the compiled PGS (:mod:`wbc.sim.pgs`):
     G and g (module docstring), λ from the warm start ``warm[ids]`` (points × 3, N·s, contact
     frames), v⁺ = v_free + M⁻¹ Jᵀ λ; then ``warm`` holds λ on the points ``ids`` (0 elsewhere)
     and ``forces`` each point's force C λ / h (N, world). A λ that is not finite counts as
-    no impulse (λ = 0). Returns (v⁺, sweeps, converged, finite)."""
+    no impulse (λ = 0). Returns (v⁺, sweeps, converged, finite).
+
+    The arguments, grouped (plain tuples): ``rows`` = (J, depths, mus, frames, ids), the
+    contacts of :func:`find_contacts`; ``Minv`` (nv × nv, both triangles); ``v_free`` (nv);
+    ``settings`` = (baumgarte, h, over_relax, max_sweeps, abs_tol, rel_tol), the step's
+    Baumgarte factor, length (s) and the PGS's settings (:class:`wbc.sim.pgs.CompiledPGS`);
+    ``state`` = (warm, forces), points × 3 each, read and written."""
+    J, depths, mus, frames, ids = rows
+    baumgarte, h, over_relax, max_sweeps, abs_tol, rel_tol = settings
+    warm, forces = state
     k = ids.shape[0]
     n = 3 * k
     G = delassus(J, Minv)
@@ -207,6 +224,50 @@ def contact_step(J, Minv, v_free, depths, baumgarte, h, mus, over_relax, max_swe
             warm[ids[c], a] = lam[3 * c + a]
     point_forces(frames, lam, ids, h, forces)
     return v_new, sweeps, converged, finite
+
+
+@nb.njit(cache=True)
+def driver_torque(tau, actuated, limits, out):
+    """``out`` = τ on the actuated dofs (0 elsewhere), clipped to ±``limits`` (nv, N·m; an
+    empty array: no limits), as ``np.clip(np.where(actuated, τ, 0), −lim, lim)``. Returns
+    (finite, clipped): whether every entry is finite (then nothing is clipped), whether
+    the clipping changed any."""
+    finite = True
+    for i in range(out.shape[0]):
+        t = tau[i] if actuated[i] else 0.0
+        out[i] = t
+        if not np.isfinite(t):
+            finite = False
+    clipped = False
+    if finite and limits.shape[0]:
+        for i in range(out.shape[0]):
+            if abs(out[i]) > limits[i]:
+                clipped = True
+        if clipped:
+            for i in range(out.shape[0]):
+                out[i] = min(max(out[i], -limits[i]), limits[i])
+    return finite, clipped
+
+
+@nb.njit(cache=True)
+def free_velocity(v, a_free, h, free_flyer):
+    """(v + h a_free, u): the free motion's explicit Euler step and, for a free-flyer root
+    (velocity coordinates 0-5: linear then angular, body frame), u = v_lin + h (a_lin +
+    ω × v_lin), which the caller rotates by exp(−[ω] h) into v_free's first three entries
+    (:meth:`Simulator._substep`); u is empty otherwise. The same operations in the same
+    order as numpy's, so the same numbers."""
+    v_free = v + h * a_free
+    if not free_flyer:
+        return v_free, np.empty(0)
+    w0, w1, w2 = v[3], v[4], v[5]
+    c0 = w1 * v[2] - w2 * v[1]
+    c1 = w2 * v[0] - w0 * v[2]
+    c2 = w0 * v[1] - w1 * v[0]
+    u = np.empty(3)
+    u[0] = v[0] + h * (a_free[0] + c0)
+    u[1] = v[1] + h * (a_free[1] + c1)
+    u[2] = v[2] + h * (a_free[2] + c2)
+    return v_free, u
 
 
 @nb.njit(cache=True)

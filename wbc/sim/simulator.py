@@ -54,13 +54,6 @@ from .joint_dynamics import JointDynamics, eliminate_lateral
 from .options import SimOptions
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b for 3-vectors (numpy's general ``cross`` costs ~20 µs per call)."""
-    a0, a1, a2 = a
-    b0, b1, b2 = b
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
 def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:
     """The points where ``robot`` (a :class:`~wbc.robot.model.RobotModel`) touches the environment,
     for every simulator: the four corners of each contact surface (± half_length, ± half_width
@@ -155,25 +148,31 @@ class Simulator:
         self._slot = np.array([self._joints.index(j) for j, _ in self.points], dtype=np.int64)
         self._offsets = np.array([r for _, r in self.points], dtype=float).reshape(-1, 3)
         self._support = cr.supports(model, self._joints)
-        self._Rj = np.zeros((len(self._joints), 3, 3))
-        self._tj = np.zeros((len(self._joints), 3))
+        self._Hj = np.zeros((len(self._joints), 4, 4))      # the joints' placements [R t; 0 1]
         self._P = np.zeros((len(self.points), 3))
         npts = len(self.points)
         self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
         self._ids, self._shape_of = np.zeros(npts, dtype=np.int64), np.zeros(npts, dtype=np.int64)
         self._depths, self._frames = np.zeros(npts), np.zeros((npts, 3, 3))
         self._J = np.zeros((3 * npts, model.nv))
+        # find_contacts's argument groups (the arrays are refilled in place)
+        self._point_args = (self._Hj, self._slot, self._offsets, self._support)
+        self._contact_out = (self._P, self._ids, self._shape_of, self._depths, self._frames, self._J)
+        self._shape_args = None if self._shapes is None else self._shapes[:5]
+        self._tau = np.zeros(model.nv)             # the driver's torque of the current step
         self._fused = contact_solver == "compiled"   # the contact step in one compiled call
         self.pgs_sweeps = 0         # the last contact solve's sweeps (compiled PGS)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
         self._warm = np.zeros((len(self.points), 3))          # last step's impulses, N·s, contact frames
+        self._pgs_state = (self._warm, self.point_forces)
         self._rng = np.random.default_rng(o.seed)
         self.noise_q, self.noise_v = o.noise_q, o.noise_v
         self._delay: deque = deque(maxlen=o.latency_steps + 1)
         self.solver_failures = 0
         self._free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
         self.tau_limits = self._full_limits(o.tau_limits)
+        self._no_limits = np.empty(0)
         self.saturated_steps = 0    # control periods in which the driver clipped τ
         self.joint_dynamics = JointDynamics.of_model(model) if o.joint_dynamics else None
 
@@ -224,14 +223,14 @@ class Simulator:
             full = np.zeros(self.model.nv)
             full[self.actuated] = tau
             tau = full
-        else:
-            tau = np.where(self.actuated, tau, 0.0)
-        if not np.all(np.isfinite(tau)):
-            raise WbcError("simulator: non-finite torque")
         lim = self.tau_limits
-        if lim is not None and np.any(np.abs(tau) > lim):
-            tau = np.clip(tau, -lim, lim)
-            self.saturated_steps += 1
+        # a fresh array per step: the caller may keep the torque it was given
+        out = np.empty(self.model.nv)
+        finite, clipped = cr.driver_torque(tau, self.actuated, self._no_limits if lim is None else lim, out)
+        if not finite:
+            raise WbcError("simulator: non-finite torque")
+        tau = out
+        self.saturated_steps += clipped
         for _ in range(self.substeps):
             self._substep(tau)
 
@@ -290,22 +289,20 @@ class Simulator:
             Minv, a_free = jd.free_motion(m, d, q, v, tau, fext, h)
         else:
             Minv, a_free = self._free_motion(q, v, tau, fext, bool(rows or nh))
-        v_free = v + h * a_free
+        v_free, u = cr.free_velocity(v, a_free, h, self._free_flyer)
         if self._free_flyer:
             # The root's linear velocity is in the body frame: its rate holds the term
             # −ω × v, which explicit Euler turns into energy gain for a spinning body.
             # Integrate that rotation exactly instead: v⁺ = exp(−[ω] h)(v + h(a + ω × v)).
-            w = v[3:6]
-            v_free[:3] = pin.exp3(-w * h) @ (v[:3] + h * (a_free[:3] + _cross(w, v[:3])))
+            v_free[:3] = pin.exp3(-v[3:6] * h) @ u
 
         if jd is not None and jd.friction_idx.size:
             v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
         elif rows and not nh and self._fused:
-            o = self.over_relax
-            v, self.pgs_sweeps, _, finite = cr.contact_step(J, Minv, v_free, depths, self.baumgarte, h, mus, o,
-                                                            PGS_MAX_ITERATIONS, PGS_ABSOLUTE_PRECISION,
-                                                            PGS_RELATIVE_PRECISION, frames, ids, self._warm,
-                                                            self.point_forces)
+            settings = (self.baumgarte, h, self.over_relax, PGS_MAX_ITERATIONS, PGS_ABSOLUTE_PRECISION,
+                        PGS_RELATIVE_PRECISION)
+            v, self.pgs_sweeps, _, finite = cr.contact_step((J, depths, mus, frames, ids), Minv, v_free, settings,
+                                                            self._pgs_state)
             if not finite:
                 self.solver_failures += 1
         elif rows or nh:
@@ -385,13 +382,16 @@ class Simulator:
     def _point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points from the joints' placements in ``data``
         (kept in a buffer: copy it to keep it)."""
-        d = self.data
-        for s, jid in enumerate(self._joints):
-            oMi = d.oMi[jid]
-            self._Rj[s] = oMi.rotation
-            self._tj[s] = oMi.translation
-        cr.point_positions(self._Rj, self._tj, self._slot, self._offsets, self._P)
+        self._placements()
+        cr.point_positions(self._Hj, self._slot, self._offsets, self._P)
         return self._P
+
+    def _placements(self) -> None:
+        """The contact joints' placements from ``data.oMi`` into ``_Hj`` (one homogeneous
+        matrix per joint: one binding crossing, where rotation and translation are two)."""
+        oMi, Hj = self.data.oMi, self._Hj
+        for s, jid in enumerate(self._joints):
+            Hj[s] = oMi[jid].homogeneous
 
     def _contact_rows(self):
         """Points in (or within ``margin`` of) contact, each with the surface it touches
@@ -402,15 +402,9 @@ class Simulator:
         if Jw.ndim == 1:            # eigenpy hands a 6 × 1 matrix (nv = 1) over as a vector
             Jw = Jw.reshape(6, 1)
         if self._shapes is not None:
-            d = self.data
-            for s, jid in enumerate(self._joints):
-                oMi = d.oMi[jid]
-                self._Rj[s] = oMi.rotation
-                self._tj[s] = oMi.translation
-            kind, point, normal, size, shape_frames, shape_mu = self._shapes
-            k = cr.find_contacts(self._Rj, self._tj, self._slot, self._offsets, kind, point, normal, size, shape_frames,
-                                 self.margin, Jw, self._support, self._P, self._ids, self._shape_of, self._depths,
-                                 self._frames, self._J)
+            self._placements()
+            shape_mu = self._shapes[5]
+            k = cr.find_contacts(self._point_args, self._shape_args, self.margin, Jw, self._contact_out)
             return self._J[:3 * k], self._frames[:k], self._depths[:k], shape_mu[self._shape_of[:k]], self._ids[:k]
         P = self._point_positions()
         best = np.full(P.shape[0], -1)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factorizations import projected_rows, step_from
+from .factorizations import projected_rows_full, step_from
 from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
 from .records import (
     CERTIFIED,
@@ -92,10 +92,11 @@ def cascade_prefix(eq, ineq, start, hints, settings):
         start_level(ints, floats, k, m, dof)
         x_next = x
         if m and dof:
-            AZ, rk = projected_rows(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity)
+            AZ, rk, orthonormal = projected_rows_full(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity)
             path = hint_route(hints, calls, m, dof)
             _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
-                AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio)
+                AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio,
+                orthonormal)
             x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
             r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
