@@ -28,7 +28,9 @@ convex hull (``torso_2_link_0``'s bounding box centre): wbc with ``collision_avo
 pairs of wbc/data/robots/talos.collisions.yaml, d_i 5 cm, d_s 1 cm), PlaCo with its
 self-collision constraint, pink with ``SelfCollisionBarrier`` (d_min 1 cm): the smallest
 distance between the right arm's links and the torso each keeps while iterating (wbc's
-convex-hull distances, the same measure for all).
+convex-hull distances, the same measure for all). The torso (``torso_2_link``) is held still
+in all three (6-D, hard like the feet) and the CoM at its start: otherwise the target is uncovered
+by turning the torso away and is reached (wbc did, to 7e-5 m).
 
 pink, PlaCo: the peer environment (Python 3.11, pinocchio 3.8); mink: the default one
 (Python 3.13, pinocchio 4.1, MuJoCo). wbc runs in both, so each process gives ratios to wbc
@@ -53,6 +55,7 @@ from wbc.tasks import CollisionAvoidance, CoM, Contact, Frame, JointLimits, Post
 
 HAND = "gripper_right_base_link"
 SOLES = ("left_sole_link", "right_sole_link")
+TORSO = "torso_2_link"
 DT = 1.0           # s: one full Gauss–Newton step per solve (velocity limits × DT do not bind)
 HAND_OFFSET = np.array([0.10, -0.05, 0.10])
 COM_OFFSET = np.array([0.0, 0.0, -0.03])
@@ -72,7 +75,10 @@ class Problem:
         m, d = self.model, self.data
         pin.framesForwardKinematics(m, d, self.q0)
         self.feet = {f: d.oMf[m.getFrameId(f)].copy() for f in SOLES}
-        self.com = pin.centerOfMass(m, d, self.q0).copy() + COM_OFFSET
+        self.com = pin.centerOfMass(m, d, self.q0).copy() + (0.0 if unreachable else COM_OFFSET)
+        #: the unreachable case holds the torso still (6-D, hard like the feet): the target inside
+        #: its hull cannot be uncovered by leaning or turning it away
+        self.torso = d.oMf[m.getFrameId(TORSO)].copy() if unreachable else None
         if unreachable:               # the centre of the torso's convex hull (its box's centre)
             from wbc.collision.hulls import bounding_sphere
             from wbc.collision.model import CollisionModel
@@ -106,6 +112,8 @@ class WbcIK:
         com = CoM(target=pb.com)
         hand = Frame("right_hand", mask="position", target=pb.hand)
         level0 = [*feet, JointLimits(horizon=DT)]       # the peers enforce joint limits by default
+        if pb.torso is not None:
+            level0.append(Frame("torso", target=pb.torso))
         if collisions:
             # ξ DT = half of d_i − d_s: one full step closes at most half the gap to d_s (first order)
             level0.append(CollisionAvoidance(influence=0.05, safety=0.01, max_speed=0.5 * 0.04 / DT, max_rows=32))
@@ -146,6 +154,8 @@ class PlacoIK:
         s.enable_joint_limits(True)
         for f in SOLES:
             s.add_frame_task(f, pb.feet[f].homogeneous).configure(f, "hard", 1.0, 1.0)
+        if pb.torso is not None:
+            s.add_frame_task(TORSO, pb.torso.homogeneous).configure("torso", "hard", 1.0, 1.0)
         s.add_com_task(pb.com).configure("com", "hard", 1.0)
         s.add_position_task(HAND, pb.hand).configure("hand", "soft", 1.0)
         post = s.add_joints_task()
@@ -188,6 +198,10 @@ class PinkIK:
         for f in SOLES:
             t = tasks.FrameTask(f, position_cost=1.0, orientation_cost=1.0)
             t.set_target(pb.feet[f])
+            feet.append(t)
+        if pb.torso is not None:
+            t = tasks.FrameTask(TORSO, position_cost=1.0, orientation_cost=1.0)
+            t.set_target(pb.torso)
             feet.append(t)
         gain = STEP if collisions else 1.0
         com = tasks.ComTask(cost=1.0, gain=gain)

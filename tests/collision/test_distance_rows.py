@@ -192,3 +192,24 @@ def test_broad_phase_keeps_exactly_the_pairs_within_the_influence_distance(name)
         np.testing.assert_allclose(rows.d, truth[rows.pairs], atol=1e-5)     # EPA in penetration
         checked += len(want)
     assert checked > 40
+
+
+@pytest.mark.parametrize("offset", [-0.03, -0.01])
+def test_second_witness_point_is_coal_s_also_in_penetration(offset):
+    """The rows build p₂ = p₁ + d n (coal's convention) instead of reading it: it is coal's own
+    second witness point, for the pairs apart and those in penetration (a ball sunk into the hand)."""
+    robot = load_robot("tiago")
+    probe = CollisionModel(robot, self_collision=False)
+    pin.updateGeometryPlacements(robot.model, robot.data, probe.geometry_model, probe.geometry_data)
+    tip = probe.geometry_data.oMg[probe.names.index("wrist_ft_tool_link_0")].translation.copy()
+    ball = Obstacle("ball", coal.Sphere(0.05), pin.SE3(np.eye(3), tip + np.array([0.0, 0.0, -0.05 - offset])))
+    cm = CollisionModel(robot, obstacles=[ball], self_collision=False)
+    robot.update(robot.q, np.zeros(robot.nv))
+    rows = cm.distance_rows(robot, 0.2)
+    assert (rows.d < 0).any() and (rows.d > 0).any()
+    for i, k in enumerate(rows.pairs):
+        d, p1, p2, n = cm.witness_of(int(k))
+        assert rows.d[i] == d
+        np.testing.assert_allclose(rows.p1[i], p1, atol=1e-12)
+        np.testing.assert_allclose(rows.p2[i], p2, atol=1e-9)
+        np.testing.assert_allclose(rows.normal[i], n, atol=1e-12)
