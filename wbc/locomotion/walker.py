@@ -7,7 +7,9 @@ Per cycle (:meth:`Walker.update`, before the solve, at time t):
 - CoM task: (c, ċ, c̈) of :class:`~wbc.locomotion.preview.ZmpPreview` in x, y (replanned at a
   fixed rate from the measured CoM c and velocity ċ, i.e. from the measured DCM
   ξ = c + ċ/ω: the preview's state feedback is the DCM feedback), its height held at the
-  start's.
+  start's. While a foot swings, the swing leg's angular momentum about the CoM is added
+  (:meth:`Walker.swing_momentum_terms`, the multi-body ZMP: the ZMP stays on the LIPM's; the
+  previous cycle's q̈ gives its rate).
 - Contacts, inside each double support through the controller's force ramps
   (:mod:`wbc.controller.force_ramps`): ``ramp`` s before a single support the swing foot's
   contact is released (its force ramped to 0 N) and a swing Frame task added, holding the
@@ -57,7 +59,10 @@ class WalkSpec:
     ``touchdown_force`` (fraction of m g), ``late_max`` (s), ``descent_speed`` (m/s),
     ``touchdown_depth`` (m: the swing aims this far below the ground, so that a foot lagging
     its spline by as much still lands on the clock); ``horizontal``: the fraction of the swing
-    in which the foot moves horizontally (it comes down vertically after it)."""
+    in which the foot moves horizontally (it comes down vertically after it);
+    ``swing_momentum``: the CoM's reference and its replanning take the swing leg's angular
+    momentum into account (:meth:`Walker.swing_momentum_terms`), so that the ZMP stays on the
+    LIPM's."""
 
     footsteps: list[Footstep] | None = None
     command: Command | None = None
@@ -75,6 +80,7 @@ class WalkSpec:
     descent_speed: float = 0.1
     touchdown_depth: float = 0.002
     horizontal: float = 0.8
+    swing_momentum: bool = True
 
 
 def pose2d(M: pin.SE3) -> tuple[float, float, float]:
@@ -126,6 +132,19 @@ class Walker:
         self.warnings: list[str] = []
         self.touchdown_fz = spec.touchdown_force * robot.weight     # N, the landing threshold
         self._q = robot.q_default                 # the last measured configuration
+        # the swing leg's momentum: a gravity-free copy of the model (its RNEA gives the rate of
+        # momentum of each joint's subtree), each foot's leg root (the child of the root joint)
+        self.model_ng = pin.Model(self.model)
+        self.model_ng.gravity = pin.Motion.Zero()
+        self.data_ng = self.model_ng.createData()
+        self.leg_root = {side: _leg_root(self.model, self.model.frames[fid].parentJoint)
+                         for side, fid in self.sole_fid.items()}
+        self.leg_joints = {side: list(self.model.subtrees[j]) for side, j in self.leg_root.items()}
+        self._M = [pin.SE3.Identity() for _ in range(self.model.njoints)]
+        self.mass = float(robot.mass)
+        self.ell = np.zeros(2)            # m/s, the swing leg's share of the CoM velocity (x, y)
+        self.ell_dot = np.zeros(2)        # m/s², its rate
+        self.ell_int = np.zeros(2)        # m, its integral since the last replan
 
     # ---------------------------------------------------------------- start
     def begin(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
@@ -180,23 +199,70 @@ class Walker:
         self.plan.replace_from(n, t - self.delay, cmd, clip=True)
 
     # ---------------------------------------------------------------- cycle
-    def update(self, t: float, q: np.ndarray, v: np.ndarray, fz: dict[str, float]) -> None:
+    def update(self, t: float, q: np.ndarray, v: np.ndarray, fz: dict[str, float],
+               qdd: np.ndarray | None = None) -> None:
         """One control cycle at ``t`` s: measured ``q``, ``v`` and the normal force (N) on each
-        foot ``fz`` (side -> N); sets the tasks' references and switches the contacts."""
+        foot ``fz`` (side -> N); ``qdd``: the previous cycle's joint accelerations (None: not
+        known; no swing correction); sets the tasks' references and switches the contacts."""
         if self.plan is None:
             self.begin(t, q, v)
         assert self.plan is not None and self.preview is not None
         while self.changes and self.changes[0][0] <= t + 1e-9:
             self.command(t, self.changes.pop(0)[1])
+        if self.spec.swing_momentum and qdd is not None and self.state in ("swing", "late"):
+            self.swing_momentum_terms(q, v, qdd, self.plan.steps[self.i].side)
+        else:
+            self.ell[:] = 0.0
+            self.ell_dot[:] = 0.0
         if self.preview.due(t):         # the measured CoM and velocity: only a replan reads them
             c = pin.centerOfMass(self.model, self.data, q, v)
-            self.preview.replan(c[:2], self.data.vcom[0][:2], t)
+            self.preview.replan(c[:2], self.data.vcom[0][:2] - self.ell, t)
+            self.ell_int[:] = 0.0
+        else:
+            self.ell_int += self.ell * self.dt
         self._q = q
         self._contacts(t, fz)
         pc, vc, ac = self.preview.sample(t)
-        self.com_task.set_reference(np.array([pc[0], pc[1], self.z_com]), np.array([vc[0], vc[1], 0.0]),
-                                    np.array([ac[0], ac[1], 0.0]))
+        self.com_task.set_reference(np.array([pc[0] + self.ell_int[0], pc[1] + self.ell_int[1], self.z_com]),
+                                    np.array([vc[0] + self.ell[0], vc[1] + self.ell[1], 0.0]),
+                                    np.array([ac[0] + self.ell_dot[0], ac[1] + self.ell_dot[1], 0.0]))
         self._orientation(t)
+
+    def swing_momentum_terms(self, q: np.ndarray, v: np.ndarray, qdd: np.ndarray, side: str) -> None:
+        """The swing leg's share ℓ of the CoM velocity and its rate ℓ̇ (xy; m/s, m/s²).
+
+        With L the ``side`` leg's angular momentum about the CoM c (N·m·s; its bodies' spatial
+        momenta summed, from the RNEA at (q, q̇, q̈) without gravity: its weight is in the
+        CoM's) the ZMP of the whole robot is p = c − z_c c̈/g + (−L̇_y, L̇_x)/(m g) (the multi-body
+        ZMP). With ℓ = (−L_y, L_x)/(m z_c) and u = ċ − ℓ the LIPM holds in (c, u):
+
+            u̇ = ω² (c − p),   ċ = u + ℓ,
+
+        so the preview plans u (replanned from the measured ċ − ℓ) and the CoM task follows
+        c̈ = u̇ + ℓ̇, ċ = u + ℓ: the ZMP stays on the LIPM's while the leg swings. The LIPM alone
+        leaves this momentum out; on a robot whose legs are a large part of its mass (the
+        G1's: 22 %) a fast swing then asks more CoP than the stance sole has. The previous
+        cycle's q̈ stands for this one's (the swing foot's reference is smooth)."""
+        m, d = self.model_ng, self.data_ng
+        pin.rnea(m, d, q, v, qdd)
+        M = self._M
+        H = pin.Force.Zero()
+        root = self.leg_root[side]
+        for j in self.leg_joints[side]:
+            M[j] = (M[m.parents[j]] if j != root else self._M_root(root)) * d.liMi[j]
+            H += M[j].act(m.inertias[j] * d.v[j])
+        F = M[root].act(d.f[root])                    # the leg's rate of momentum, world axes
+        c = self.robot.com
+        L = H.angular - np.cross(c, H.linear)
+        Ldot = F.angular - np.cross(c, F.linear)
+        k = 1.0 / (self.mass * (self.z_com - self.ground_z))
+        self.ell[0], self.ell[1] = -L[1] * k, L[0] * k
+        self.ell_dot[0], self.ell_dot[1] = -Ldot[1] * k, Ldot[0] * k
+
+    def _M_root(self, root: int) -> pin.SE3:
+        """The world placement of the leg root's parent (the root joint: its liMi is oMi)."""
+        parent = self.model.parents[root]
+        return self.data_ng.liMi[parent] if parent > 0 else pin.SE3.Identity()
 
     def _contacts(self, t: float, fz: dict[str, float]) -> None:
         plan = self.plan
@@ -297,6 +363,14 @@ class Walker:
     def done(self) -> bool:
         """Every step taken and the plan's last double support over."""
         return self.plan is not None and self.i >= len(self.plan.steps)
+
+
+def _leg_root(model, joint: int) -> int:
+    """The ancestor of ``joint`` (a foot's) whose parent is the root joint (joint 1, the
+    free flyer): the hip of the foot's leg."""
+    while model.parents[joint] > 1:
+        joint = model.parents[joint]
+    return joint
 
 
 def _mean_yaw(feet: dict[str, Footstep]) -> float:
