@@ -132,16 +132,21 @@ class Walker:
         self.warnings: list[str] = []
         self.touchdown_fz = spec.touchdown_force * robot.weight     # N, the landing threshold
         self._q = robot.q_default                 # the last measured configuration
-        # the swing leg's momentum: a gravity-free copy of the model (its RNEA gives the rate of
-        # momentum of each joint's subtree), each foot's leg root (the child of the root joint)
-        self.model_ng = pin.Model(self.model)
-        self.model_ng.gravity = pin.Motion.Zero()
-        self.data_ng = self.model_ng.createData()
+        # the swing leg's momentum: per foot, the model reduced to the root joint and that leg
+        # (every other joint locked: the RNEA's joint force at the hip depends only on the leg's
+        # bodies and the root's motion), without gravity; the indices of its q and q̇ in the robot's
         self.leg_root = {side: _leg_root(self.model, self.model.frames[fid].parentJoint)
                          for side, fid in self.sole_fid.items()}
         self.leg_joints = {side: list(self.model.subtrees[j]) for side, j in self.leg_root.items()}
-        self._M = [pin.SE3.Identity() for _ in range(self.model.njoints)]
+        self._leg = {side: _leg_model(self.model, self.leg_root[side], self.leg_joints[side], robot.q_default)
+                     for side in SIDES}
         self.mass = float(robot.mass)
+        self._turn: float | None = None   # rad, the orientation tasks' yaw last set
+        self._orient_key: tuple | None = None   # (step, swinging) of the feet's yaws below
+        self._yaws: dict[str, float] = {}
+        self._dyaw = 0.0                  # rad, the swing foot's turn in this step
+        self._twist = np.zeros(6)         # the swing task's twist and acceleration references
+        self._twist_acc = np.zeros(6)
         self.ell = np.zeros(2)            # m/s, the swing leg's share of the CoM velocity (x, y)
         self.ell_dot = np.zeros(2)        # m/s², its rate
         self.ell_int = np.zeros(2)        # m, its integral since the last replan
@@ -177,6 +182,8 @@ class Walker:
         for task in self.orient:
             M = d.oMf[self.robot.frame_id(task.frame)]
             self.orient_rot0[task.name] = M.rotation.copy()
+        self._turn = None
+        self._orient_key = None
 
     def _zmp_ahead(self, t: float, dt: float, n: int, out: np.ndarray) -> np.ndarray:
         assert self.plan is not None
@@ -231,10 +238,11 @@ class Walker:
     def swing_momentum_terms(self, q: np.ndarray, v: np.ndarray, qdd: np.ndarray, side: str) -> None:
         """The swing leg's share ℓ of the CoM velocity and its rate ℓ̇ (xy; m/s, m/s²).
 
-        With L the ``side`` leg's angular momentum about the CoM c (N·m·s; its bodies' spatial
-        momenta summed, from the RNEA at (q, q̇, q̈) without gravity: its weight is in the
-        CoM's) the ZMP of the whole robot is p = c − z_c c̈/g + (−L̇_y, L̇_x)/(m g) (the multi-body
-        ZMP). With ℓ = (−L_y, L_x)/(m z_c) and u = ċ − ℓ the LIPM holds in (c, u):
+        With L the ``side`` leg's angular momentum about the CoM c (N·m·s; the RNEA without
+        gravity, the leg's weight being in the CoM's, gives at the hip the rate of the leg's
+        spatial momentum at (q, q̇, q̈) and the momentum itself at (q, 0, q̇)), the ZMP of the
+        whole robot is p = c − z_c c̈/g + (−L̇_y, L̇_x)/(m g) (the multi-body ZMP).
+        With ℓ = (−L_y, L_x)/(m z_c) and u = ċ − ℓ the LIPM holds in (c, u):
 
             u̇ = ω² (c − p),   ċ = u + ℓ,
 
@@ -243,26 +251,27 @@ class Walker:
         leaves this momentum out; on a robot whose legs are a large part of its mass (the
         G1's: 22 %) a fast swing then asks more CoP than the stance sole has. The previous
         cycle's q̈ stands for this one's (the swing foot's reference is smooth)."""
-        m, d = self.model_ng, self.data_ng
-        pin.rnea(m, d, q, v, qdd)
-        M = self._M
-        H = pin.Force.Zero()
-        root = self.leg_root[side]
-        for j in self.leg_joints[side]:
-            M[j] = (M[m.parents[j]] if j != root else self._M_root(root)) * d.liMi[j]
-            H += M[j].act(m.inertias[j] * d.v[j])
-        F = M[root].act(d.f[root])                    # the leg's rate of momentum, world axes
-        c = self.robot.com
-        L = H.angular - np.cross(c, H.linear)
-        Ldot = F.angular - np.cross(c, F.linear)
+        m, d, root, iq, iv, zero = self._leg[side]
+        qs, vs = q[iq], v[iv]
+        pin.rnea(m, d, qs, vs, qdd[iv])
+        M = d.liMi[root]
+        parent = m.parents[root]
+        if parent > 0:                  # the root joint's liMi is its world placement
+            M = d.liMi[parent] * M
+        F = M.act(d.f[root])            # the leg's rate of momentum (world axes, at the origin)
+        # the RNEA with zero velocity and q̈ = q̇: each body's "acceleration" is its velocity,
+        # so the hip's joint force is the leg's momentum
+        pin.rnea(m, d, qs, zero, vs)
+        H = M.act(d.f[root])
+        cx, cy, cz = self.robot.com
+        f, n = F.linear, F.angular
+        h, a = H.linear, H.angular
         k = 1.0 / (self.mass * (self.z_com - self.ground_z))
-        self.ell[0], self.ell[1] = -L[1] * k, L[0] * k
-        self.ell_dot[0], self.ell_dot[1] = -Ldot[1] * k, Ldot[0] * k
-
-    def _M_root(self, root: int) -> pin.SE3:
-        """The world placement of the leg root's parent (the root joint: its liMi is oMi)."""
-        parent = self.model.parents[root]
-        return self.data_ng.liMi[parent] if parent > 0 else pin.SE3.Identity()
+        # L = a − c × h, L̇ = n − c × f (about the CoM), x and y components
+        self.ell[0] = -(a[1] - (cz * h[0] - cx * h[2])) * k
+        self.ell[1] = (a[0] - (cy * h[2] - cz * h[1])) * k
+        self.ell_dot[0] = -(n[1] - (cz * f[0] - cx * f[2])) * k
+        self.ell_dot[1] = (n[0] - (cy * f[2] - cz * f[1])) * k
 
     def _contacts(self, t: float, fz: dict[str, float]) -> None:
         plan = self.plan
@@ -320,12 +329,14 @@ class Walker:
         self._swing_reference(p, vel, acc)
 
     def _swing_reference(self, p: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> None:
-        R = rot_z(p[3] - self.swing_yaw0) @ self.swing_rot
-        M = pin.SE3(R, p[:3].copy())
+        turn = p[3] - self.swing_yaw0
+        R = rot_z(turn) @ self.swing_rot if turn != 0.0 else self.swing_rot
         task = self.swing_task
         assert task is not None
-        task.set_reference(M, np.array([vel[0], vel[1], vel[2], 0.0, 0.0, vel[3]]),
-                           np.array([acc[0], acc[1], acc[2], 0.0, 0.0, acc[3]]))
+        tw, ta = self._twist, self._twist_acc       # (linear, angular z) filled, the rest 0
+        tw[:3], tw[5] = vel[:3], vel[3]
+        ta[:3], ta[5] = acc[:3], acc[3]
+        task.set_reference(pin.SE3(R, p[:3].copy()), tw.copy(), ta.copy())
 
     def _touchdown(self, t: float, side: str, early: bool) -> None:
         task = self.contact_task[side]
@@ -345,15 +356,26 @@ class Walker:
             return
         plan = self.plan
         assert plan is not None
-        feet = plan.feet_after(self.i)
-        yaws = {s: feet[s].yaw for s in SIDES}
-        if self.state in ("swing", "late") and self.swing is not None:
-            step = plan.steps[self.i]
+        swinging = self.state in ("swing", "late") and self.swing is not None
+        if (self.i, swinging) != self._orient_key:      # a phase change: the feet's yaws anew
+            self._orient_key = (self.i, swinging)
+            feet = plan.feet_after(self.i)
+            self._yaws = {s: feet[s].yaw for s in SIDES}
+            step = plan.steps[self.i] if swinging else None
+            self._dyaw = wrap(step.yaw - self._yaws[step.side]) if step is not None else 0.0
+        elif self._dyaw == 0.0:         # no foot turning: the targets hold (a straight walk)
+            return
+        yaws = dict(self._yaws)
+        if swinging and self._dyaw != 0.0:
+            assert self.swing is not None
+            side = plan.steps[self.i].side
             s = min((t - self.delay - self.t_swing) / self.swing.T, 1.0)
-            sig = quintic(s)[0]
-            yaws[step.side] = yaws[step.side] + wrap(step.yaw - yaws[step.side]) * sig
+            yaws[side] = yaws[side] + self._dyaw * quintic(s)[0]
         yaw = yaws["left"] + 0.5 * wrap(yaws["right"] - yaws["left"])
         turn = wrap(yaw - self.yaw0)
+        if turn == self._turn:          # the targets hold already (a straight walk: every cycle)
+            return
+        self._turn = turn
         Rz = rot_z(turn)
         for task in self.orient:
             task.target = pin.SE3(Rz @ self.orient_rot0[task.name], np.zeros(3))
@@ -363,6 +385,23 @@ class Walker:
     def done(self) -> bool:
         """Every step taken and the plan's last double support over."""
         return self.plan is not None and self.i >= len(self.plan.steps)
+
+
+def _leg_model(model, root: int, leg: list[int], q_ref: np.ndarray) -> tuple:
+    """(model, data, the leg root's joint index, q indices, q̇ indices, zero q̇) of ``model``
+    reduced to its root joint and the joints ``leg`` (the subtree of ``root``), without
+    gravity."""
+    keep = {1, *leg} if model.parents[root] == 1 else set(leg)
+    lock = [j for j in range(1, model.njoints) if j not in keep]
+    red = pin.buildReducedModel(model, lock, q_ref)
+    red.gravity = pin.Motion.Zero()
+    iq: list[int] = []
+    iv: list[int] = []
+    for j in sorted(keep):
+        iq += range(model.idx_qs[j], model.idx_qs[j] + model.nqs[j])
+        iv += range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])
+    return (red, red.createData(), red.getJointId(model.names[root]), np.array(iq), np.array(iv),
+            np.zeros(red.nv))
 
 
 def _leg_root(model, joint: int) -> int:
