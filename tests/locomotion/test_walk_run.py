@@ -134,10 +134,6 @@ def test_a_command_beyond_the_limits_at_run_time_is_clipped_with_a_warning():
                                            ("talos_walk_turn", True), ("g1_walk", False),
                                            ("talos_walk_command", True)])
 def test_full_walks(name, yaw, sim):
-    if name == "g1_walk" and sim == "mujoco":
-        pytest.xfail("the G1's swing leg's momentum needs more CoP than its stance ankle gives, the trunk and "
-                     "arms take it, the sole rolls on MuJoCo's soft contact: a fall after 3 steps "
-                     "(benchmarks/walking.md)")
     sc = load_config(name)
     m = run(sc, simulator=sim)
     _check_walk(m, None if sc.walk.changes else sc.walk.command.steps + 1, yaw)

@@ -76,6 +76,8 @@ class ZmpPreview:
         self.u = np.zeros(2)               # the jerk held since then, m/s³
         self.t_plan = -np.inf
         self.replan_times: list[float] = []
+        self._xu = np.zeros((4, 2))       # (c, ċ, c̈, u) of the last replan
+        self._P = np.eye(3, 4)
 
     def reset(self, c: np.ndarray, dc: np.ndarray, t: float) -> None:
         """Start from CoM ``c`` (xy, m), velocity ``dc`` (m/s), zero acceleration, at ``t``."""
@@ -92,6 +94,8 @@ class ZmpPreview:
         self.x[0], self.x[1], self.x[2] = c[:2], dc[:2], acc
         r = self.zmp_ahead(t, self.period, self.n, self._r)
         self.u = -self.K @ self.x + self.f @ r
+        self._xu[:3] = self.x
+        self._xu[3] = self.u
         self.t_plan = t
         self.replan_times.append(time.perf_counter() - t0)
 
@@ -105,9 +109,12 @@ class ZmpPreview:
         if not np.isfinite(self.t_plan):
             return self.x[0].copy(), self.x[1].copy(), self.x[2].copy()
         s = min(max(t - self.t_plan, 0.0), self.period)
-        c, v, a = self.x
-        u = self.u
-        return (c + v * s + a * s * s / 2 + u * s ** 3 / 6, v + a * s + u * s * s / 2, a + u * s)
+        P = self._P                     # the state and jerk's coefficients at s: one (3, 4) @ (4, 2)
+        P[0, 1] = P[1, 2] = P[2, 3] = s
+        P[0, 2] = P[1, 3] = s * s / 2
+        P[0, 3] = s * s * s / 6
+        out = P @ self._xu
+        return out[0], out[1], out[2]
 
     def zmp(self, t: float) -> np.ndarray:
         """The plan's ZMP p = c − z_c c̈ / g at ``t`` (xy, m)."""

@@ -7,7 +7,9 @@ Per cycle (:meth:`Walker.update`, before the solve, at time t):
 - CoM task: (c, ċ, c̈) of :class:`~wbc.locomotion.preview.ZmpPreview` in x, y (replanned at a
   fixed rate from the measured CoM c and velocity ċ, i.e. from the measured DCM
   ξ = c + ċ/ω: the preview's state feedback is the DCM feedback), its height held at the
-  start's.
+  start's. While a foot swings, the swing leg's angular momentum about the CoM is added
+  (:meth:`Walker.swing_momentum_terms`, the multi-body ZMP: the ZMP stays on the LIPM's; the
+  previous cycle's q̈ gives its rate).
 - Contacts, inside each double support through the controller's force ramps
   (:mod:`wbc.controller.force_ramps`): ``ramp`` s before a single support the swing foot's
   contact is released (its force ramped to 0 N) and a swing Frame task added, holding the
@@ -57,7 +59,10 @@ class WalkSpec:
     ``touchdown_force`` (fraction of m g), ``late_max`` (s), ``descent_speed`` (m/s),
     ``touchdown_depth`` (m: the swing aims this far below the ground, so that a foot lagging
     its spline by as much still lands on the clock); ``horizontal``: the fraction of the swing
-    in which the foot moves horizontally (it comes down vertically after it)."""
+    in which the foot moves horizontally (it comes down vertically after it);
+    ``swing_momentum``: the CoM's reference and its replanning take the swing leg's angular
+    momentum into account (:meth:`Walker.swing_momentum_terms`), so that the ZMP stays on the
+    LIPM's."""
 
     footsteps: list[Footstep] | None = None
     command: Command | None = None
@@ -75,6 +80,7 @@ class WalkSpec:
     descent_speed: float = 0.1
     touchdown_depth: float = 0.002
     horizontal: float = 0.8
+    swing_momentum: bool = True
 
 
 def pose2d(M: pin.SE3) -> tuple[float, float, float]:
@@ -126,6 +132,24 @@ class Walker:
         self.warnings: list[str] = []
         self.touchdown_fz = spec.touchdown_force * robot.weight     # N, the landing threshold
         self._q = robot.q_default                 # the last measured configuration
+        # the swing leg's momentum: per foot, the model reduced to the root joint and that leg
+        # (every other joint locked: the RNEA's joint force at the hip depends only on the leg's
+        # bodies and the root's motion), without gravity; the indices of its q and q̇ in the robot's
+        self.leg_root = {side: _leg_root(self.model, self.model.frames[fid].parentJoint)
+                         for side, fid in self.sole_fid.items()}
+        self.leg_joints = {side: list(self.model.subtrees[j]) for side, j in self.leg_root.items()}
+        self._leg = {side: _leg_model(self.model, self.leg_root[side], self.leg_joints[side], robot.q_default)
+                     for side in SIDES}
+        self.mass = float(robot.mass)
+        self._turn: float | None = None   # rad, the orientation tasks' yaw last set
+        self._orient_key: tuple | None = None   # (step, swinging) of the feet's yaws below
+        self._yaws: dict[str, float] = {}
+        self._dyaw = 0.0                  # rad, the swing foot's turn in this step
+        self._twist = np.zeros(6)         # the swing task's twist and acceleration references
+        self._twist_acc = np.zeros(6)
+        self.ell = np.zeros(2)            # m/s, the swing leg's share of the CoM velocity (x, y)
+        self.ell_dot = np.zeros(2)        # m/s², its rate
+        self.ell_int = np.zeros(2)        # m, its integral since the last replan
 
     # ---------------------------------------------------------------- start
     def begin(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
@@ -158,6 +182,8 @@ class Walker:
         for task in self.orient:
             M = d.oMf[self.robot.frame_id(task.frame)]
             self.orient_rot0[task.name] = M.rotation.copy()
+        self._turn = None
+        self._orient_key = None
 
     def _zmp_ahead(self, t: float, dt: float, n: int, out: np.ndarray) -> np.ndarray:
         assert self.plan is not None
@@ -180,23 +206,72 @@ class Walker:
         self.plan.replace_from(n, t - self.delay, cmd, clip=True)
 
     # ---------------------------------------------------------------- cycle
-    def update(self, t: float, q: np.ndarray, v: np.ndarray, fz: dict[str, float]) -> None:
+    def update(self, t: float, q: np.ndarray, v: np.ndarray, fz: dict[str, float],
+               qdd: np.ndarray | None = None) -> None:
         """One control cycle at ``t`` s: measured ``q``, ``v`` and the normal force (N) on each
-        foot ``fz`` (side -> N); sets the tasks' references and switches the contacts."""
+        foot ``fz`` (side -> N); ``qdd``: the previous cycle's joint accelerations (None: not
+        known; no swing correction); sets the tasks' references and switches the contacts."""
         if self.plan is None:
             self.begin(t, q, v)
         assert self.plan is not None and self.preview is not None
         while self.changes and self.changes[0][0] <= t + 1e-9:
             self.command(t, self.changes.pop(0)[1])
+        if self.spec.swing_momentum and qdd is not None and self.state in ("swing", "late"):
+            self.swing_momentum_terms(q, v, qdd, self.plan.steps[self.i].side)
+        else:
+            self.ell[:] = 0.0
+            self.ell_dot[:] = 0.0
         if self.preview.due(t):         # the measured CoM and velocity: only a replan reads them
             c = pin.centerOfMass(self.model, self.data, q, v)
-            self.preview.replan(c[:2], self.data.vcom[0][:2], t)
+            self.preview.replan(c[:2], self.data.vcom[0][:2] - self.ell, t)
+            self.ell_int[:] = 0.0
+        else:
+            self.ell_int += self.ell * self.dt
         self._q = q
         self._contacts(t, fz)
         pc, vc, ac = self.preview.sample(t)
-        self.com_task.set_reference(np.array([pc[0], pc[1], self.z_com]), np.array([vc[0], vc[1], 0.0]),
-                                    np.array([ac[0], ac[1], 0.0]))
+        self.com_task.set_reference(np.array([pc[0] + self.ell_int[0], pc[1] + self.ell_int[1], self.z_com]),
+                                    np.array([vc[0] + self.ell[0], vc[1] + self.ell[1], 0.0]),
+                                    np.array([ac[0] + self.ell_dot[0], ac[1] + self.ell_dot[1], 0.0]))
         self._orientation(t)
+
+    def swing_momentum_terms(self, q: np.ndarray, v: np.ndarray, qdd: np.ndarray, side: str) -> None:
+        """The swing leg's share ℓ of the CoM velocity and its rate ℓ̇ (xy; m/s, m/s²).
+
+        With L the ``side`` leg's angular momentum about the CoM c (N·m·s; the RNEA without
+        gravity, the leg's weight being in the CoM's, gives at the hip the rate of the leg's
+        spatial momentum at (q, q̇, q̈) and the momentum itself at (q, 0, q̇)), the ZMP of the
+        whole robot is p = c − z_c c̈/g + (−L̇_y, L̇_x)/(m g) (the multi-body ZMP).
+        With ℓ = (−L_y, L_x)/(m z_c) and u = ċ − ℓ the LIPM holds in (c, u):
+
+            u̇ = ω² (c − p),   ċ = u + ℓ,
+
+        so the preview plans u (replanned from the measured ċ − ℓ) and the CoM task follows
+        c̈ = u̇ + ℓ̇, ċ = u + ℓ: the ZMP stays on the LIPM's while the leg swings. The LIPM alone
+        leaves this momentum out; on a robot whose legs are a large part of its mass (the
+        G1's: 22 %) a fast swing then asks more CoP than the stance sole has. The previous
+        cycle's q̈ stands for this one's (the swing foot's reference is smooth)."""
+        m, d, root, iq, iv, zero = self._leg[side]
+        qs, vs = q[iq], v[iv]
+        pin.rnea(m, d, qs, vs, qdd[iv])
+        M = d.liMi[root]
+        parent = m.parents[root]
+        if parent > 0:                  # the root joint's liMi is its world placement
+            M = d.liMi[parent] * M
+        F = M.act(d.f[root])            # the leg's rate of momentum (world axes, at the origin)
+        # the RNEA with zero velocity and q̈ = q̇: each body's "acceleration" is its velocity,
+        # so the hip's joint force is the leg's momentum
+        pin.rnea(m, d, qs, zero, vs)
+        H = M.act(d.f[root])
+        cx, cy, cz = self.robot.com
+        f, n = F.linear, F.angular
+        h, a = H.linear, H.angular
+        k = 1.0 / (self.mass * (self.z_com - self.ground_z))
+        # L = a − c × h, L̇ = n − c × f (about the CoM), x and y components
+        self.ell[0] = -(a[1] - (cz * h[0] - cx * h[2])) * k
+        self.ell[1] = (a[0] - (cy * h[2] - cz * h[1])) * k
+        self.ell_dot[0] = -(n[1] - (cz * f[0] - cx * f[2])) * k
+        self.ell_dot[1] = (n[0] - (cy * f[2] - cz * f[1])) * k
 
     def _contacts(self, t: float, fz: dict[str, float]) -> None:
         plan = self.plan
@@ -254,12 +329,14 @@ class Walker:
         self._swing_reference(p, vel, acc)
 
     def _swing_reference(self, p: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> None:
-        R = rot_z(p[3] - self.swing_yaw0) @ self.swing_rot
-        M = pin.SE3(R, p[:3].copy())
+        turn = p[3] - self.swing_yaw0
+        R = rot_z(turn) @ self.swing_rot if turn != 0.0 else self.swing_rot
         task = self.swing_task
         assert task is not None
-        task.set_reference(M, np.array([vel[0], vel[1], vel[2], 0.0, 0.0, vel[3]]),
-                           np.array([acc[0], acc[1], acc[2], 0.0, 0.0, acc[3]]))
+        tw, ta = self._twist, self._twist_acc       # (linear, angular z) filled, the rest 0
+        tw[:3], tw[5] = vel[:3], vel[3]
+        ta[:3], ta[5] = acc[:3], acc[3]
+        task.set_reference(pin.SE3(R, p[:3].copy()), tw.copy(), ta.copy())
 
     def _touchdown(self, t: float, side: str, early: bool) -> None:
         task = self.contact_task[side]
@@ -279,15 +356,26 @@ class Walker:
             return
         plan = self.plan
         assert plan is not None
-        feet = plan.feet_after(self.i)
-        yaws = {s: feet[s].yaw for s in SIDES}
-        if self.state in ("swing", "late") and self.swing is not None:
-            step = plan.steps[self.i]
+        swinging = self.state in ("swing", "late") and self.swing is not None
+        if (self.i, swinging) != self._orient_key:      # a phase change: the feet's yaws anew
+            self._orient_key = (self.i, swinging)
+            feet = plan.feet_after(self.i)
+            self._yaws = {s: feet[s].yaw for s in SIDES}
+            step = plan.steps[self.i] if swinging else None
+            self._dyaw = wrap(step.yaw - self._yaws[step.side]) if step is not None else 0.0
+        elif self._dyaw == 0.0:         # no foot turning: the targets hold (a straight walk)
+            return
+        yaws = dict(self._yaws)
+        if swinging and self._dyaw != 0.0:
+            assert self.swing is not None
+            side = plan.steps[self.i].side
             s = min((t - self.delay - self.t_swing) / self.swing.T, 1.0)
-            sig = quintic(s)[0]
-            yaws[step.side] = yaws[step.side] + wrap(step.yaw - yaws[step.side]) * sig
+            yaws[side] = yaws[side] + self._dyaw * quintic(s)[0]
         yaw = yaws["left"] + 0.5 * wrap(yaws["right"] - yaws["left"])
         turn = wrap(yaw - self.yaw0)
+        if turn == self._turn:          # the targets hold already (a straight walk: every cycle)
+            return
+        self._turn = turn
         Rz = rot_z(turn)
         for task in self.orient:
             task.target = pin.SE3(Rz @ self.orient_rot0[task.name], np.zeros(3))
@@ -297,6 +385,31 @@ class Walker:
     def done(self) -> bool:
         """Every step taken and the plan's last double support over."""
         return self.plan is not None and self.i >= len(self.plan.steps)
+
+
+def _leg_model(model, root: int, leg: list[int], q_ref: np.ndarray) -> tuple:
+    """(model, data, the leg root's joint index, q indices, q̇ indices, zero q̇) of ``model``
+    reduced to its root joint and the joints ``leg`` (the subtree of ``root``), without
+    gravity."""
+    keep = {1, *leg} if model.parents[root] == 1 else set(leg)
+    lock = [j for j in range(1, model.njoints) if j not in keep]
+    red = pin.buildReducedModel(model, lock, q_ref)
+    red.gravity = pin.Motion.Zero()
+    iq: list[int] = []
+    iv: list[int] = []
+    for j in sorted(keep):
+        iq += range(model.idx_qs[j], model.idx_qs[j] + model.nqs[j])
+        iv += range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])
+    return (red, red.createData(), red.getJointId(model.names[root]), np.array(iq), np.array(iv),
+            np.zeros(red.nv))
+
+
+def _leg_root(model, joint: int) -> int:
+    """The ancestor of ``joint`` (a foot's) whose parent is the root joint (joint 1, the
+    free flyer): the hip of the foot's leg."""
+    while model.parents[joint] > 1:
+        joint = model.parents[joint]
+    return joint
 
 
 def _mean_yaw(feet: dict[str, Footstep]) -> float:

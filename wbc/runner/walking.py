@@ -67,7 +67,7 @@ class WalkObserver(RunObserver):
         for side in SIDES:
             self.fz[side] = float(pf[self.pts[side], 2].sum())
         w = self.walker
-        w.update(c.t, c.q, c.v, self.fz)
+        w.update(c.t, c.q, c.v, self.fz, None if c.last_sol is None else c.last_sol.qdd)
         if w.stopped:
             self.stop_reason = w.stopped
         if w.state == "swing" and self._state != "swing" and w.plan is not None:
