@@ -62,6 +62,7 @@ def test_bad_input_is_exit_2_with_file_line_and_key(tmp_path, capsys, line, key,
     lines[i] = "  - - " + line
     path = tmp_path / "bad.yaml"
     path.write_text("\n".join(lines) + "\n")
-    assert main(["validate", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert f"bad.yaml:{i + 1}" in err and key in err and says in err, err
+    for command in (["validate"], ["run", "--duration", "0.01"]):     # checked before anything runs
+        assert main([command[0], str(path), *command[1:]]) == 2
+        err = capsys.readouterr().err
+        assert f"bad.yaml:{i + 1}" in err and key in err and says in err, err

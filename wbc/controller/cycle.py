@@ -388,7 +388,7 @@ class Controller:
         else:
             conditions = tuple(c for c, on in (("relaxed", relaxed), ("degraded", degraded), ("saturated", saturated))
                                if on)
-        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0]
+        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0 or info.singular]
         return Solution(qdd=qdd, tau=tau_full[robot.actuated_idx], tau_full=tau_full, forces=forces,
                         x=x, status=status, message=message, qp_count=qp_count, evaluate=evaluate,
                         relaxed=relaxed, saturated=saturated, tau_ratio=ratio, saturated_torques=at_limit,
