@@ -202,7 +202,8 @@ PARAM_HELP: dict = {
                                          "are always protected",
     ("null_space_impedance", "zeta"): "damping ratio of every null-space mode (instead of B_nu)",
     ("null_space_impedance", "target"): "posture q_d (nq,) of the null-space spring, rad (None: the start)",
-    ("singularity_avoidance", "frame"): "frame whose manipulability √det(J Jᵀ) over its joints is kept (see `wbc robots`)",
+    ("singularity_avoidance", "frame"): "frame whose manipulability √det(J Jᵀ) over its joints is kept (see `wbc robots`), "
+                                        "or 'com': the CoM's over the actuated joints (mask 'position')",
     ("singularity_avoidance", "threshold"): "w_min: the task acts below it, m^p (p the mask's position rows: m³ "
                                             "for 'position'), > 0",
     ("singularity_avoidance", "mask"): "'position', 'orientation' or 'pose': the Jacobian rows measured",
