@@ -180,10 +180,10 @@ class SingularityAvoidance(MotionTask):
         e = np.zeros(robot.nv)
         if self.com:
             # Σ_k (Π_{l≠k} σ_l) u_kᵀ ∂(J v_k)/∂q_i, with ∂(J v_k)/∂q from pinocchio at q̇ = v_k
-            for k in range(p):
-                e[cols] = Vt[k]
+            for i in range(p):
+                e[cols] = Vt[i]
                 pin.centerOfMass(m, d, q, e)
-                grad[cols] += others[k] * (U[:, k] @ pin.getCenterOfMassVelocityDerivatives(m, d)[:, cols])
+                grad[cols] += others[i] * (U[:, i] @ pin.getCenterOfMassVelocityDerivatives(m, d)[:, cols])
             e[:] = 0.0
         for c in ([] if self.com else cols):
             e[c] = 1.0
