@@ -21,7 +21,10 @@ class JointLimits(Task):
       q + v T + ½ q̈ T² ∈ [q_min + margin, q_max − margin];
     - viability: after the step the joint can still stop before its limit with
       the deceleration ``max_acceleration`` ā (rad/s² or m/s²):
-      v + q̈ dt ≤ √(2 ā d), d = q_max − margin − q − v dt (and symmetrically).
+      v + q̈ dt ≤ √(2 ā d), d = q_max − margin − q − v dt (and symmetrically);
+      a joint already faster than that (outside the viable set: a push, a simulator's
+      kick) is asked only the constant deceleration that stops it within d,
+      q̈ ≤ −v²/(2d), where the bound above asks up to −v/dt.
 
     Where the bounds cross (a state already outside), both collapse to their
     midpoint, the least-violating choice. Units: rad or m per joint.
@@ -127,7 +130,14 @@ def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, ama
             xd = sgn * v[vi[k]]
             h = min((vmax[k] - xd) / dt, (lim - x - xd * horizon) * c)
             d = max(lim - x - xd * dt, 0.0)
-            bound[side] = min(h, (np.sqrt(2.0 * amax * d) - xd) / dt)
+            viable = (np.sqrt(2.0 * amax * d) - xd) / dt
+            if viable < 0.0 and xd > 0.0 and d > 0.0:
+                # outside the viable set (faster than ā can stop in d): the constant
+                # deceleration that stops it within d, v²/(2d), suffices; getting back under
+                # the ā curve within one period asked up to v/dt (a simulator's kick of a calf
+                # 0.02 rad from its stop: 540 rad/s² where v²/(2d) is 95)
+                viable = max(viable, -xd * xd / (2.0 * d))
+            bound[side] = min(h, viable)
         up, low = bound[0], -bound[1]
         if low > up:
             up = low = 0.5 * (low + up)
