@@ -74,7 +74,7 @@ def test_limits_hold_when_the_plant_realises_qdd_slightly_off():
 
 
 def test_a_joint_kicked_past_its_viable_speed_is_stopped_before_its_limit_with_v2_over_2d():
-    """A joint 0.02 rad from its upper limit, moving towards it at 3 rad/s (above the
+    """recovery: stop. A joint 0.02 rad from its upper limit, moving towards it at 3 rad/s (above the
     √(2 ā d) = 1.1 rad/s that ā = 30 rad/s² can stop): the bound asks the constant
     deceleration that stops it within d, −v²/(2d) (≈ −250 rad/s² here), not the −v/dt-sized
     return under the ā curve within one period (≈ −1,900); following the bound each period
@@ -90,7 +90,7 @@ def test_a_joint_kicked_past_its_viable_speed_is_stopped_before_its_limit_with_v
     d0 = 1.0 - q[0] - v[0] * dt
     worst = 0.0
     for _ in range(200):
-        lo, hi = acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax, none, np.zeros(0))
+        lo, hi = acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax, none, np.zeros(0), True)
         a = hi[0]
         worst = min(worst, a)
         v = v + a * dt
@@ -99,5 +99,9 @@ def test_a_joint_kicked_past_its_viable_speed_is_stopped_before_its_limit_with_v
     assert abs(v[0]) < 1e-3 and q[0] < 1.0            # at rest (creeping in) within 0.2 s
     assert worst >= -(3.0 ** 2) / (2.0 * d0) * 1.001, worst
     lo, hi = acceleration_bounds(np.array([0.0]), np.array([0.5]), qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax,
-                                 none, np.zeros(0))
+                                 none, np.zeros(0), True)
     assert hi[0] > 0.0                              # inside the viable set: free to accelerate
+    # the default (recovery: one_period) asks the return under the ā curve within one period
+    lo, hi = acceleration_bounds(np.array([0.98]), np.array([3.0]), qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax,
+                                 none, np.zeros(0))
+    assert hi[0] < -1000.0

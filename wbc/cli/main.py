@@ -195,6 +195,8 @@ PARAM_HELP: dict = {
     "horizon": "look-ahead of the position bound, s",
     "max_acceleration": "deceleration available to stop before a limit, rad/s² or m/s²",
     "margin": "distance kept from the position limits, rad or m",
+    "recovery": "a joint faster than max_acceleration can stop: 'one_period' (back under that curve in one "
+                "period) or 'stop' (the constant deceleration v²/(2d) that stops it at the limit)",
     "joints": "joint names (None: every non-root joint)",
     "scale": "fraction (0, 1] of the URDF torque limits",
     ("null_space_impedance", "frame"): "frame of a pose task above (protected: the impedance acts in its null space)",
