@@ -2,14 +2,17 @@
 
     PYTHONPATH=. python benchmarks/singularities.py [OUT.md [CASE ...]]
 
-(CASE: panda, crouch, g1, go2; default all. Durations: the Panda's 4.5 s, 1.5 s for the G1 and the
+(CASE: panda, wrist, crouch, g1, go2; default all. Durations: the Panda's 4.5 s, 1.5 s for the G1 and the
 go2, the standing and the bending being over by then.)
 
-Cases: panda_reach_boundary (the hand out to 20 cm beyond its reach and back), g1_straight_legs
+Cases: panda_reach_boundary (the hand out to 20 cm beyond its reach and back),
+panda_wrist_singularity (the hand's pose through that of a configuration with aligned wrist and
+shoulder axes, rank 5, and back), g1_straight_legs
 (the G1 at its zero configuration, straight legs, the singularity_avoidance task above the
 posture) and the same stack on the G1 with bent knees (g1.yaml's default posture: the bent
-run of the 10× criterion), go2 from `wbc robot init` at its zero posture (written to a temporary
-directory from the bundled URDF) and the bundled go2 (bent legs); go2_straight_crouch (the go2 with
+run of the 10× criterion), go2 from `wbc robot init` at its default posture (written to a temporary
+directory from the bundled URDF: the zero configuration but for the calves, whose range excludes
+0, 10 % of their range inside their upper limit) and the bundled go2 (bent legs); go2_straight_crouch (the go2 with
 its legs as straight as its knees allow stands, then crouches 8 cm) and the same scenario from the
 bundled go2's bent stance. Per run: fell, cycles over a
 joint position/velocity limit or the torque limit, saturated and relaxed cycles, the worst
@@ -97,11 +100,12 @@ def main(out: str | None, which: list[str]) -> None:
     (tmp / "go2_bent_crouch.yaml").write_text(crouch.replace("robot: go2_straight", "robot: go2")
                                               .replace("name: go2_straight_crouch", "name: go2_bent_crouch"))
     cases = [("panda", "panda_reach_boundary", "panda_reach_boundary", None),
+             ("wrist", "panda_wrist_singularity", "panda_wrist_singularity", None),
              ("crouch", "go2_straight_crouch", "go2_straight_crouch", None),
              ("crouch", "go2 bent, same crouch", tmp / "go2_bent_crouch.yaml", None),
              ("g1", "g1_straight_legs", "g1_straight_legs", 1.5),
              ("g1", "g1 bent (same stack)", tmp / "g1_bent.yaml", 1.5),
-             ("go2", "go2 init, zero posture", tmp / "go2_zero.yaml", 1.5),
+             ("go2", "go2 init (zero, calves in range)", tmp / "go2_zero.yaml", 1.5),
              ("go2", "go2 bundled, bent", tmp / "go2_bent.yaml", 1.5)]
     lines = ["| case | sim | solver | fell | over q / q̇ / τ limit (cycles) | saturated | relaxed | τ asked / τ_max "
              "| max abs q̈ | planned force outside cone (ok/saturated cycles) | near-singular cycles per level |",

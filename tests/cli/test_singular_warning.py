@@ -1,7 +1,8 @@
 """`wbc run` warns once per near-singular level, naming the level's tasks, the directions
 (task components) and the joints that lose rank (wbc.cli.main, metrics' ``singularities``):
 the Panda driven out to its workspace boundary (panda_reach_boundary; by 1.2 s the hand is
-past its reach with projection, by 1.6 s with hqp)."""
+past its reach with projection, by 1.6 s with hqp and weighted; the weighted QP names the hand
+level by its own rows, which it folds with the posture)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import pytest
 from wbc.cli.main import main
 
 
-@pytest.mark.parametrize("solver", ["hqp", "projection"])
+@pytest.mark.parametrize("solver", ["hqp", "projection", "weighted"])
 def test_run_warns_once_naming_the_task_and_the_joints(capsys, solver):
     main(["run", "panda_reach_boundary", "--duration", "1.6", "--solver", solver])
     err = capsys.readouterr().err

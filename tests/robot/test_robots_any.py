@@ -203,3 +203,30 @@ def test_wbc_robots_file_describes_the_robot(capsys):
     assert main(["robots", str(ROBOTS_DIR / "pr2.yaml")]) == 0
     out = capsys.readouterr().out
     assert "mass 257" in out and "r_shoulder_lift_joint 45.0/100 N·m" in out and "unbounded" in out
+
+
+def test_robot_init_puts_a_joint_whose_range_excludes_zero_inside_it(tmp_path):
+    """Without an SRDF the default posture is the zero configuration, but the Go2's knees cannot
+    be at 0 (range [−2.72, −0.84] rad): init writes each calf 10 % of its range inside its
+    nearer limit, the robot loads with no posture finding, and the other joints stay at 0."""
+    from wbc.cli.robot import RANGE_INSET, dump_robot_yaml, guess_robot
+    from wbc.robot.extras import robot_findings
+
+    go2, notes = guess_robot(_erd("go2_description/urdf/go2.urdf"))
+    calves = {f"{leg}_calf_joint" for leg in ("FL", "FR", "RL", "RR")}
+    assert set(go2["default_posture"]) == calves
+    assert any("range excludes 0" in n for n in notes)
+    out = tmp_path / "go2.yaml"
+    out.write_text(dump_robot_yaml(go2))
+    r = wbc.load_robot(out)
+    m = r.model
+    for j in range(2, m.njoints):
+        i = m.idx_qs[j]
+        if m.names[j] in calves:
+            inset = RANGE_INSET * (r.q_max[i] - r.q_min[i])
+            assert r.q_default[i] == pytest.approx(r.q_max[i] - inset, abs=1e-4)
+        else:
+            assert r.q_default[i] == 0.0
+    assert not [f for f in robot_findings(r) if "outside its position limits" in f]
+    g1, _ = guess_robot(_erd("g1_description/urdf/g1_29dof_rev_1_0.urdf"))
+    assert "default_posture" not in g1            # every G1 range holds 0: the zero configuration

@@ -1,7 +1,8 @@
 """A relaxed level 0 keeps its contact cones (wbc.solvers.hqp's module doc): the go2 with
 its calves at 0 rad (outside their range [−2.72, −0.84] rad: the start of a `wbc robot init`
-go2 at its zero posture) and moving further out cannot meet its joint-limit box with its
-torques: level 0 is relaxed, the slack goes to the joint-limit and torque rows, and every
+go2 at its zero posture before init clamped such joints into their range) and moving further
+out cannot meet its joint-limit box with its torques: level 0 is relaxed, the slack goes to
+the joint-limit and torque rows, and every
 planned contact force stays inside its own cone (f − f₀ a non-negative combination of the
 cone's generators), with hqp and weighted (which shares the hqp's level 0). Relaxing every
 row as one planned feet pulling on the ground."""
@@ -104,6 +105,11 @@ def test_the_go2_of_robot_init_stands_in_mujoco(tmp_path, capsys, go2, solver, d
     robot_yaml = tmp_path / "go2_init.yaml"
     assert main(["robot", "init", str(go2.urdf_path), "-o", str(robot_yaml)]) == 0
     capsys.readouterr()
+    # init now puts the calves inside their range: without its default_posture line the robot
+    # is at the zero configuration again (the start this test is about)
+    text = robot_yaml.read_text()
+    assert "default_posture:" in text
+    robot_yaml.write_text("".join(ln for ln in text.splitlines(keepends=True) if not ln.startswith("default_posture:")))
     path = tmp_path / "go2_zero.yaml"
     path.write_text(yaml.safe_dump(standing(robot_yaml)))
     r = ScenarioRun(load_config(path), solver=solver, simulator="mujoco", progress=False, duration=duration)

@@ -71,3 +71,37 @@ def test_limits_hold_when_the_plant_realises_qdd_slightly_off():
           f"from its upper limit")
     assert worst <= 1e-6
     assert robot.q_max[1] - q[1] < 1e-2 and q[3] - robot.q_min[3] < 1e-2     # they got near
+
+
+def test_a_joint_kicked_past_its_viable_speed_is_stopped_before_its_limit_with_v2_over_2d():
+    """recovery: stop. A joint 0.02 rad from its upper limit, moving towards it at 3 rad/s (above the
+    √(2 ā d) = 1.1 rad/s that ā = 30 rad/s² can stop): the bound asks the constant
+    deceleration that stops it within d, −v²/(2d) (≈ −250 rad/s² here), not the −v/dt-sized
+    return under the ā curve within one period (≈ −1,900); following the bound each period
+    (semi-implicit Euler, as both simulators) it stops short of the limit, asking at most
+    that much."""
+    from wbc.tasks.joint_limits import acceleration_bounds
+
+    dt, amax = 1e-3, 30.0
+    qi = vi = np.array([0])
+    none = np.zeros(0, dtype=np.int64)
+    qmax, qmin, vmax = np.array([1.0]), np.array([-1.0]), np.array([10.0])
+    q, v = np.array([0.98]), np.array([3.0])
+    d0 = 1.0 - q[0] - v[0] * dt
+    worst = 0.0
+    for _ in range(200):
+        lo, hi = acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax, none, np.zeros(0), True)
+        a = hi[0]
+        worst = min(worst, a)
+        v = v + a * dt
+        q = q + v * dt
+        assert q[0] <= 1.0 + 1e-12
+    assert abs(v[0]) < 1e-3 and q[0] < 1.0            # at rest (creeping in) within 0.2 s
+    assert worst >= -(3.0 ** 2) / (2.0 * d0) * 1.001, worst
+    lo, hi = acceleration_bounds(np.array([0.0]), np.array([0.5]), qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax,
+                                 none, np.zeros(0), True)
+    assert hi[0] > 0.0                              # inside the viable set: free to accelerate
+    # the default (recovery: one_period) asks the return under the ā curve within one period
+    lo, hi = acceleration_bounds(np.array([0.98]), np.array([3.0]), qi, vi, qmax, qmin, vmax, 0.0, dt, 0.1, amax,
+                                 none, np.zeros(0))
+    assert hi[0] < -1000.0

@@ -4,8 +4,10 @@
   with the posture wanting straight legs: with a singularity_avoidance task on each ankle
   above the posture, the knees bend (the manipulability rises to its threshold); without
   it, they stay straight. Our simulator, 1 s, the three solvers.
-- A frame the robot does not have, a negative gain or threshold: `wbc validate` exits 2
-  naming the file, the line and the key path.
+- The CoM variant (``frame: com``): the Panda's CoM manipulability falls by ~10x with its arm
+  straight up, and a step along the task's row raises it.
+- A frame the robot does not have, a negative gain or threshold, a CoM with orientation rows:
+  `wbc validate` and `wbc run` exit 2 naming the file, the line and the key path.
 """
 
 from __future__ import annotations
@@ -54,6 +56,8 @@ def test_straight_legs_stay_straight_without_it(tmp_path):
     ("{type: singularity_avoidance, frame: left_ankle, threshold: 0.02, kp: -5}", "stack[2][0].kp", ">= 0"),
     ("{type: singularity_avoidance, frame: left_ankle, threshold: 0.02, mask: pos}", "stack[2][0].mask",
      "position"),
+    ("{type: singularity_avoidance, frame: com, threshold: 0.02, mask: pose}", "stack[2][0].mask",
+     "'position' for the CoM"),
 ])
 def test_bad_input_is_exit_2_with_file_line_and_key(tmp_path, capsys, line, key, says):
     text = load_config("g1_straight_legs").source.read_text()
@@ -62,6 +66,22 @@ def test_bad_input_is_exit_2_with_file_line_and_key(tmp_path, capsys, line, key,
     lines[i] = "  - - " + line
     path = tmp_path / "bad.yaml"
     path.write_text("\n".join(lines) + "\n")
-    assert main(["validate", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert f"bad.yaml:{i + 1}" in err and key in err and says in err, err
+    for command in (["validate"], ["run", "--duration", "0.01"]):     # checked before anything runs
+        assert main([command[0], str(path), *command[1:]]) == 2
+        err = capsys.readouterr().err
+        assert f"bad.yaml:{i + 1}" in err and key in err and says in err, err
+
+
+def test_com_manipulability_falls_with_the_arm_straight_up_and_its_row_raises_it():
+    import wbc
+    from wbc.tasks import SingularityAvoidance
+
+    robot = wbc.load_robot("panda")
+    task = SingularityAvoidance("com", threshold=1.0, limit_penalty=0.0)
+    w_default, _ = task.manipulability(robot, robot.q_default)
+    up = np.zeros(robot.nq)                 # every link's CoM near the vertical axis of joint 1
+    w_up, grad = task.manipulability(robot, up)
+    assert w_up < 0.15 * w_default, (w_up, w_default)
+    assert np.all(grad[:robot.n_root] == 0.0) and np.linalg.norm(grad) > 0.0
+    w_step, _ = task.manipulability(robot, up + 1e-2 * grad / np.linalg.norm(grad))
+    assert w_step > w_up

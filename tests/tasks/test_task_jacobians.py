@@ -182,6 +182,8 @@ CASES: dict[str, tuple[type, Case]] = {
         lambda r, c, g: SingularityAvoidance(HAND[r.name], threshold=1e3, kp=0.0, kd=0.0), "motion")),
     "singularity_avoidance_pose": (SingularityAvoidance, Case(
         lambda r, c, g: SingularityAvoidance(HAND[r.name], threshold=1e3, mask="pose", kp=0.0, kd=0.0), "motion")),
+    "singularity_avoidance_com": (SingularityAvoidance, Case(
+        lambda r, c, g: SingularityAvoidance("com", threshold=1e3, kp=0.0, kd=0.0), "motion")),
     "collision_avoidance": (CollisionAvoidance, Case(lambda r, c, g: CollisionAvoidance(influence=0.08, safety=0.01),
                                                      "collision", robots=("talos", "tiago"))),
 }

@@ -195,6 +195,8 @@ PARAM_HELP: dict = {
     "horizon": "look-ahead of the position bound, s",
     "max_acceleration": "deceleration available to stop before a limit, rad/s² or m/s²",
     "margin": "distance kept from the position limits, rad or m",
+    "recovery": "a joint faster than max_acceleration can stop: 'one_period' (back under that curve in one "
+                "period) or 'stop' (the constant deceleration v²/(2d) that stops it at the limit)",
     "joints": "joint names (None: every non-root joint)",
     "scale": "fraction (0, 1] of the URDF torque limits",
     ("null_space_impedance", "frame"): "frame of a pose task above (protected: the impedance acts in its null space)",
@@ -202,7 +204,8 @@ PARAM_HELP: dict = {
                                          "are always protected",
     ("null_space_impedance", "zeta"): "damping ratio of every null-space mode (instead of B_nu)",
     ("null_space_impedance", "target"): "posture q_d (nq,) of the null-space spring, rad (None: the start)",
-    ("singularity_avoidance", "frame"): "frame whose manipulability √det(J Jᵀ) over its joints is kept (see `wbc robots`)",
+    ("singularity_avoidance", "frame"): "frame whose manipulability √det(J Jᵀ) over its joints is kept (see `wbc robots`), "
+                                        "or 'com': the CoM's over the actuated joints (mask 'position')",
     ("singularity_avoidance", "threshold"): "w_min: the task acts below it, m^p (p the mask's position rows: m³ "
                                             "for 'position'), > 0",
     ("singularity_avoidance", "mask"): "'position', 'orientation' or 'pose': the Jacobian rows measured",

@@ -16,7 +16,9 @@ What ``init`` guesses, and prints when it cannot decide:
   a point contact with the sphere's radius if one; otherwise a point contact with radius 0
   (to be measured: the line says so);
 - hands by name (``hand``, ``gripper``, ``tool``, ``palm``, ``wrist``, ``ee``);
-- default posture: the SRDF's first ``group_state`` (by name) if ``--srdf`` is given.
+- default posture: the SRDF's first ``group_state`` (by name) if ``--srdf`` is given; else
+  the zero configuration, but for the joints whose range excludes 0 (each put 1 % of its range
+  inside its nearer limit: a start beyond a limit is a state the robot cannot be in).
 """
 
 from __future__ import annotations
@@ -125,6 +127,28 @@ def _group_states(srdf: Path) -> list[tuple[str, dict[str, float]]]:
     return out
 
 
+RANGE_INSET = 0.1        # a default posture value clamped into a joint's range: this fraction of it inside
+
+
+def _zero_inside_range(joints: list[ET.Element]) -> dict[str, float]:
+    """{joint: value} for each revolute or prismatic joint (not a mimic) whose ``<limit>``
+    range [lower, upper] (rad or m) excludes 0: the nearer limit moved ``RANGE_INSET`` of the
+    range inside it, rounded to 1e-4. The zero configuration of such a joint is a state the
+    robot cannot be in (the Go2's knee: [−2.72, −0.84] rad); a run started there begins
+    beyond a limit, and a simulator's joint-limit constraint throws the joint into its range
+    within a few milliseconds (≈ 15 rad/s)."""
+    out = {}
+    for j in joints:
+        lim = j.find("limit")
+        if j.get("type") not in ("revolute", "prismatic") or lim is None or j.find("mimic") is not None:
+            continue
+        lo, hi = float(lim.get("lower", 0.0)), float(lim.get("upper", 0.0))
+        if lo < hi and not lo <= 0.0 <= hi:
+            inset = RANGE_INSET * (hi - lo)
+            out[j.attrib["name"]] = round(lo + inset if lo > 0.0 else hi - inset, 4)
+    return out
+
+
 def _end(joint: ET.Element, tag: str) -> str:
     """The link named by ``joint``'s ``<parent>`` or ``<child>`` (``tag``), which URDF requires."""
     el = joint.find(tag)
@@ -225,7 +249,15 @@ def guess_robot(urdf: Path, srdf: Path | None = None) -> tuple[dict, list[str]]:
         else:
             notes.append("the SRDF has no group_state: no default posture (the URDF's zero configuration)")
     else:
-        notes.append("no --srdf: the default posture is the zero configuration; give default_posture: {joint: value}")
+        inside = _zero_inside_range(moving)
+        if inside:
+            doc["default_posture"] = inside
+            notes.append(f"no --srdf: the default posture is the zero configuration but for {sorted(inside)}, whose "
+                         f"range excludes 0 (each put {100 * RANGE_INSET:g} % of its range inside its nearer limit); "
+                         "give default_posture: {joint: value}")
+        else:
+            notes.append("no --srdf: the default posture is the zero configuration; give default_posture: "
+                         "{joint: value}")
     doc["frames"] = frames
     if contacts:
         doc["contacts"] = contacts

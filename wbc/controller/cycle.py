@@ -383,7 +383,7 @@ class Controller:
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel),
                            saturated_torques=at_limit, singular=(self._joint_names, self._below_threshold))
-        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0]
+        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0 or info.singular]
         return Solution(qdd, tau_full[robot.actuated_idx], tau_full, forces, x, status, message,
                         SolutionReport(qp_count=qp_count, relaxed=relaxed, degraded=degraded, saturated=saturated,
                                        tau_ratio=ratio, saturated_torques=at_limit, singular_levels=singular,

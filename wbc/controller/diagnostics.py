@@ -95,7 +95,7 @@ def level_diagnostics(levels, spans, infos, values, unenforced: tuple[bool, tupl
         sat = list(saturated_torques) if saturated_torques and len(diags) == sat_level else []
         if sat:
             active["torque_saturation"] = len(sat)
-        is_singular = info.damping > 0.0
+        is_singular = info.damping > 0.0 or info.singular
         sdirs: list[str] = []
         sjoints: list[str] = []
         if is_singular and joint_names is not None:

@@ -45,6 +45,11 @@ class LevelInfo:
     #: triangular factor of J̄_k when the solver did not compute its singular values
     #: (square, or flat row by row as a compiled run hands it over); ``sigma()`` works them out
     R: np.ndarray | None = None
+    #: σ_min fell below the damping threshold ε though no damping was applied to this level
+    #: alone (a level the weighted QP folds: the folded rows are damped, or regularised by a
+    #: posture, as one; ``rank`` and ``sigma_min`` are then the level's own rows' in level 0's
+    #: null space)
+    singular: bool = False
 
     def sigma(self) -> float:
         """σ_min of J̄_k (computed on demand from ``R`` if the solver took the QR path)."""

@@ -1,14 +1,26 @@
 """The weighted QP: level 0 hard, every lower level folded into one weighted objective
 (the soft hierarchy of TSID), solved by the hierarchical QP's cascade on two levels.
+
+Near-singular levels: the folded rows are damped as one (their σ scaled by the weights), and a
+posture folded in regularises every direction, so the folded level's damping says nothing of
+one level's singularity (a hand at its workspace boundary above a posture is never damped).
+Each folded level that can lose rank (one without a posture, whose rows are the identity on
+its joints) is therefore tested on its own rows in level 0's null space: when their σ_min < ε it is
+reported ``singular`` with their rank and σ_min (the solver's :class:`~wbc.solvers.cascade.Damping`
+threshold; the hierarchical QP projects into every higher level's null space, this solver has
+no order among the folded levels). One compiled call per cycle (:func:`own_sigma`): an
+eigen-decomposition of level 0's Gram and an m_k × m_k one per such level.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
+import numba as nb
 import numpy as np
 
-from ..problem.result import SolveResult
+from ..problem.result import LevelInfo, SolveResult
 from ..problem.rows import Level, StackedRows
 from .cascade import Damping
 from .hqp import HierarchicalQP
@@ -67,9 +79,30 @@ class WeightedQP(HierarchicalQP):
         folded = {1: Damping(threshold=d.threshold * wmin, max_damping=d.max_damping * wmin, rank_tol=d.rank_tol)}
         res = super().solve_levels([levels[0], merged] + tail, nx, key, x_ref=x_ref, dampings=folded,
                                    stacked=stacked, own=1 if own is None else min(own, 1), margin=margin)
-        # report the merged level's info for every folded level
-        res.levels = res.levels[:1] + [res.levels[1]] * len(rest) + res.levels[2:]
+        # the merged level's info for every folded level, with its own conditioning (module doc)
+        res.levels = res.levels[:1] + self._own_conditioning(levels[0], rest, res.levels[1]) + res.levels[2:]
         return res
+
+    #: kinds whose rows are the identity on their joints: a level with one never loses rank
+    FULL_RANK_KINDS = frozenset({"posture"})
+
+    def _own_conditioning(self, top: Level, rest: list[Level], merged: LevelInfo) -> list[LevelInfo]:
+        """``merged`` for each folded level; for a level without a posture whose equality rows
+        in the null space of level 0's have σ_min < ε (:func:`own_sigma`), their rank and σ_min
+        and ``singular`` (module doc)."""
+        d = self.damping
+        out = [merged] * len(rest)
+        check = [i for i, lvl in enumerate(rest)
+                 if lvl.A.shape[0] and not set(lvl.kinds) & self.FULL_RANK_KINDS and not lvl.regularizers_only]
+        if not check or d.threshold <= 0.0:
+            return out
+        A = np.vstack([rest[i].A for i in check]) if len(check) > 1 else rest[check[0]].A
+        offsets = np.cumsum([0] + [rest[i].A.shape[0] for i in check])
+        ranks, smins = own_sigma(top.A, A, offsets, d.rank_tol, d.threshold)
+        for i, rank, smin in zip(check, ranks.tolist(), smins.tolist()):
+            if rank and smin < d.threshold:
+                out[i] = replace(merged, index=merged.index + i, rank=rank, sigma_min=smin, R=None, singular=True)
+        return out
 
     def _merge(self, rest: list[Level], w: list[float]) -> Level:
         """Levels 1.. folded into one, row blocks scaled by √weight. The folded level's
@@ -125,3 +158,90 @@ class _MergePlan(NamedTuple):
     structure: list
     merged: Level
     parts: list
+
+
+#: σ² from a Gram matrix is exact to ~1e-16 ‖A‖²: singular values below this (relative) count as 0
+GRAM_SIGMA_FLOOR = 1e-7
+
+
+@nb.njit(cache=True)
+def _cholesky(C):
+    """(L, True) with C = L Lᵀ, L lower triangular, or (L, False) when C is not positive
+    definite (a pivot ≤ 0). Compiled loops: a few µs at the sizes here."""
+    n = C.shape[0]
+    L = np.zeros_like(C)
+    for j in range(n):
+        d = C[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if d <= 0.0:
+            return L, False
+        L[j, j] = np.sqrt(d)
+        for i in range(j + 1, n):
+            t = C[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / L[j, j]
+    return L, True
+
+
+@nb.njit(cache=True)
+def _forward(L, B):
+    """L⁻¹ B by forward substitution (L lower triangular)."""
+    X = B.copy()
+    for i in range(L.shape[0]):
+        for k in range(i):
+            X[i] -= L[i, k] * X[k]
+        X[i] /= L[i, i]
+    return X
+
+
+@nb.njit(cache=True)
+def own_sigma(A0, A, offsets, rank_tol, threshold):
+    """(rank, σ_min) per row block k of ``A`` (rows ``offsets[k]:offsets[k+1]``) in the null
+    space of ``A0``'s rows, worked out only when σ_min < ``threshold`` ε; (0, ∞) for a block
+    whose σ are all ≥ ε. σ² are the eigenvalues of G = A_k P A_kᵀ = A_k A_kᵀ − WᵀW,
+    W = L⁻¹ A0 A_kᵀ, A0 A0ᵀ = L Lᵀ (by A0's eigen-decomposition when A0 A0ᵀ is not positive
+    definite: W = Λ_r^{−½} U_rᵀ A0 A_kᵀ over the eigenvalues above (rank_tol·max(1, σ_max))²).
+    σ_min ≥ ε exactly when G − ε² I has a Cholesky factor: the eigenvalues only then.
+    Singular values below ``rank_tol``·max(1, σ_max) + :data:`GRAM_SIGMA_FLOOR` count as zero."""
+    nb_ = offsets.shape[0] - 1
+    ranks = np.zeros(nb_, dtype=np.int64)
+    smins = np.full(nb_, np.inf)
+    m0 = A0.shape[0]
+    L = np.zeros((0, 0))
+    V = np.zeros((0, A.shape[1]))
+    chol_ok = False
+    if m0 > 0:
+        L, chol_ok = _cholesky(A0 @ A0.T)
+        if not chol_ok:
+            w, U = np.linalg.eigh(A0 @ A0.T)
+            tol = (rank_tol * max(1.0, np.sqrt(max(w.max(), 0.0)))) ** 2
+            keep = np.flatnonzero(w > tol)
+            V = np.empty((keep.shape[0], A.shape[1]))
+            for j in range(keep.shape[0]):
+                V[j] = (U[:, keep[j]] @ A0) / np.sqrt(w[keep[j]])
+    for k in range(nb_):
+        Ak = np.ascontiguousarray(A[offsets[k]:offsets[k + 1]])
+        G = Ak @ Ak.T
+        if m0 > 0:
+            W = _forward(L, A0 @ Ak.T) if chol_ok else V @ Ak.T
+            G -= W.T @ W
+        Gs = G.copy()
+        for i in range(G.shape[0]):
+            Gs[i, i] -= threshold * threshold
+        if _cholesky(Gs)[1]:
+            continue
+        s2 = np.linalg.eigvalsh(G)
+        smax = np.sqrt(max(s2.max(), 0.0))
+        floor = rank_tol * max(1.0, smax) + GRAM_SIGMA_FLOOR
+        r = 0
+        smin = np.inf
+        for v in s2:
+            sv = np.sqrt(max(v, 0.0))
+            if sv > floor:
+                r += 1
+                smin = min(smin, sv)
+        ranks[k] = r
+        smins[k] = smin
+    return ranks, smins

@@ -11,6 +11,9 @@ from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task
 
+#: what a joint outside its viable set is asked (:class:`JointLimits`' ``recovery``)
+RECOVERIES = ("one_period", "stop")
+
 
 class JointLimits(Task):
     """Box l ≤ q̈_i ≤ u for every joint with limits, the tightest of:
@@ -21,7 +24,11 @@ class JointLimits(Task):
       q + v T + ½ q̈ T² ∈ [q_min + margin, q_max − margin];
     - viability: after the step the joint can still stop before its limit with
       the deceleration ``max_acceleration`` ā (rad/s² or m/s²):
-      v + q̈ dt ≤ √(2 ā d), d = q_max − margin − q − v dt (and symmetrically).
+      v + q̈ dt ≤ √(2 ā d), d = q_max − margin − q − v dt (and symmetrically);
+      a joint already faster than that (outside the viable set: a push, a simulator's
+      kick) is asked to get back under that curve within one period (up to −v/dt), or with
+      ``recovery: stop`` only the constant deceleration that stops it within d,
+      q̈ ≤ −v²/(2d).
 
     Where the bounds cross (a state already outside), both collapse to their
     midpoint, the least-violating choice. Units: rad or m per joint.
@@ -32,6 +39,11 @@ class JointLimits(Task):
         max_acceleration: the viability bound's deceleration ā (rad/s² or m/s², in (0, 1e6]);
             default 30.
         margin: distance kept from each position limit (rad or m, in [0, 1]); default 0.
+        recovery: a joint outside its viable set: ``"one_period"`` (default) back under the
+            ā curve within one period; ``"stop"`` the constant deceleration v²/(2d) that stops
+            it within d (far smaller after a simulator's kick near a stop: the go2's calf
+            0.02 rad from its limit, 540 → 110 rad/s²; but under a push the joints arrive at
+            their limits with no room left: talos_push falls earlier with it).
         rate_limit: (velocity mode only) also bound the commanded q̇'s change over one control
             period by ``max_acceleration``: |q̇ − v| ≤ ā dt, v the measured velocity, so that a
             position servo can follow the command (a step in q̇ is a step in the servo's error);
@@ -45,7 +57,7 @@ class JointLimits(Task):
 
     def __init__(self, dt: float = 1e-3, horizon: float = 0.1, max_acceleration: float = 30.0,
                  margin: float = 0.0, rate_limit: bool = False, name: str = "joint_limits",
-                 weight: float = 1.0) -> None:
+                 weight: float = 1.0, recovery: str = "one_period") -> None:
         super().__init__(name, weight)
         owner = f"task '{self.name}'"
         # bounded so that the bounds' 1/dt and 2/horizon² stay finite
@@ -55,6 +67,9 @@ class JointLimits(Task):
                                        error=TaskDefinitionError, owner=owner)
         self.margin = number(margin, "margin", ge=0, le=1, unit="rad or m", error=TaskDefinitionError, owner=owner)
         self.rate_limit = boolean(rate_limit, "rate_limit", error=TaskDefinitionError, owner=owner)
+        if recovery not in RECOVERIES:
+            raise TaskDefinitionError(f"must be one of {list(RECOVERIES)}, got {recovery!r}", key="recovery", owner=owner)
+        self.recovery = recovery
         self._map = None
 
     def _indices(self, robot):
@@ -89,7 +104,7 @@ class JointLimits(Task):
         qi, vi, extra, idx = self._indices(robot)
         qmax, qmin, vmax, vmax_extra = self._lim
         lo, hi = acceleration_bounds(robot.q, robot.v, qi, vi, qmax, qmin, vmax, self.margin, self.dt,
-                                     self.horizon, self.max_acceleration, extra, vmax_extra)
+                                     self.horizon, self.max_acceleration, extra, vmax_extra, self.recovery == "stop")
         return idx, lo, hi
 
     def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
@@ -100,13 +115,16 @@ class JointLimits(Task):
         p.update(dt=self.dt, horizon=self.horizon, max_acceleration=self.max_acceleration, margin=self.margin)
         if self.rate_limit:
             p["rate_limit"] = True
+        if self.recovery != "one_period":
+            p["recovery"] = self.recovery
         if p["name"] == "joint_limits":
             del p["name"]
         return p
 
 
 @nb.njit(cache=True)
-def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, amax, extra, vmax_extra):
+def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, amax, extra, vmax_extra,
+                        stop=False):
     """(lower, upper) bounds on q̈[vi] of :class:`JointLimits`, joint by joint, compiled,
     then on q̈[extra], velocity-only coordinates: (∓v_max − v)/dt.
 
@@ -127,7 +145,14 @@ def acceleration_bounds(q, v, qi, vi, qmax, qmin, vmax, margin, dt, horizon, ama
             xd = sgn * v[vi[k]]
             h = min((vmax[k] - xd) / dt, (lim - x - xd * horizon) * c)
             d = max(lim - x - xd * dt, 0.0)
-            bound[side] = min(h, (np.sqrt(2.0 * amax * d) - xd) / dt)
+            viable = (np.sqrt(2.0 * amax * d) - xd) / dt
+            if stop and viable < 0.0 and xd > 0.0 and d > 0.0:
+                # outside the viable set (faster than ā can stop in d): the constant
+                # deceleration that stops it within d, v²/(2d), suffices; getting back under
+                # the ā curve within one period asked up to v/dt (a simulator's kick of a calf
+                # 0.02 rad from its stop: 540 rad/s² where v²/(2d) is 95)
+                viable = max(viable, -xd * xd / (2.0 * d))
+            bound[side] = min(h, viable)
         up, low = bound[0], -bound[1]
         if low > up:
             up = low = 0.5 * (low + up)

@@ -1,4 +1,4 @@
-"""SingularityAvoidance: raise a frame's manipulability when it falls below a threshold.
+"""SingularityAvoidance: raise a frame's (or the CoM's) manipulability when it falls below a threshold.
 
 The chapter's first secondary task ("singularity avoidance ... the most frequently considered
 performance objective"), as one row in the null space of the tasks above it.
@@ -21,6 +21,12 @@ Gradient, analytic (no finite differences): with J_a = U Σ Vᵀ,
 and ∂J_a/∂q_i is pinocchio's Jacobian time variation at q̇ = e_i
 (``computeJointJacobiansTimeVariation``; only the joints that move the frame, others give 0).
 The product form stays finite at w = 0, where w⁻¹-based forms of ∇w do not.
+
+The CoM (``frame: com``): J_a the CoM's Jacobian (``jacobianCenterOfMass``, world frame: w is
+the same in any frame, a rotation of J's rows leaving its σ) over the actuated joints, position
+rows only (m per rad, w in m³), the joint-limit penalty over every actuated joint with limits.
+Its ∂J_a/∂q_i v_k is column i of ∂(J_com v_k)/∂q, pinocchio's CoM velocity derivative at
+q̇ = v_k (``getCenterOfMassVelocityDerivatives``), one call per singular direction k.
 
 Joint limits (``limit_penalty`` k ≥ 0, unitless): at a singularity w is often symmetric (a
 straight knee bends either way) and the gradient's sign is left to rounding, or points into
@@ -72,7 +78,8 @@ class SingularityAvoidance(MotionTask):
     """Keep a frame's manipulability w = √det(J_a J_aᵀ) above ``threshold`` (module doc).
 
     Args:
-        frame: a frame alias of the robot YAML or a URDF frame name.
+        frame: a frame alias of the robot YAML or a URDF frame name, or ``com``: the centre of
+            mass (module doc; then ``mask`` must be ``"position"``).
         threshold: w_min (m^p, p the position rows of ``mask``; > 0): the task acts below it.
         mask: ``"position"`` (default), ``"orientation"`` or ``"pose"``: the rows of the
             frame's LOCAL Jacobian whose manipulability is kept.
@@ -102,6 +109,11 @@ class SingularityAvoidance(MotionTask):
                                       f"{suggest(mask, _MASKS) if isinstance(mask, str) else ''}",
                                       key="mask", owner=owner)
         self.mask = mask
+        #: the CoM's manipulability instead of a frame's
+        self.com = frame == "com"
+        if self.com and mask != "position":
+            raise TaskDefinitionError(f"must be 'position' for the CoM (frame: com), got {mask!r}", key="mask",
+                                      owner=owner)
         self.limit_penalty = number(limit_penalty, "limit_penalty", ge=0, le=1e6, error=TaskDefinitionError,
                                     owner=owner)
         self._sel = np.array(_MASKS[mask])
@@ -113,17 +125,21 @@ class SingularityAvoidance(MotionTask):
         self._last: tuple | None = None
 
     def bind(self, robot) -> None:
-        self._fid = robot.frame_id(self.frame)
         m = robot.model
         self._data = m.createData()
-        # the joints that move the frame, without the root's coordinates
-        jid = m.frames[self._fid].parentJoint
         cols: list[int] = []
-        while jid > 0:
-            j = m.joints[jid]
-            if j.idx_v >= robot.n_root:
-                cols.extend(range(j.idx_v, j.idx_v + j.nv))
-            jid = m.parents[jid]
+        if self.com:                    # every joint moves the CoM; the root's coordinates left out
+            self._fid = -1
+            cols = list(range(robot.n_root, robot.nv))
+        else:
+            self._fid = robot.frame_id(self.frame)
+            # the joints that move the frame, without the root's coordinates
+            jid = m.frames[self._fid].parentJoint
+            while jid > 0:
+                j = m.joints[jid]
+                if j.idx_v >= robot.n_root:
+                    cols.extend(range(j.idx_v, j.idx_v + j.nv))
+                jid = m.parents[jid]
         self._cols = np.array(sorted(cols), dtype=int)
         # the chain's one-coordinate joints with finite limits: (velocity index, q index, lo, hi)
         lim = []
@@ -150,7 +166,10 @@ class SingularityAvoidance(MotionTask):
         grad = np.zeros(robot.nv)
         if len(cols) == 0:
             return 0.0, grad
-        J = pin.computeFrameJacobian(m, d, q, fid, pin.LOCAL)[sel][:, cols]
+        if self.com:
+            J = pin.jacobianCenterOfMass(m, d, q)[:, cols]
+        else:
+            J = pin.computeFrameJacobian(m, d, q, fid, pin.LOCAL)[sel][:, cols]
         U, s, Vt = np.linalg.svd(J, full_matrices=False)
         p = len(s)
         if p < len(sel):                 # fewer joints than rows: det(J Jᵀ) = 0, w = 0
@@ -159,7 +178,14 @@ class SingularityAvoidance(MotionTask):
         # Π_{l≠k} σ_l without dividing by σ_k (finite at σ_k = 0)
         others = np.array([np.prod(np.delete(s, k)) for k in range(p)])
         e = np.zeros(robot.nv)
-        for c in cols:
+        if self.com:
+            # Σ_k (Π_{l≠k} σ_l) u_kᵀ ∂(J v_k)/∂q_i, with ∂(J v_k)/∂q from pinocchio at q̇ = v_k
+            for i in range(p):
+                e[cols] = Vt[i]
+                pin.centerOfMass(m, d, q, e)
+                grad[cols] += others[i] * (U[:, i] @ pin.getCenterOfMassVelocityDerivatives(m, d)[:, cols])
+            e[:] = 0.0
+        for c in ([] if self.com else cols):
             e[c] = 1.0
             pin.computeJointJacobiansTimeVariation(m, d, q, e)
             dJ = pin.getFrameJacobianTimeVariation(m, d, fid, pin.LOCAL)[sel][:, cols]
