@@ -203,30 +203,35 @@ def own_sigma(A0, A, offsets, rank_tol, threshold):
     whose σ are all ≥ ε. σ² are the eigenvalues of G = A_k P A_kᵀ = A_k A_kᵀ − WᵀW,
     W = L⁻¹ A0 A_kᵀ, A0 A0ᵀ = L Lᵀ (by A0's eigen-decomposition when A0 A0ᵀ is not positive
     definite: W = Λ_r^{−½} U_rᵀ A0 A_kᵀ over the eigenvalues above (rank_tol·max(1, σ_max))²).
+    Every Gram block comes from one product S Sᵀ, S = [A0; A], and every block's WᵀW from one
+    more (a few small products per cycle, not four per block).
     σ_min ≥ ε exactly when G − ε² I has a Cholesky factor: the eigenvalues only then.
-    Singular values below ``rank_tol``·max(1, σ_max) + :data:`GRAM_SIGMA_FLOOR` count as zero."""
+    Singular values below (``rank_tol`` + :data:`GRAM_SIGMA_FLOOR`)·max(1, σ_max) count as zero."""
     nb_ = offsets.shape[0] - 1
     ranks = np.zeros(nb_, dtype=np.int64)
     smins = np.full(nb_, np.inf)
-    m0 = A0.shape[0]
-    L = np.zeros((0, 0))
-    V = np.zeros((0, A.shape[1]))
-    chol_ok = False
+    m0, ma = A0.shape[0], A.shape[0]
+    S = np.empty((m0 + ma, A.shape[1]))
+    S[:m0] = A0
+    S[m0:] = A
+    M = S @ S.T
+    GA = np.ascontiguousarray(M[m0:, m0:])
     if m0 > 0:
-        L, chol_ok = _cholesky(A0 @ A0.T)
-        if not chol_ok:
-            w, U = np.linalg.eigh(A0 @ A0.T)
+        B = np.ascontiguousarray(M[:m0, m0:])           # A0 Aᵀ
+        L, chol_ok = _cholesky(np.ascontiguousarray(M[:m0, :m0]))
+        if chol_ok:
+            W = _forward(L, B)
+        else:
+            w, U = np.linalg.eigh(np.ascontiguousarray(M[:m0, :m0]))
             tol = (rank_tol * max(1.0, np.sqrt(max(w.max(), 0.0)))) ** 2
             keep = np.flatnonzero(w > tol)
-            V = np.empty((keep.shape[0], A.shape[1]))
+            W = np.empty((keep.shape[0], ma))
             for j in range(keep.shape[0]):
-                V[j] = (U[:, keep[j]] @ A0) / np.sqrt(w[keep[j]])
+                W[j] = (U[:, keep[j]] @ B) / np.sqrt(w[keep[j]])
+        GA -= W.T @ W
     for k in range(nb_):
-        Ak = np.ascontiguousarray(A[offsets[k]:offsets[k + 1]])
-        G = Ak @ Ak.T
-        if m0 > 0:
-            W = _forward(L, A0 @ Ak.T) if chol_ok else V @ Ak.T
-            G -= W.T @ W
+        a, b = offsets[k], offsets[k + 1]
+        G = np.ascontiguousarray(GA[a:b, a:b])
         Gs = G.copy()
         for i in range(G.shape[0]):
             Gs[i, i] -= threshold * threshold
@@ -234,7 +239,7 @@ def own_sigma(A0, A, offsets, rank_tol, threshold):
             continue
         s2 = np.linalg.eigvalsh(G)
         smax = np.sqrt(max(s2.max(), 0.0))
-        floor = rank_tol * max(1.0, smax) + GRAM_SIGMA_FLOOR
+        floor = (rank_tol + GRAM_SIGMA_FLOOR) * max(1.0, smax)
         r = 0
         smin = np.inf
         for v in s2:
