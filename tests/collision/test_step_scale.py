@@ -59,3 +59,34 @@ def test_a_long_step_through_an_obstacle_is_shortened_to_the_safety_distance(mon
     assert "collision step scaled" in sol.message
     # not overly short: the next bisection point would have broken d_s or the step is near it
     assert d < D_S + 0.03
+
+
+def test_a_pair_already_below_the_safety_distance_may_not_get_nearer():
+    """Starting 5 mm from the sphere (d_s = 20 mm): a step further in is cut to one that does not
+    decrease d; a step away is kept whole."""
+    robot = load_robot("panda")
+    q0 = robot.q.copy()
+    robot.update(q0, np.zeros(robot.nv))
+    fid = robot.frame_id("hand")
+    J = pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+    down = np.linalg.pinv(J) @ np.array([0.0, 0.0, -1.0])       # hand velocity 1 m/s down
+    hand = robot.frame_placement(fid).translation
+
+    def model(z):
+        ob = {"type": "sphere", "center": (hand + [0.0, 0.0, -z]).tolist(), "radius": RADIUS}
+        coll = CollisionAvoidance(influence=D_I, safety=D_S, self_collision=False, obstacles=[ob], links=HAND_LINKS)
+        coll.bind(robot)
+        return coll.model
+
+    lo, hi = 0.0, 0.5
+    for _ in range(30):                                           # the sphere where d(q0) = 5 mm
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if model(mid).all_distances(q0).min() < 0.005 else (lo, mid)
+    cm = model(hi)
+    data, gd = robot.model.createData(), cm.new_geometry_data()
+    d0 = float(cm.all_distances(q0).min())
+    assert 0.004 < d0 < 0.006
+    a, pair, d_full = cm.step_scale(q0, 0.1 * down, D_S, data, gd)
+    assert 0.0 <= a < 1.0 and pair is not None and d_full < d0
+    assert cm.all_distances(pin.integrate(robot.model, q0, a * 0.1 * down)).min() >= d0 - 2e-4
+    assert cm.step_scale(q0, -0.01 * down, D_S, data, gd)[0] == 1.0
