@@ -88,5 +88,5 @@ def test_a_pair_already_below_the_safety_distance_may_not_get_nearer():
     assert 0.004 < d0 < 0.006
     a, pair, d_full = cm.step_scale(q0, 0.1 * down, D_S, data, gd)
     assert 0.0 <= a < 1.0 and pair is not None and d_full < d0
-    assert cm.all_distances(pin.integrate(robot.model, q0, a * 0.1 * down)).min() >= d0 - 2e-4
+    assert cm.all_distances(pin.integrate(robot.model, q0, a * 0.1 * down)).min() >= d0 - 1e-6
     assert cm.step_scale(q0, -0.01 * down, D_S, data, gd)[0] == 1.0

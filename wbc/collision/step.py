@@ -9,9 +9,10 @@ broad-phase bound cannot prove d ≥ d_s gets coal's exact distance
 (:meth:`~wbc.collision.model.CollisionModel.distances_below`), and α is accepted when every
 such pair keeps
 
-    d_k(q⁺(α)) ≥ min(d_s, d_k(q)) − tol
+    d_k(q⁺(α)) ≥ min(d_s − tol, d_k(q))
 
-(a pair already below d_s at q must not get nearer). α = 1 is tried first (one broad phase
+(a pair already below d_s at q must not get nearer: no tolerance there, else a long run of
+shortened steps could lose tol at each). α = 1 is tried first (one broad phase
 and a few exact pairs: the collision-free cycle's whole cost); when it fails, α is bisected
 between the last accepted and the last refused value. Scaling the whole step keeps each
 task's direction, so the hierarchy's choice is kept and no level is traded for the
@@ -54,25 +55,25 @@ def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.
     if not len(ks) or d.min() >= safety - tol:
         return 1.0, None, np.inf
     below0, d0 = model.distances_below(q, safety, data, geometry_data)
-    floors = dict(zip(below0.tolist(), np.minimum(d0, safety).tolist()))
+    floors = dict(zip(below0.tolist(), np.minimum(d0, safety - tol).tolist()))
 
     def worst(ks: np.ndarray, d: np.ndarray) -> tuple[int, float]:
-        """The pair furthest below its floor and by how much (m; ≤ −tol: refused)."""
-        gaps = d - np.array([floors.get(k, safety) for k in ks.tolist()]) if len(ks) else np.zeros(0)
+        """The pair furthest below its floor and by how much (m; < 0: refused)."""
+        gaps = d - np.array([floors.get(k, safety - tol) for k in ks.tolist()]) if len(ks) else np.zeros(0)
         if not len(gaps):
             return -1, np.inf
         i = int(np.argmin(gaps))
         return int(ks[i]), float(gaps[i])
 
     k_full, gap = worst(ks, d)
-    if gap >= -tol:
+    if gap >= 0.0:
         return 1.0, None, np.inf
     d_full = float(d[list(ks).index(k_full)])
     lo, hi, n = 0.0, 1.0, 0
     while n < checks or (lo == 0.0 and n < 3 * checks):
         a = 0.5 * (lo + hi)
         ks, d = model.distances_below(pin.integrate(rm, q, a * step), safety, data, geometry_data)
-        if worst(ks, d)[1] >= -tol:
+        if worst(ks, d)[1] >= 0.0:
             lo = a
         else:
             hi = a
