@@ -48,6 +48,7 @@ from ..errors import RobotDefinitionError
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .shapes import Obstacle
+from .step import step_scale
 
 
 @dataclass
@@ -287,7 +288,7 @@ class CollisionModel:
             geometry_data: where the results go (:meth:`new_geometry_data`).
         """
         gm, gd = self.geometry_model, geometry_data
-        bound = self._bounds_at(q, data, gd)
+        bound = self.bounds_at(q, data, gd)
         order = np.argsort(bound)
         n = gm.ngeoms
         best_d: list[float] = []
@@ -311,55 +312,16 @@ class CollisionModel:
         first = np.argsort(d)[:count]
         return d[first], k[first]
 
-    def _bounds_at(self, q: np.ndarray, data: pin.Data, gd: pin.GeometryData) -> np.ndarray:
+    #: the velocity command's step check on this model (:func:`wbc.collision.step.step_scale`)
+    step_scale = step_scale
+
+    def bounds_at(self, q: np.ndarray, data: pin.Data, gd: pin.GeometryData) -> np.ndarray:
         """The placements at ``q`` (in ``data``, ``gd``) and every pair's broad-phase lower bound (m)."""
         model = self.robot.model
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
         H = np.array([M.homogeneous for M in gd.oMg])
         return self._broad_gaps(np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3])
-
-    def distances_below(self, q: np.ndarray, floor: float, data: pin.Data,
-                        geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
-        """(pair indices, exact distances in m) at ``q`` of every pair the broad phase cannot
-        prove at least ``floor`` apart (bounding spheres: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d): every pair
-        closer than ``floor`` is among them (the velocity mode's step check,
-        :mod:`wbc.collision.step`).
-
-        Args:
-            q: the configuration (nq).
-            floor: the distance (m) to prove.
-            data: pinocchio data for the placements.
-            geometry_data: where the results go (:meth:`new_geometry_data`).
-        """
-        gm, gd = self.geometry_model, geometry_data
-        ks = np.flatnonzero(self._bounds_at(q, data, gd) < floor)
-        if not len(ks):
-            return ks, np.empty(0)
-        cmap = self._check_map
-        cmap[:] = False
-        cmap[self._pa[ks], self._pb[ks]] = True
-        gd.setActiveCollisionPairs(gm, cmap)
-        pin.computeDistances(gm, gd)
-        res = self.results(gd)
-        return ks, np.array([res[k].min_distance for k in ks.tolist()], dtype=float)
-
-    def step_scale(self, q: np.ndarray, step: np.ndarray, safety: float, data: pin.Data,
-                   geometry_data: pin.GeometryData) -> tuple[float, str | None, float]:
-        """:func:`wbc.collision.step.step_scale` on this model: the largest fraction α of the step
-        (q ⊕ α step) that keeps every pair ≥ ``safety`` (m), the pair that shortened it, its d (m)
-        at the full step.
-
-        Args:
-            q: the configuration (nq).
-            step: the tangent step (nv).
-            safety: d_s (m).
-            data: pinocchio data of the robot's model.
-            geometry_data: a geometry data of this model (:meth:`new_geometry_data`).
-        """
-        from .step import step_scale
-
-        return step_scale(self, q, step, safety, data, geometry_data)
 
     def new_geometry_data(self) -> pin.GeometryData:
         """A GeometryData of its own (placements and results apart from the control cycle's),

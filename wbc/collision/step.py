@@ -6,7 +6,7 @@ already within the influence distance d_i, and only to first order: a long step 
 Gauss–Newton step of 1 rad) can carry a link from beyond d_i into another. The last check of
 a velocity command is therefore exact and covers every pair: at q⁺(α), each pair whose
 broad-phase bound cannot prove d ≥ d_s gets coal's exact distance
-(:meth:`~wbc.collision.model.CollisionModel.distances_below`), and α is accepted when every
+(:func:`distances_below`), and α is accepted when every
 such pair keeps
 
     d_k(q⁺(α)) ≥ min(d_s − tol, d_k(q))
@@ -26,12 +26,37 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["STEP_CHECKS", "STEP_TOL", "step_scale"]
+__all__ = ["STEP_CHECKS", "STEP_TOL", "distances_below", "step_scale"]
 
 #: bisection checks after α = 1 fails (the returned α is within 2⁻ⁿ of the largest safe one)
 STEP_CHECKS = 6
 #: how far (m) below its floor a pair may land before the step is shortened
 STEP_TOL = 1e-4
+
+
+def distances_below(model, q: np.ndarray, floor: float, data: pin.Data,
+                    geometry_data) -> tuple[np.ndarray, np.ndarray]:
+    """(pair indices, exact distances in m) at ``q`` of every pair of ``model`` the broad phase
+    cannot prove at least ``floor`` apart (bounding spheres: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d): every pair
+    closer than ``floor`` is among them.
+
+    Args:
+        model: the :class:`~wbc.collision.model.CollisionModel`.
+        q: the configuration (nq).
+        floor: the distance (m) to prove.
+        data: pinocchio data for the placements.
+        geometry_data: where the results go (its :meth:`new_geometry_data`).
+    """
+    gm, gd = model.geometry_model, geometry_data
+    ks = np.flatnonzero(model.bounds_at(q, data, gd) < floor)
+    if not len(ks):
+        return ks, np.empty(0)
+    cmap = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+    cmap[model.pairs[ks, 0], model.pairs[ks, 1]] = True
+    gd.setActiveCollisionPairs(gm, cmap)
+    pin.computeDistances(gm, gd)
+    res = model.results(gd)
+    return ks, np.array([res[k].min_distance for k in ks.tolist()], dtype=float)
 
 
 def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.Data, geometry_data,
@@ -51,10 +76,10 @@ def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.
         tol: how far (m) below its floor a pair may land.
     """
     rm = model.robot.model
-    ks, d = model.distances_below(pin.integrate(rm, q, step), safety, data, geometry_data)
+    ks, d = distances_below(model, pin.integrate(rm, q, step), safety, data, geometry_data)
     if not len(ks) or d.min() >= safety - tol:
         return 1.0, None, np.inf
-    below0, d0 = model.distances_below(q, safety, data, geometry_data)
+    below0, d0 = distances_below(model, q, safety, data, geometry_data)
     floors = dict(zip(below0.tolist(), np.minimum(d0, safety - tol).tolist()))
 
     def worst(ks: np.ndarray, d: np.ndarray) -> tuple[int, float]:
@@ -72,7 +97,7 @@ def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.
     lo, hi, n = 0.0, 1.0, 0
     while n < checks or (lo == 0.0 and n < 3 * checks):
         a = 0.5 * (lo + hi)
-        ks, d = model.distances_below(pin.integrate(rm, q, a * step), safety, data, geometry_data)
+        ks, d = distances_below(model, pin.integrate(rm, q, a * step), safety, data, geometry_data)
         if worst(ks, d)[1] >= 0.0:
             lo = a
         else:
