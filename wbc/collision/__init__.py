@@ -1,9 +1,9 @@
 """Collision geometry and distances: the robot's collision model (pinocchio GeometryModel and
 coal, meshes as cached convex hulls, :mod:`.model`; its broad phase's motion bound,
 :mod:`.motion`), its self pairs (:mod:`.pairs`, :mod:`.sampling`), the environment's obstacles
-(:mod:`.shapes`) and the run's monitor of every
-pair's distance (:mod:`.monitor`). The :class:`~wbc.tasks.CollisionAvoidance` task turns the
-distance rows into constraints.
+(:mod:`.shapes`), the run's monitor of every pair's distance (:mod:`.monitor`) and the
+velocity command's step check (:mod:`.step`). The :class:`~wbc.tasks.CollisionAvoidance` task
+turns the distance rows into constraints.
 
 May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.validation`, :mod:`wbc.robot`, :mod:`wbc.sim` (the
 environment's shapes). Not the tasks, the controller or the runner.

@@ -1,36 +1,30 @@
-"""CollisionModel: the robot's collision geometry (pinocchio GeometryModel, coal), its
-monitored pairs, a broad phase, and the distance rows of the near pairs, once per cycle.
+"""CollisionModel: the robot's collision geometry (pinocchio GeometryModel, coal), its monitored pairs, a broad phase,
+and the distance rows of the near pairs, once per cycle.
 
-Geometry: the URDF's ``<collision>`` elements (``pin.buildGeomFromUrdf``), each mesh replaced
-by its convex hull (:mod:`wbc.collision.hulls`), plus fixed obstacles
-(:mod:`wbc.collision.shapes`) attached to the universe.
+Geometry: the URDF's ``<collision>`` elements (``pin.buildGeomFromUrdf``), each mesh replaced by its convex hull
+(:mod:`wbc.collision.hulls`), plus fixed obstacles (:mod:`wbc.collision.shapes`) attached to the universe.
 
-Pairs: self pairs (every pair of robot geometries, minus the SRDF's disabled pairs, minus
-geometries on one joint or on adjacent joints; or the list ``wbc robot collisions ROBOT``
-wrote beside the robot YAML, :mod:`wbc.collision.pairs`), plus each obstacle against the
-robot geometries of the chosen links.
+Pairs: self pairs (every pair of robot geometries, minus the SRDF's disabled pairs, minus geometries on one joint or
+on adjacent joints; or the list ``wbc robot collisions ROBOT`` wrote beside the robot YAML,
+:mod:`wbc.collision.pairs`), plus each obstacle against the robot geometries of the chosen links.
 
-Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that
-``RobotModel.update`` computed (nothing is recomputed when asked twice in one cycle):
+Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that ``RobotModel.update`` computed
+(nothing is recomputed when asked twice in one cycle):
 
-1. broad phase: each pair's last exact distance d₀ minus a bound on how far the joints moved
-   its two geometries since (:func:`wbc.collision.motion.motion_weights`, accumulated cycle to cycle from
-   ``pin.difference``); a pair is *near* when that lower bound is < d_i (exact: a pair left
-   out is farther; a pair never computed is near). The monitor's
-   :meth:`CollisionModel.smallest_distances` orders pairs by their bounding spheres instead
-   (centre c, radius ρ in the joint's frame: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d; a plane: its signed
-   distance to c minus ρ);
-2. exact phase: coal's distance on the near pairs only: d, witness points p₁ (on the
-   first geometry) and p₂, normal n = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays
-   defined in penetration, d < 0);
-3. the distance Jacobian J_d = nᵀ (J_p₂ − J_p₁) (1 × nv), J_p the world-aligned Jacobian
-   of the point of the geometry's joint at the witness point, J_p = J_v − [p − o]× J_ω;
-   and the drift J̇_d q̇ ≈ nᵀ (a_p₂ − a_p₁) with a_p = a_o + α × r + ω × (ω × r) the point's
-   classical acceleration at q̈ = 0 (the normal's and the witness points' own motion are
-   left out: they change d̈ at second order in the distance's curvature).
+1. broad phase: each pair's last exact distance d₀ minus a bound on how far the joints moved its two geometries since
+   (:func:`wbc.collision.motion.motion_weights`, accumulated cycle to cycle from ``pin.difference``); a pair is *near*
+   when that lower bound is < d_i (exact: a pair left out is farther; a pair never computed is near). The monitor's
+   :meth:`CollisionModel.smallest_distances` orders pairs by their bounding spheres instead (centre c, radius ρ in the
+   joint's frame: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d; a plane: its signed distance to c minus ρ);
+2. exact phase: coal's distance on the near pairs only: d, witness points p₁ (on the first geometry) and p₂, normal n
+   = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays defined in penetration, d < 0);
+3. the distance Jacobian J_d = nᵀ (J_p₂ − J_p₁) (1 × nv), J_p the world-aligned Jacobian of the point of the
+   geometry's joint at the witness point, J_p = J_v − [p − o]× J_ω; and the drift J̇_d q̇ ≈ nᵀ (a_p₂ − a_p₁) with a_p
+   = a_o + α × r + ω × (ω × r) the point's classical acceleration at q̈ = 0 (the normal's and the witness points' own
+   motion are left out: they change d̈ at second order in the distance's curvature).
 
-The result is level-independent (:class:`DistanceRows`): the acceleration-level row reads
-J_d q̈ ≥ d̈_min − J̇_d q̇, a velocity-level row J_d q̇ ≥ ḋ_min.
+The result is level-independent (:class:`DistanceRows`): the acceleration-level row reads J_d q̈ ≥ d̈_min − J̇_d q̇, a
+velocity-level row J_d q̇ ≥ ḋ_min.
 """
 
 from __future__ import annotations
@@ -48,6 +42,7 @@ from ..errors import RobotDefinitionError
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .shapes import Obstacle
+from .step import step_scale
 
 
 @dataclass
@@ -195,11 +190,10 @@ class CollisionModel:
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
-        """The robot geometries on ``links`` (None: those paired with an obstacle), for another
-        simulator to collide (MuJoCo, :func:`wbc.sim.mujoco_model.build_model`'s ``link_geoms``):
-        (geometry name, its joint's name, placement in the joint's frame, hull vertices n × 3 in m).
-        Non-mesh primitives are given by the vertices of their convex hull too (sampled
-        surface: boxes' corners, spheres' and capsules' 26-point shells)."""
+        """The robot geometries on ``links`` (None: those paired with an obstacle), for another simulator to collide (MuJoCo,
+        :func:`wbc.sim.mujoco_model.build_model`'s ``link_geoms``): (geometry name, its joint's name, placement in the
+        joint's frame, hull vertices n × 3 in m). Non-mesh primitives are given by the vertices of their convex hull
+        too (sampled surface: boxes' corners, spheres' and capsules' 26-point shells)."""
         if links is None:
             obstacles = set(range(self.n_robot, self.geometry_model.ngeoms))
             wanted = {int(i) for i, j in self.pairs if int(j) in obstacles}
@@ -211,10 +205,9 @@ class CollisionModel:
             out.append((g.name, self.robot.model.names[g.parentJoint], g.placement, hull_vertices(g.geometry)))
         return out
 
-
     def results(self, gd: pin.GeometryData) -> list:
-        """The distance results of ``gd`` (one per pair, coal ``DistanceResult``), live: each reads
-        the last :func:`pin.computeDistances` on ``gd``. Made once per GeometryData."""
+        """The distance results of ``gd`` (one per pair, coal ``DistanceResult``), live: each reads the last
+        :func:`pin.computeDistances` on ``gd``. Made once per GeometryData."""
         entry = self._proxies.get(id(gd))
         if entry is None or entry[0] is not gd:
             res = gd.distanceResults
@@ -239,9 +232,8 @@ class CollisionModel:
 
 
     def _compute(self, active: np.ndarray | None, gd: pin.GeometryData | None = None) -> None:
-        """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs flagged in
-        ``active`` (None: all), on the placements already updated (in ``gd``, default the
-        control cycle's :attr:`geometry_data`)."""
+        """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs flagged in ``active`` (None: all), on the
+        placements already updated (in ``gd``, default the control cycle's :attr:`geometry_data`)."""
         gm = self.geometry_model
         gd = self.geometry_data if gd is None else gd
         n = gm.ngeoms
@@ -254,9 +246,8 @@ class CollisionModel:
 
     def all_distances(self, q: np.ndarray, data: pin.Data | None = None,
                       geometry_data: pin.GeometryData | None = None) -> np.ndarray:
-        """The exact distance of every monitored pair at ``q`` (m), on its own pinocchio
-        data (for monitoring the simulator's true state; the control cycle's rows, computed
-        before, are kept).
+        """The exact distance of every monitored pair at ``q`` (m), on its own pinocchio data (for monitoring the simulator's true
+        state; the control cycle's rows, computed before, are kept).
 
         Args:
             q: the configuration (nq).
@@ -274,11 +265,10 @@ class CollisionModel:
 
     def smallest_distances(self, q: np.ndarray, count: int, data: pin.Data,
                            geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
-        """The ``count`` smallest distances over **all** monitored pairs at ``q`` (m), exactly, and
-        their pair indices, nearest first. Exact distances are computed in order of the broad
-        phase's lower bound (bounding spheres: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d, also in penetration) until
-        that bound exceeds the ``count``-th smallest distance found: no pair left out can be
-        nearer, so the result is the one all pairs would give, at a fraction of the cost.
+        """The ``count`` smallest distances over **all** monitored pairs at ``q`` (m), exactly, and their pair indices, nearest
+        first. Exact distances are computed in order of the broad phase's lower bound (bounding spheres: ‖c₁ − c₂‖ − ρ₁ −
+        ρ₂ ≤ d, also in penetration) until that bound exceeds the ``count``-th smallest distance found: no pair left out
+        can be nearer, so the result is the one all pairs would give, at a fraction of the cost.
 
         Args:
             q: the configuration (nq).
@@ -286,13 +276,8 @@ class CollisionModel:
             data: pinocchio data for the placements.
             geometry_data: where the results go (:meth:`new_geometry_data`).
         """
-        model, gm, gd = self.robot.model, self.geometry_model, geometry_data
-        pin.forwardKinematics(model, data, q)
-        pin.updateGeometryPlacements(model, data, gm, gd)
-        oMg = gd.oMg
-        H = np.array([M.homogeneous for M in oMg])
-        W = np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3]
-        bound = self._broad_gaps(W)
+        gm, gd = self.geometry_model, geometry_data
+        bound = self.bounds_at(q, data, gd)
         order = np.argsort(bound)
         n = gm.ngeoms
         best_d: list[float] = []
@@ -316,17 +301,27 @@ class CollisionModel:
         first = np.argsort(d)[:count]
         return d[first], k[first]
 
+    step_scale = step_scale         # the velocity command's step check (wbc.collision.step.step_scale)
+
+    def bounds_at(self, q: np.ndarray, data: pin.Data, gd: pin.GeometryData) -> np.ndarray:
+        """The placements at ``q`` (in ``data``, ``gd``) and every pair's broad-phase lower bound (m)."""
+        model = self.robot.model
+        pin.forwardKinematics(model, data, q)
+        pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
+        H = np.array([M.homogeneous for M in gd.oMg])
+        return self._broad_gaps(np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3])
+
     def new_geometry_data(self) -> pin.GeometryData:
-        """A GeometryData of its own (placements and results apart from the control cycle's),
-        with the same distance requests (tolerances) as :attr:`geometry_data`."""
+        """A GeometryData of its own (placements and results apart from the control cycle's), with the same distance requests
+        (tolerances) as :attr:`geometry_data`."""
         gd = pin.GeometryData(self.geometry_model)
         for mine, theirs in zip(gd.distanceRequests, self.geometry_data.distanceRequests):
             mine.gjk_tolerance = theirs.gjk_tolerance
         return gd
 
     def witness_of(self, k: int, geometry_data: pin.GeometryData | None = None):
-        """Pair k's last distance result in ``geometry_data`` (default :attr:`geometry_data`):
-        (d in m, p1, p2 world witness points in m, unit normal n from the first to the second)."""
+        """Pair k's last distance result in ``geometry_data`` (default :attr:`geometry_data`): (d in m, p1, p2 world witness
+        points in m, unit normal n from the first to the second)."""
         gd = self.geometry_data if geometry_data is None else geometry_data
         res = self.results(gd)[k]
         return (float(res.min_distance), np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2()),
@@ -334,8 +329,8 @@ class CollisionModel:
 
     def witness(self, influence: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                                                  np.ndarray]:
-        """Broad then exact phase on the placements already updated for ``q``: (pair indices,
-        d, p1, p2, n) of the pairs closer than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
+        """Broad then exact phase on the placements already updated for ``q``: (pair indices, d, p1, p2, n) of the pairs closer
+        than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
         near = np.flatnonzero(self._moved_bound(q) < influence)
         self.computed = len(near)
         gm, gd = self.geometry_model, self.geometry_data
@@ -356,21 +351,20 @@ class CollisionModel:
 
     @staticmethod
     def _witness_points(results: list) -> tuple[np.ndarray, np.ndarray]:
-        """(p1 (k × 3), n (k × 3)) of coal's results; the second witness point is p1 + d n (coal's
-        convention p2 − p1 = d n, also in penetration), so it is not read."""
+        """(p1 (k × 3), n (k × 3)) of coal's results; the second witness point is p1 + d n (coal's convention p2 − p1 = d n, also
+        in penetration), so it is not read."""
         m = len(results)
         P1 = np.array([r.getNearestPoint1() for r in results], dtype=float).reshape(m, 3)
         N = np.array([r.normal for r in results], dtype=float).reshape(m, 3)
         return P1, N
 
     def _moved_bound(self, q: np.ndarray) -> np.ndarray:
-        """Each pair's lower bound (m) from its last exact distance d₀ and the joints' motion
-        since: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
-        (:func:`wbc.collision.motion.motion_weights`), so d(q) ≥ d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one
-        cycle to the next (one ``pin.difference`` and one (pairs × nv) product). −∞ for a pair
-        never computed. Exact: a pair it leaves out is farther than ``influence``, whatever
-        the order or size of the steps between calls (an infinite weight times a zero step
-        gives NaN: that pair's bound is −∞ until it is computed again)."""
+        """Each pair's lower bound (m) from its last exact distance d₀ and the joints' motion since: along the geodesic from the
+        last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ| (:func:`wbc.collision.motion.motion_weights`), so d(q) ≥ d₀ −
+        Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one cycle to the next (one ``pin.difference`` and one (pairs × nv)
+        product). −∞ for a pair never computed. Exact: a pair it leaves out is farther than ``influence``, whatever the
+        order or size of the steps between calls (an infinite weight times a zero step gives NaN: that pair's bound is
+        −∞ until it is computed again)."""
         if self._q_last is not None:
             step = np.abs(pin.difference(self.robot.model, self._q_last, q))
             self._moved += self._weights @ step
@@ -380,9 +374,9 @@ class CollisionModel:
         return bound
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
-        """The pairs closer than ``influence`` (m) at the robot's current cached state, with
-        their distances, Jacobians and drifts (:class:`DistanceRows`). Computed once per
-        cycle: a second call in the same cycle (same ``robot.cycle``) returns the same rows.
+        """The pairs closer than ``influence`` (m) at the robot's current cached state, with their distances, Jacobians and drifts
+        (:class:`DistanceRows`). Computed once per cycle: a second call in the same cycle (same ``robot.cycle``) returns
+        the same rows.
 
         Vectorised over the k near pairs, from pinocchio's world-frame joint Jacobians
         ``data.J`` (``computeJointJacobians``, done once per cycle by ``RobotModel.update``):
@@ -406,9 +400,9 @@ class CollisionModel:
 
     def _jacobians(self, data: pin.Data, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray,
                    drift: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """(J_d (k × nv), the witness points' rigid-body drift (k,), zeros unless ``drift``) of
-        the pairs ``ks`` from their witness points and normals and the world-frame joint
-        Jacobians in ``data.J`` (:meth:`distance_rows`' docstring)."""
+        """(J_d (k × nv), the witness points' rigid-body drift (k,), zeros unless ``drift``) of the pairs ``ks`` from their
+        witness points and normals and the world-frame joint Jacobians in ``data.J`` (:meth:`distance_rows`'
+        docstring)."""
         m, nv = len(ks), self.robot.model.nv
         J, dr = np.zeros((m, nv)), np.zeros(m)
         if m:
@@ -425,10 +419,9 @@ class CollisionModel:
 
     def rows_at(self, q: np.ndarray, ks: np.ndarray, data: pin.Data,
                 geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
-        """The exact distances (k,; m) and distance Jacobians (k × nv) of the pairs ``ks`` at a
-        configuration ``q`` other than the cycle's (the velocity mode's check of its command,
-        :func:`wbc.tasks.velocity.collision_correction`), on the caller's own pinocchio and
-        geometry data; the cycle's rows and broad phase are left as they are.
+        """The exact distances (k,; m) and distance Jacobians (k × nv) of the pairs ``ks`` at a configuration ``q`` other than the
+        cycle's (the velocity mode's check of its command, :func:`wbc.tasks.velocity.collision_correction`), on the
+        caller's own pinocchio and geometry data; the cycle's rows and broad phase are left as they are.
 
         Args:
             q: the configuration (nq).
@@ -451,20 +444,17 @@ class CollisionModel:
         return d, self._jacobians(data, ks, P1, P1 + d[:, None] * N, N)[0]
 
     def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
-        """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance
-        along q̈ = 0, d̈ = [d(q ⊕ εv) − 2 d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at
-        1e-8 m, all three on this pass's own data: d(q) taken from the cycle's exact phase instead
-        moved ``tiago_table_reach``'s closest approach by 0.6-0.75 mm, to 18.96 mm < d_s − 1 mm,
-        both with the cycle's pass at coal's default 1e-6 m and at 1e-8 m, although the two runs
-        of d(q) agree to 5e-9 m on ``talos_hands_cross``: not understood, so not shared), which holds the
-        terms the witness-point drift leaves out: the normal's turn
-        and the witness points sliding over curved or rotating surfaces (a hand hull sliding
-        round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into
-        a steady violation of 1.75/ω² = 3.5 mm). ε = 10 ms, not less: between two hulls the
-        distance is C¹ but not C² (the closest features switch), and a 1 ms difference turned
-        each switch into a −12 to −34 m/s² spike (Talos's torso against an upper arm) that made
-        level 0 infeasible; over ±10 ms the switch is spread ten times thinner, and a smooth
-        curvature (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %.
+        """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance along q̈ = 0, d̈ = [d(q ⊕ εv) − 2
+        d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at 1e-8 m, all three on this pass's own data: d(q) taken
+        from the cycle's exact phase instead moved ``tiago_table_reach``'s closest approach by 0.6-0.75 mm, to 18.96 mm <
+        d_s − 1 mm, both with the cycle's pass at coal's default 1e-6 m and at 1e-8 m, although the two runs of d(q) agree
+        to 5e-9 m on ``talos_hands_cross``: not understood, so not shared), which holds the terms the witness-point drift
+        leaves out: the normal's turn and the witness points sliding over curved or rotating surfaces (a hand hull sliding
+        round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into a steady violation of
+        1.75/ω² = 3.5 mm). ε = 10 ms, not less: between two hulls the distance is C¹ but not C² (the closest features
+        switch), and a 1 ms difference turned each switch into a −12 to −34 m/s² spike (Talos's torso against an upper
+        arm) that made level 0 infeasible; over ±10 ms the switch is spread ten times thinner, and a smooth curvature
+        (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %.
 
         Args:
             robot: the robot at the cycle's state (q, q̇).
@@ -488,8 +478,8 @@ class CollisionModel:
         return out / (eps * eps)
 
     def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
-        """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r),
-        r = p − o_j, all world-aligned (m/s²); zero on the universe (joint 0)."""
+        """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r), r = p − o_j, all
+        world-aligned (m/s²); zero on the universe (joint 0)."""
         joints, inv = np.unique(jid, return_inverse=True)
         u = len(joints)
         Ru = np.empty((u, 3, 3))

@@ -8,6 +8,10 @@ One cycle, top to bottom:
     rows                          each task's velocity form J q̇ = ẋ_d + K e, its limits as
                                   bounds on q̇ (wbc.tasks.velocity), one row buffer
     solver                        the same hqp / projection / weighted solvers, on x = q̇
+    collision check               (a collision task) the damper re-linearised where the command
+                                  breaks it (CORRECTION_PASSES), then every pair checked exactly
+                                  at q ⊕ q̇ dt: the whole q̇ scaled down where one would end below
+                                  d_s (wbc.collision.step: a strict hierarchy never trades it)
     output                        q̇ and q_next = q ⊕ q̇ dt (pin.integrate, on the manifold)
 
 Why a sibling class behind ``Controller(robot, stack, mode="velocity")`` rather than a flag
@@ -148,6 +152,10 @@ class VelocityController:
         self._plan: VelocityPlan | None = None
         #: cycles whose command was re-solved with re-linearised collision rows
         self.corrections = 0
+        #: cycles whose q̇ was scaled down so that no pair ends below d_s (_step_checked), and the smallest α
+        self.step_scaled = 0
+        self.step_scale_min = 1.0
+        self._step_data: dict[int, tuple] = {}
         self.levels: list[Level] = []
         self.phase_clock = None
         for task in self.stack:
@@ -157,9 +165,13 @@ class VelocityController:
         """None: the velocity mode adds no level below the stack's."""
         return []
 
-    def fault_counts(self) -> dict[str, int]:
-        """As :meth:`wbc.Controller.fault_counts`."""
-        return {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
+    def fault_counts(self) -> dict[str, float]:
+        """As :meth:`wbc.Controller.fault_counts`, with ``collision_step_scaled`` (cycles) and
+        ``collision_step_scale_min`` (the smallest α) when a command was shortened (:meth:`_step_checked`)."""
+        out: dict = {**self.faults.counts, "qp_backend_failures": int(self.solver.backend_failures)}
+        if self.step_scaled:
+            out.update(collision_step_scaled=self.step_scaled, collision_step_scale_min=self.step_scale_min)
+        return out
 
     def solve(self, q: np.ndarray, v: np.ndarray | None = None, external_torque: np.ndarray | None = None
               ) -> VelocitySolution:
@@ -206,6 +218,10 @@ class VelocityController:
         status, relaxed = solve_status(ok, res)
         if not ok:
             qd = np.zeros(nv)
+        elif plan.collision_rows:
+            qd, note = self._step_checked(q, qd, plan)
+            if note:
+                message = f"{message}; {note}" if message else note
         buf = plan.buffer
         values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
         evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
@@ -234,6 +250,30 @@ class VelocityController:
                 break
             res = again
         return res
+
+    def _step_checked(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan) -> tuple[np.ndarray, str]:
+        """The command's last check (:mod:`wbc.collision.step`): where a monitored pair would be
+        below d_s at q ⊕ q̇ dt (every pair, exact, not only those within d_i), the whole q̇ is
+        scaled by the largest α found that keeps each pair ≥ d_s (or, below it already, not
+        nearer); each task keeps its direction. Counted in :attr:`step_scaled` and
+        :attr:`step_scale_min`; the note (or "") names α and the pair."""
+        alpha, worst = 1.0, None
+        for t, _ in plan.collision_rows:
+            m = t.model
+            scratch = self._step_data.get(id(m))
+            if scratch is None:
+                scratch = self._step_data[id(m)] = (self.robot.model.createData(), m.new_geometry_data())
+            a, pair, d_full = m.step_scale(q, qd * (alpha * self.dt), t.safety, *scratch)
+            if a < 1.0:
+                alpha *= a
+                worst = (pair, d_full, t.safety)
+        if worst is None:
+            return qd, ""
+        self.step_scaled += 1
+        self.step_scale_min = min(self.step_scale_min, alpha)
+        pair, d_full, safety = worst
+        return qd * alpha, (f"collision step scaled to {alpha:.3g} of q̇: pair {pair} would be at "
+                            f"{d_full * 1e3:.1f} mm < d_s = {safety * 1e3:.1f} mm at the full step")
 
     def _hold(self, v: np.ndarray, message: str) -> VelocitySolution:
         """A faulty cycle: hold the model's last configuration (q̇ = 0)."""
