@@ -478,11 +478,8 @@ class Simulator:
         return w
 
     def _kinematics(self) -> None:
-        """The joints' placements (``data.oMi``) and the centre of mass (``data.com[0]``) at
-        the current ``q``, computed once per state: ``pin.centerOfMass(model, data, q)`` runs the
-        forward kinematics pass (the same placements as ``forwardKinematics``) and sums the
-        bodies' mass moments. A state is the ``q`` array itself (each substep makes a new one),
-        so nothing else may run pinocchio on ``data`` at another configuration between calls."""
+        """``data.oMi`` and ``data.com[0]`` at ``q``, once per state (the ``q`` array: each substep
+        makes a new one): ``pin.centerOfMass(model, data, q)`` runs forward kinematics too."""
         if self._kin_q is not self.q:
             pin.centerOfMass(self.model, self.data, self.q)
             self._kin_q = self.q
@@ -493,8 +490,7 @@ class Simulator:
         return self._point_positions().copy()
 
     def com(self) -> np.ndarray:
-        """World position (m) of the centre of mass at the current state (the kinematics
-        :meth:`point_positions` uses, computed once)."""
+        """World position (m) of the centre of mass at the current state."""
         self._kinematics()
         return self.data.com[0].copy()
 
