@@ -5,7 +5,8 @@ Why: the cascade's factorisations (QR, SVD of matrices of a few dozen rows, see
 multi-threaded OpenBLAS spins its threads and makes the cycle slower and noisier. ``wbc
 bench --blas-threads N`` sets the count before measuring (and its SVD probe times both),
 and each sweep worker (``wbc.sweep.worker``) runs on one thread, the pool having one
-process per core.
+process per core. ``wbc run`` (:func:`wbc.runner.loop.run`) runs its loop on one thread
+by default (:func:`blas_threads`; ``--blas-threads N`` / ``RunOptions.blas_threads``).
 
 How: ``OPENBLAS_NUM_THREADS`` is read only when a library is loaded, and numpy and scipy
 each load their own OpenBLAS (the ``scipy_openblas`` wheels, whose symbols carry a
@@ -19,7 +20,8 @@ for every BLAS; it is not a dependency of wbc.)
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 #: (symbol prefix, symbol suffix) of OpenBLAS's thread functions, most specific first
 _SYMBOLS = (("scipy_openblas_", "64_"), ("scipy_openblas_", ""), ("openblas_", "64_"), ("openblas_", ""))
@@ -54,3 +56,33 @@ def set_blas_threads(n: int) -> None:
 
     for _, _, put in openblas_libs():
         put(int(n))
+
+
+def blas_thread_counts() -> list[int]:
+    """The thread count of every loaded OpenBLAS, in :func:`openblas_libs`'s order."""
+    return [int(get()) for _, get, _ in openblas_libs()]
+
+
+@contextmanager
+def blas_threads(n: int | None) -> Iterator[None]:
+    """Every loaded OpenBLAS on ``n`` threads inside the block (:func:`set_blas_threads`),
+    each back on its own count after it; ``n`` None leaves them as they are.
+
+    Args:
+        n: the thread count inside the block (≥ 1), or None.
+    """
+    if n is None:
+        yield
+        return
+    if int(n) < 1:
+        raise ValueError(f"BLAS thread count {n}: expected at least 1 (or None to leave it)")
+    import scipy.linalg  # noqa: F401  (load scipy's own OpenBLAS first: its count is restored too)
+
+    libs = openblas_libs()
+    before = [get() for _, get, _ in libs]
+    set_blas_threads(n)
+    try:
+        yield
+    finally:
+        for (_, _, put), k in zip(libs, before, strict=True):
+            put(int(k))

@@ -56,6 +56,9 @@ class TimedSimulator:
     def contact_wrench(self, frame: str) -> np.ndarray:
         return self.sim.contact_wrench(frame)
 
+    def com(self) -> np.ndarray:
+        return self.sim.com()
+
 
 def sim_loop(scenario: str = "talos_balance", duration: float = 3.0, solvers=("hqp", "projection")) -> dict:
     """The closed loop of ``wbc run <scenario> --headless`` for ``duration`` s simulated,

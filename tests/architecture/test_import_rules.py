@@ -41,7 +41,7 @@ ALLOWED: dict[str, set[str]] = {
                             "wbc.interaction", "wbc.sim", "wbc.solvers", "wbc.controller", "wbc.locomotion"},
     "wbc.runner": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks", "wbc.trajectories", "wbc.interaction",
                           "wbc.sim", "wbc.controller", "wbc.scenario", "wbc.collision",
-                          "wbc.locomotion"},
+                          "wbc.locomotion", "wbc.blas"},
     "wbc.viz": BASE | {"wbc.sim", "wbc.robot", "wbc.tasks"},
     "wbc.sweep": BASE | {"wbc.validation", "wbc.jsonable", "wbc.blas", "wbc.robot", "wbc.scenario", "wbc.runner"},
 }

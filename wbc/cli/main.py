@@ -50,10 +50,13 @@ def _cmd_run(args) -> int:
         callback = viewer_callback(scene, sc.stack, sc.dt, realtime=False, fps=args.fps,
                                    diagnostics_hz=args.diagnostics_rate, frames=shown_frames(sc))
     want_series = bool(args.plot or args.series)
+    if args.blas_threads < 0:
+        raise ConfigError(f"{args.blas_threads}: expected a thread count ≥ 1, or 0 to leave it", key="--blas-threads")
     try:
         options = RunOptions(solver=args.solver, backend=args.backend, duration=args.duration, mode=args.mode,
                              simulator=args.sim, joint_dynamics=True if args.joint_dynamics else None,
-                             series=want_series, progress=True, callback=callback)
+                             series=want_series, progress=True, callback=callback,
+                             blas_threads=args.blas_threads or None)
         if args.headless:
             metrics = run(sc, options)
         else:
@@ -327,6 +330,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(simulated time) (default 30)")
     r.add_argument("--diagnostics-rate", type=float, default=10.0, metavar="HZ",
                    help="priority-diagnostics updates per simulated second in the view (default 10; 0: off)")
+    r.add_argument("--blas-threads", type=int, default=1, metavar="N",
+                   help="OpenBLAS threads during the control loop (default 1: the cascade's matrices are too "
+                        "small for threads to pay; 0: leave the count as the environment set it)")
     r.set_defaults(fn=_cmd_run)
 
     p = sub.add_parser(

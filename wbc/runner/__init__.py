@@ -5,4 +5,5 @@ by cycle), its metrics (:mod:`~wbc.runner.metrics`, :mod:`~wbc.runner.stats`), p
 May import: everything below the CLI (:mod:`wbc.scenario`, :mod:`wbc.controller`,
 :mod:`wbc.sim`, :mod:`wbc.collision` (the collision monitor), :mod:`wbc.interaction`,
 :mod:`wbc.locomotion` (the walker), :mod:`wbc.trajectories`, :mod:`wbc.tasks`,
-:mod:`wbc.robot`, :mod:`wbc.validation`, :mod:`wbc.errors`). Not the CLI, the sweep or the viewer."""
+:mod:`wbc.robot`, :mod:`wbc.validation`, :mod:`wbc.errors`, :mod:`wbc.blas` (the loop's
+OpenBLAS thread count)). Not the CLI, the sweep or the viewer."""

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from wbc.blas import blas_threads
 from wbc.runner.loop import ScenarioRun
 from wbc.runner.options import RunOptions
 from wbc.scenario.loader import Scenario
@@ -232,34 +233,35 @@ def run_live(sc: Scenario, options: RunOptions, publish: Callable[[Snapshot], No
     every = max(1, round(1.0 / (fps * sc.dt)))
     wall0, sim0 = time.perf_counter(), 0.0        # pacing anchor: sim time sim0 at wall0
     k = 0
-    while k < r.n:
-        live.poll()
-        if live.stop:
-            break
-        if live.paused and not live.steps:
-            paused_at = time.perf_counter()
-            publish(snapshot(r, k * sc.dt, live, extras=extras))
-            while live.paused and not live.steps and not live.stop:
-                time.sleep(1.0 / fps)
-                live.poll()
-            r.exclude_wall_time(time.perf_counter() - paused_at)
-            wall0, sim0 = time.perf_counter(), k * sc.dt
-            continue                        # stopped, stepped or resumed: look again
-        if live.steps:
-            live.steps -= 1
-        speed_before = live.speed
-        ok = r.cycle(k)
-        k += 1
-        if k % every == 0 or not ok:
-            publish(snapshot(r, k * sc.dt, live, extras=extras))
-        if not ok:
-            break
-        if live.speed != speed_before:
-            wall0, sim0 = time.perf_counter(), k * sc.dt
-        if realtime:
-            lag = (k * sc.dt - sim0) / live.speed - (time.perf_counter() - wall0)
-            if lag > 2e-3:          # sleep in ≥ 2 ms slices: the OS's timer does not do better
-                time.sleep(lag)
+    with blas_threads(r.options.blas_threads):      # as run(): one OpenBLAS thread by default
+        while k < r.n:
+            live.poll()
+            if live.stop:
+                break
+            if live.paused and not live.steps:
+                paused_at = time.perf_counter()
+                publish(snapshot(r, k * sc.dt, live, extras=extras))
+                while live.paused and not live.steps and not live.stop:
+                    time.sleep(1.0 / fps)
+                    live.poll()
+                r.exclude_wall_time(time.perf_counter() - paused_at)
+                wall0, sim0 = time.perf_counter(), k * sc.dt
+                continue                        # stopped, stepped or resumed: look again
+            if live.steps:
+                live.steps -= 1
+            speed_before = live.speed
+            ok = r.cycle(k)
+            k += 1
+            if k % every == 0 or not ok:
+                publish(snapshot(r, k * sc.dt, live, extras=extras))
+            if not ok:
+                break
+            if live.speed != speed_before:
+                wall0, sim0 = time.perf_counter(), k * sc.dt
+            if realtime:
+                lag = (k * sc.dt - sim0) / live.speed - (time.perf_counter() - wall0)
+                if lag > 2e-3:          # sleep in ≥ 2 ms slices: the OS's timer does not do better
+                    time.sleep(lag)
     metrics = r.metrics()
     publish(snapshot(r, k * sc.dt, live, done=True, extras=extras))
     return metrics

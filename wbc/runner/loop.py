@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from wbc.blas import blas_threads
 from wbc.controller.cycle import Controller
 from wbc.controller.faults import FaultPolicy, diverged, simulation_diverged
 from wbc.controller.solution import Solution
@@ -394,7 +395,8 @@ def run(sc: Scenario, options: RunOptions | None = None, /, **settings) -> dict:
             series=True)``), over ``options``; an unknown name is a TypeError.
     """
     r = ScenarioRun(sc, options, **settings)
-    for k in range(r.n):
-        if not r.cycle(k):
-            break
+    with blas_threads(r.options.blas_threads):      # one OpenBLAS thread by default (RunOptions)
+        for k in range(r.n):
+            if not r.cycle(k):
+                break
     return r.metrics()

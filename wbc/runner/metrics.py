@@ -418,7 +418,8 @@ class RunMetrics:
         # the controller removes a released contact when its force ramp ends: membership per cycle
         support_idx = [i for c in self.contacts if c.name in stack for i in self.pts_of[c.name]]
         if support_idx:
-            robot_com = pin.centerOfMass(sim.model, sim.data, qs)  # true CoM, simulator model and data
+            # true CoM, the simulator's model and data (its own com(): the kinematics point_positions ran)
+            robot_com = sim.com() if hasattr(sim, "com") else pin.centerOfMass(sim.model, sim.data, qs)
             margin = self.hull.margin(support_idx, pts[:, :2], robot_com[:2])
             self.margins.add(margin)
         else:

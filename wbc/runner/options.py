@@ -42,6 +42,10 @@ class RunOptions:
         mailbox: an object whose ``apply(run, t, (q, v))`` the loop calls at the start of each
             cycle, after measuring (commands from a page, :mod:`wbc.runner.interactive`); it
             returns True when it changed the stack.
+        blas_threads: the OpenBLAS thread count during :func:`~wbc.runner.loop.run`'s loop
+            (:func:`wbc.blas.blas_threads`; each library's own count is restored after): 1 by
+            default, the cascade's matrices being far too small for BLAS threads to pay (they
+            spin and take the other cores); None: leave it as the environment set it.
     """
 
     solver: str | None = None
@@ -58,6 +62,7 @@ class RunOptions:
     wrap_simulator: Callable | None = None
     mode: str | None = None
     mailbox: Any = None
+    blas_threads: int | None = 1
 
     @classmethod
     def of(cls, options: RunOptions | None, settings: dict) -> RunOptions:

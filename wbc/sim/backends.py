@@ -6,8 +6,9 @@ coordinates, ``step(tau)`` advances one control period under the commanded torqu
 simulated driver saturates them at the robot's limits and counts ``saturated_steps``),
 ``push(...)`` schedules an external force, and ``t``, ``q``, ``v``, ``model``, ``data``,
 ``points``, ``point_forces``, ``point_positions()``, ``contact_wrench(frame)`` and ``pushes``
-are read for the metrics and the viewer. Any object with these members plugs in the same way (a user's own,
-e.g. a driver for a real robot, with ``q``/``v`` its last measurement).
+are read for the metrics and the viewer (``com()``, the true centre of mass, too where the object
+has it; otherwise the metrics compute it with pinocchio on ``model``, ``data``). Any object with
+these members plugs in the same way (a user's own, e.g. a driver for a real robot, with ``q``/``v`` its last measurement).
 
 Back-ends (``simulator:`` in a scenario, ``wbc run --sim NAME``):
 

@@ -454,6 +454,11 @@ class MujocoSimulator:
         self._kinematics()
         return self.mj_data.site_xpos[self._sites].copy().reshape(-1, 3)
 
+    def com(self) -> np.ndarray:
+        """World position (m) of the centre of mass at the current state (pinocchio's model
+        and data, as :meth:`energy`)."""
+        return pin.centerOfMass(self.model, self.data, self.q).copy()
+
     def energy(self) -> float:
         """Kinetic + gravitational potential energy (J) of the current state (pinocchio's)."""
         m, d = self.model, self.data

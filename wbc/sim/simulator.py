@@ -129,6 +129,7 @@ class Simulator:
         self.substeps = int(substeps)
         self.h = self.dt / self.substeps
         self.q = np.array(q0, dtype=float)
+        self._kin_q: np.ndarray | None = None      # the q data's kinematics and CoM are at (_kinematics)
         self.v = np.zeros(model.nv) if v0 is None else np.array(v0, dtype=float)
         self.t = 0.0
         self.actuated = np.ones(model.nv, bool) if actuated is None else np.asarray(actuated, bool)
@@ -476,10 +477,22 @@ class Simulator:
             w[3:] += np.cross(oMf.actInv(p), fl)
         return w
 
+    def _kinematics(self) -> None:
+        """``data.oMi`` and ``data.com[0]`` at ``q``, once per state (the ``q`` array: each substep
+        makes a new one): ``pin.centerOfMass(model, data, q)`` runs forward kinematics too."""
+        if self._kin_q is not self.q:
+            pin.centerOfMass(self.model, self.data, self.q)
+            self._kin_q = self.q
+
     def point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points at the current state."""
-        pin.forwardKinematics(self.model, self.data, self.q)
+        self._kinematics()
         return self._point_positions().copy()
+
+    def com(self) -> np.ndarray:
+        """World position (m) of the centre of mass at the current state."""
+        self._kinematics()
+        return self.data.com[0].copy()
 
     def energy(self) -> float:
         """Kinetic + gravitational potential energy (J)."""
