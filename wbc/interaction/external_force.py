@@ -45,6 +45,7 @@ import pinocchio as pin
 from wbc.errors import ConfigError, WbcError, placed
 from wbc.interaction.glass_metrics import GlassMetrics
 from wbc.interaction.momentum_observer import MomentumObserver
+from wbc.tasks.frame import Frame
 from wbc.validation.schema import mapping, number, text
 
 SOURCES = ("none", "simulator", "observer")
@@ -70,7 +71,7 @@ def interaction_section(spec: Any, robot, stack, pushes: list[dict]) -> Interact
         return None
     spec = mapping(spec, "interaction", allowed=_KEYS, required=("glass",))
     glass = text(spec["glass"], "interaction.glass", what="the name of a frame task of the stack")
-    tasks = {t.name: t for t in stack if t.kind == "frame"}
+    tasks = {t.name: t for t in stack if isinstance(t, Frame)}
     if glass not in tasks:
         raise ConfigError(f"must name a frame task of the stack, got {glass!r}; frame tasks: {sorted(tasks)}",
                           key="interaction.glass")

@@ -43,6 +43,7 @@ from wbc.locomotion.plan import Command, WalkPlan
 from wbc.locomotion.preview import ZmpPreview
 from wbc.locomotion.swing import SwingTrajectory, quintic
 from wbc.locomotion.timing import Timing
+from wbc.tasks.com import CoM
 from wbc.tasks.frame import Frame
 
 SIDES = ("left", "right")
@@ -110,13 +111,13 @@ class Walker:
         self.spec, self.robot, self.stack, self.ctrl, self.dt = spec, robot, stack, ctrl, dt
         self.model = robot.model
         self.data = robot.model.createData()      # the walker's own: the controller's stays as it is
-        self.com_task = next(t for t in stack if t.kind == "com")
+        self.com_task = next(t for t in stack if isinstance(t, CoM))
         self.com_level = stack.level_of(self.com_task.name)
         self.contact_task = {side: next(t for t in stack.contacts() if t.contact == spec.contacts[side])
                              for side in SIDES}
         self.contact_level = {side: stack.level_of(t.name) for side, t in self.contact_task.items()}
         self.sole_fid = {side: robot.frame_id(robot.contact(spec.contacts[side]).frame) for side in SIDES}
-        self.orient = [t for t in stack if t.kind == "frame" and list(t.axes) == [3, 4, 5]]
+        self.orient = [t for t in stack if isinstance(t, Frame) and list(t.axes) == [3, 4, 5]]
         self.plan: WalkPlan | None = None
         self.preview: ZmpPreview | None = None
         self.i = 0                 # next step to take

@@ -42,6 +42,9 @@ from wbc.blas import blas_threads
 from wbc.runner.loop import ScenarioRun
 from wbc.runner.options import RunOptions
 from wbc.scenario.loader import Scenario
+from wbc.tasks.com import CoM
+from wbc.tasks.contact import Contact
+from wbc.tasks.frame import Frame
 from wbc.tasks.tuning import adjustable, gain_range, weight_range
 
 SPEED_RANGE = (0.05, 4.0)       # × real time
@@ -157,7 +160,7 @@ class LiveControl:
             if kind == "target":
                 run.refs.pop(name, None)
                 value = np.asarray(value, float)
-                if task.kind == "com":
+                if isinstance(task, CoM):
                     task.set_reference(value)
                 elif value.shape == (3,):       # a position: the target keeps its rotation
                     rotation = task.target.rotation if task.target is not None else np.eye(3)
@@ -172,7 +175,7 @@ class LiveControl:
             elif kind == "weight":
                 task.weight = float(np.clip(float(value), *weight_range(task)))
             elif kind == "enabled":
-                if not value and name in stack and task.kind != "contact":
+                if not value and name in stack and not isinstance(task, Contact):
                     self.disabled[name] = (task, stack.level_of(name))
                     stack.remove(name)
                     changed = True
@@ -194,9 +197,9 @@ def snapshot(run: ScenarioRun, t: float, live: LiveControl | None = None, done: 
     targets: dict[str, np.ndarray] = {}
     task: Any
     for task in stack:
-        if task.kind == "com" and task.target is not None:
+        if isinstance(task, CoM) and task.target is not None:
             targets[task.name] = np.array(task.target, dtype=np.float64)
-        elif task.kind == "frame" and task.target is not None:
+        elif isinstance(task, Frame) and task.target is not None:
             targets[task.name] = task.target.homogeneous.copy()
     normal = {c.name: float(forces[idx, 2].sum()) if idx else 0.0 for c, idx in
               ((c, run.contact_points.get(c.name, [])) for c in run.contacts)}

@@ -102,11 +102,11 @@ def _apply_event(ev, ctrl, robot, measured, refs, start, t, switched) -> None:
         robot.update(*measured)
         task.bind(robot)
         given = ev.get("target")            # the add's own target (world), else the pose when added
-        if task.kind == "frame":
+        if isinstance(task, Frame):
             here = robot.frame_placement(robot.frame_id(task.frame))
             start[task.name] = here.copy() if given is None else to_se3(task.name, given, here)
             task.target = start[task.name]
-        elif task.kind == "com":
+        elif isinstance(task, CoM):
             start[task.name] = robot.com.copy() if given is None else np.array(given, dtype=float)
             task.target = start[task.name]
         stack.add(task, min(ev["level"], len(stack.levels)))
@@ -215,7 +215,7 @@ class ScenarioRun:
         if sc.interaction is not None:      # external-force source and glass figures of an interaction scenario
             out.append(ExternalForceObserver(ExternalForceRun(sc.interaction, robot, sim, stack, sc.pushes)))
         for task in stack:                  # collision monitoring: every pair's distance on the true state
-            if task.kind == "collision_avoidance":
+            if isinstance(task, CollisionAvoidance):
                 out.append(CollisionObserver(task, sim.q))
         if o.callback is not None:
             out.append(CallbackObserver(o.callback))
@@ -237,7 +237,7 @@ class ScenarioRun:
                 start[t.name] = M.copy() if t.target is None else t.target.copy()
         for tname, off in sc.offsets.items():
             shifted: Any = stack[tname]     # a CoM or Frame task (the scenario loader checked)
-            if shifted.kind == "com":
+            if isinstance(shifted, CoM):
                 shifted.target = start[tname] + off
             else:
                 shifted.target = pin.SE3(start[tname].rotation, start[tname].translation + off)
@@ -264,7 +264,7 @@ class ScenarioRun:
                 continue
             x, dx, ddx = traj.sample(t - t0)
             task: Any = stack[tname]        # a CoM or Frame task (the scenario loader checked)
-            if task.kind == "com":
+            if isinstance(task, CoM):
                 task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, self.start[tname], t - t0))

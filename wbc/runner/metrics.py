@@ -16,6 +16,7 @@ import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
 from wbc.runner.stats import Running
+from wbc.tasks.contact import Contact
 
 #: the metrics a run reports as true/false (flattened names, ``*`` one part): a sweep's
 #: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
@@ -300,7 +301,7 @@ class RunMetrics:
         pin.forwardKinematics(m, sim.data, sim.q)
         self.p0 = sim.point_positions()
         self.errs: dict[str, Running] = {t.name: Running() for t in stack if t.error(robot) is not None
-                                         and t.kind not in ("contact",)}
+                                         and not isinstance(t, Contact)}
         self.err_tasks = [(name, stack[name]) for name in self.errs]
         #: per task its error's unit ("m", "rad", "N", ...; "m+rad" for a pose) and, when it mixes
         #: units, the components of each (their norms are recorded apart, in ``err_parts``)

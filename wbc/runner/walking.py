@@ -91,6 +91,7 @@ class WalkObserver(RunObserver):
         self.com = robot.com[:2].copy()
         self.dcm = self.com + robot.com_velocity[:2] / omega
         task = w.com_task
+        assert task.target is not None, "the walker sets the CoM reference every cycle"
         self.com_ref = task.target[:2].copy()
         self.dcm_ref = self.com_ref + task.target_velocity[:2] / omega
         self.zmp_ref = w.plan.table.sample(t - w.delay - w.dt, w.dt, 1, self._zmp1)[0].copy()

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import sys
-from typing import Any, cast
+from typing import Any
 
 from wbc.errors import ConfigError, WbcError, placed
 from wbc.robot.gains import apply_robot_gains
@@ -31,6 +31,9 @@ from wbc.scenario.build_tasks import build_task
 from wbc.scenario.sections import MAX_DURATION
 from wbc.tasks.com import CoM
 from wbc.tasks.contact import Contact
+from wbc.tasks.contact_wrench import ContactWrench
+from wbc.tasks.force import Force
+from wbc.tasks.frame import Frame
 from wbc.trajectories.position import build_task_trajectory
 from wbc.validation.schema import integer, mapping, number, sequence, show, suggest, text
 
@@ -38,8 +41,8 @@ KINDS = ("release", "add", "touchdown", "remove")
 _KEYS = {"release": {"time", "release", "duration"}, "remove": {"time", "remove"},
          "touchdown": {"time", "touchdown", "level", "duration"}, "add": {"time", "add", "level", "trajectory"}}
 MAX_LEVEL = 1000
-#: task kinds that act on a contact task's force variables (they name it as ``contact``)
-_ON_FORCES = ("contact_wrench", "force")
+#: task types that act on a contact task's force variables (they name it as ``contact``)
+_ON_FORCES = (ContactWrench, Force)
 
 
 def build_events(spec: Any, robot, stack, dt: float, duration: float) -> list[dict]:
@@ -74,9 +77,9 @@ def build_events(spec: Any, robot, stack, dt: float, duration: float) -> list[di
                 apply_robot_gains(task, body if isinstance(body, dict) else {}, robot)   # wbc.robot.gains precedence
             except WbcError as exc:
                 raise placed(exc, f"{where}.{kind}", cls=ConfigError) from exc
-            if kind == "add" and task.kind in ("com", "frame") and isinstance(body, dict) and "target" in body:
+            if kind == "add" and isinstance(task, (CoM, Frame)) and isinstance(body, dict) and "target" in body:
                 # the runner starts the task (and a relative trajectory) there, not where the robot is
-                e["target"] = cast(CoM, task).target.copy() if task.kind == "com" else body["target"]  # type: ignore[union-attr]  # a com built from a body with a target has one; a frame's: as given
+                e["target"] = task.target.copy() if isinstance(task, CoM) else body["target"]  # type: ignore[union-attr]  # a com built from a body with a target has one; a frame's: as given
             e["task"] = task
             e["level"] = integer(ev.get("level", 0), f"{where}.level", ge=0, le=MAX_LEVEL)
             if "trajectory" in ev:
@@ -112,7 +115,7 @@ class _Timeline:
 
     def drop(self, name: str, key: str, when: str) -> None:
         tasks = self.tasks()
-        needs = [t for t in tasks.values() if t.kind in _ON_FORCES and t.contact == name]
+        needs = [t for t in tasks.values() if isinstance(t, _ON_FORCES) and t.contact == name]
         if needs:
             raise ConfigError(f"removes contact task '{name}' {when} while {needs[0].kind} task '{needs[0].name}' "
                               "still acts on its force; remove that task first", key=key)
@@ -137,7 +140,7 @@ class _Timeline:
             same = [t.name for t in tasks.values() if isinstance(t, Contact) and t.contact == task.contact]
             if same:
                 raise ConfigError(f"contact '{task.contact}' is already held by task '{same[0]}' {when}", key=key)
-        if task.kind in _ON_FORCES:
+        if isinstance(task, _ON_FORCES):
             contact = tasks.get(task.contact)
             if not isinstance(contact, Contact) or (task.contact in self.ramps and self.ramps[task.contact][1]):
                 there = sorted(n for n, t in tasks.items() if isinstance(t, Contact))

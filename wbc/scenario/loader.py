@@ -64,6 +64,7 @@ from wbc.scenario.examples import scenario_path
 from wbc.scenario.walk_section import walk_section
 from wbc.sim.backends import SIMULATORS
 from wbc.stack import Stack
+from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.contact import Contact
 from wbc.tasks.contact_wrench import ContactWrench
 from wbc.tasks.null_space_impedance import check_in_stack
@@ -173,7 +174,7 @@ def _build(cfg: dict, src: Path, robot_loader) -> Scenario:
     stack, refs, offsets = _stack(cfg["stack"], robot, dt)
     for k, level in enumerate(stack.levels):      # collision tasks that keep away from the environment's shapes
         for i, task in enumerate(level):
-            if task.kind == "collision_avoidance":
+            if isinstance(task, CollisionAvoidance):
                 try:
                     cast(Any, task).use_environment(environment, robot)
                 except WbcError as exc:
@@ -263,7 +264,7 @@ def _stack(levels: Any, robot, dt: float) -> tuple[Stack, dict, dict]:
                     continue
                 if not task.moves_position:
                     raise ConfigError(f"{key} moves the position of a com or frame task, not of a {task.kind} task"
-                                      f"{' without position axes (mask)' if task.kind == 'frame' else ''}",
+                                      f"{' without position axes (mask)' if task.moves_orientation else ''}",
                                       key=f"{where}.{key}")
             if "trajectory" in spec and "offset" in spec:
                 raise ConfigError("give either a trajectory or an offset (the trajectory would override it)",
@@ -294,10 +295,9 @@ def _check_references(stack: Stack, where_of: dict[str, str], robot) -> None:
         raise ConfigError(message, key=f"{where_of[name]}.{key}")
     contacts = {t.name: t for t in stack if isinstance(t, Contact)}
     check_force_tasks(stack, contacts, where_of, robot)
-    for task in stack:
-        if task.kind != "contact_wrench":
+    for t in stack:
+        if not isinstance(t, ContactWrench):
             continue
-        t = cast(ContactWrench, task)        # the kind names the class
         c = contacts.get(t.contact)
         if c is None:
             raise ConfigError(f"must name a contact task of the stack, got '{t.contact}'; contact tasks: "

@@ -35,6 +35,7 @@ from wbc.locomotion.footsteps import Footstep, StepLimits, check_plan, from_comm
 from wbc.locomotion.plan import Command
 from wbc.locomotion.timing import Timing, schedule
 from wbc.locomotion.walker import SIDES, WalkSpec, _from_frame, pose2d
+from wbc.tasks.com import CoM
 from wbc.validation.schema import boolean, integer, mapping, number, sequence, text
 
 _KEYS = {"command", "footsteps", "timing", "step_height", "limits", "start", "contacts", "swing_kp", "events"}
@@ -151,7 +152,7 @@ def walk_section(spec: Any, robot, stack, duration: float) -> WalkSpec | None:
 
 
 def _check_stack(stack, contacts: dict[str, str]) -> None:
-    coms = [t for t in stack if t.kind == "com"]
+    coms = [t for t in stack if isinstance(t, CoM)]
     if len(coms) != 1:
         raise ConfigError(f"a walk needs exactly one com task in the stack, found {len(coms)}", key="walk")
     for side in SIDES:

@@ -142,9 +142,9 @@ def build_task_trajectory(task, spec, where: str, dt: float | None) -> tuple[obj
     ``rotation:`` orientation axes (a frame task)."""
     has_pos, has_rot = task.moves_position, task.moves_orientation
     moves_pos = not (isinstance(spec, dict) and "type" not in spec and "rotation" in spec)
-    if task.kind not in ("com", "frame") or (moves_pos and not has_pos):
+    if not (has_pos or has_rot) or (moves_pos and not has_pos):
         raise ConfigError(f"a trajectory moves the position of a com or frame task, not of a {task.kind} task"
-                          f"{' without position axes (mask; give only rotation:)' if task.kind == 'frame' else ''}",
+                          f"{' without position axes (mask; give only rotation:)' if has_rot else ''}",
                           key=where)
     traj = build_trajectory(spec, 3, where, dt=dt, orientation=has_rot)
     return traj, bool(spec.get("absolute", False))

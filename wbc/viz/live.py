@@ -69,7 +69,7 @@ def task_specs(stack) -> list[dict]:
     for task in stack:
         kp = float(task.kp) if adjustable(task) else None
         out.append({"name": task.name, "kind": task.kind, "level": stack.level_of(task.name),
-                    "rotate": task.kind == "frame" and bool(getattr(task, "moves_orientation", False)),
+                    "rotate": task.moves_orientation,
                     "kp": kp, "kp_range": None if kp is None else gain_range(task, kp),
                     "weight": float(task.weight), "weight_range": weight_range(task)})
     return out

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..tasks.collision_avoidance import CollisionAvoidance
+from ..tasks.force import Force
 from .collisions import witness_color
 from .task_forces import task_forces
 
@@ -34,11 +36,10 @@ DESIRED, MEASURED = (22, 160, 133), (216, 27, 96)
 
 def overlay_names(sc) -> dict[str, bool]:
     """The run overlays scenario ``sc`` has, each shown at start."""
-    kinds = {t.kind for t in sc.stack}
     names = {}
-    if "collision_avoidance" in kinds:
+    if any(isinstance(t, CollisionAvoidance) for t in sc.stack):
         names["collision pairs"] = True
-    if "force" in kinds:
+    if any(isinstance(t, Force) for t in sc.stack):
         names["force task λ"] = True
     if getattr(sc, "walk", None) is not None:
         names["footsteps"] = True
@@ -59,13 +60,13 @@ def overlay_data(run, t: float) -> dict:
     out: dict = {}
     stack = run.stack
     for task in stack:
-        if task.kind == "collision_avoidance" and task.last is not None:
+        if isinstance(task, CollisionAvoidance) and task.last is not None:
             rows, order = task.last
             sel = np.asarray(order[:WITNESSES], dtype=int)
             segs = np.stack([rows.p1[sel], rows.p2[sel]], axis=1) if len(sel) else np.zeros((0, 2, 3))
             colors = [_rgb(witness_color(float(rows.d[i]), task.safety, task.influence)) for i in sel]
             out["collision pairs"] = {"segments": segs, "colors": np.array(colors, np.uint8).reshape(-1, 3)}
-    forces = [t_ for t_ in stack if t_.kind == "force" and t_.contact in stack]
+    forces = [t_ for t_ in stack if isinstance(t_, Force) and t_.contact in stack]
     if forces:
         arrows, colors = [], []
         for task in forces:

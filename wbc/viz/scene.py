@@ -44,6 +44,10 @@ from meshcat.animation import Animation
 from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
+from ..tasks.collision_avoidance import CollisionAvoidance
+from ..tasks.com import CoM
+from ..tasks.force import Force
+from ..tasks.frame import Frame
 from . import server
 from .collisions import draw_witnesses
 from .diagnostics import overlay_html, render_png, table_lines
@@ -218,7 +222,7 @@ class Scene:
             self.vis[f"frames/{name}"].set_object(mg.triad(FRAME_AXES))
         self.frames = list(frames)
         for t in stack:
-            if t.kind == "force" and t.contact in stack:
+            if isinstance(t, Force) and t.contact in stack:
                 # hidden (tiny) along the task's first direction: a replay's rotation track then
                 # starts where the arrow will point (three.js skips writing a track's value while it
                 # stays the same, so a rotation keyed constant from the start must be right from it)
@@ -233,9 +237,9 @@ class Scene:
                         order=900 if part == "desired" else 901))
                     node.set_transform(rest @ np.diag([*HIDDEN_SCALE, 1.0]))
                     self._poses[f"task_forces/{t.name}/{part}"] = rest
-            if t.kind in ("com", "frame") and t.target is not None:
+            if isinstance(t, (CoM, Frame)) and t.target is not None:
                 node = self.vis[f"targets/{t.name}"]
-                node.set_object(mg.Sphere(0.015 if t.kind == "frame" else 0.025),
+                node.set_object(mg.Sphere(0.015 if isinstance(t, Frame) else 0.025),
                                 mg.MeshLambertMaterial(color=COLORS["target"], opacity=0.7))
                 if t.moves_orientation:
                     node["axes"].set_object(mg.triad(0.08))
@@ -314,14 +318,14 @@ class Scene:
             mt.translation_matrix([com[0], com[1], 0.001]) @ mt.rotation_matrix(np.pi / 2, [1, 0, 0]))
         if stack is not None:
             for task in stack:
-                if task.kind == "com" and task.target is not None:
+                if isinstance(task, CoM) and task.target is not None:
                     self._node(f"targets/{task.name}").set_transform(mt.translation_matrix(task.target))
-                elif task.kind == "frame" and task.target is not None:
+                elif isinstance(task, Frame) and task.target is not None:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
-            self._legend = [line for task in stack if task.kind == "force"
+            self._legend = [line for task in stack if isinstance(task, Force)
                             for line in self._draw_task_force(task, stack)]
             for task in stack:
-                if task.kind == "collision_avoidance" and self._target is None:     # live only
+                if isinstance(task, CollisionAvoidance) and self._target is None:     # live only
                     draw_witnesses(self.vis, task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
