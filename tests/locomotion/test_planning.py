@@ -10,7 +10,7 @@ import pytest
 
 from wbc.errors import ConfigError
 from wbc.locomotion.footsteps import Footstep, StepLimits, check_plan, from_command, relative
-from wbc.locomotion.preview import G, ZmpPreview
+from wbc.locomotion.preview import STANDARD_GRAVITY, ZmpPreview
 from wbc.locomotion.swing import SwingTrajectory
 from wbc.locomotion.timing import Timing, ZmpTable, schedule, zmp_reference, zmp_samples
 
@@ -96,14 +96,14 @@ def test_swing_spline_boundary_conditions_and_apex():
 
 
 # ------------------------------------------------------------------ preview control
-def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0):
-    """The exact LIPM (cart-table at 1 kHz) driven by the preview plan, replanned every 10 ms
-    from its own (the "measured") state: the ZMP of the pendulum and the stance feet."""
+def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0, g: float = STANDARD_GRAVITY):
+    """The exact LIPM (cart-table at 1 kHz, gravity ``g``) driven by the preview plan, replanned
+    every 10 ms from its own (the "measured") state: the ZMP of the pendulum and the stance feet."""
     z_c, dt = 0.87, 0.001
     timing = Timing(single=0.6, double=0.2, first=0.6, last=0.8, ramp=0.1)
     steps = from_command(START, (0.25, 0.0, 0.0), 0.8, 10, LIMITS)
     phases = schedule(START, steps, timing)
-    plan = ZmpPreview(z_c, ZmpTable(phases).sample)
+    plan = ZmpPreview(z_c, ZmpTable(phases).sample, g=g)
     c, dc = np.zeros(2), np.zeros(2)
     plan.reset(c, dc, 0.0)
     n = round(phases[-1].t1 / dt) + 500
@@ -115,7 +115,7 @@ def _lipm_walk(push_at: float | None = None, push_dv: float = 0.0):
         if plan.due(t):
             plan.replan(c, dc, t)
         _, _, acc = plan.sample(t)
-        zmp = c - z_c * acc / G
+        zmp = c - z_c * acc / g
         out.append((t, zmp.copy(), zmp_reference(phases, t)))
         c, dc = c + dc * dt + acc * dt * dt / 2, dc + acc * dt
     return phases, steps, out, c, plan
@@ -156,6 +156,19 @@ def test_preview_zmp_tracks_the_footstep_reference_inside_the_sole():
     end = (steps[-1].xy + steps[-2].xy) / 2
     assert np.linalg.norm(c - end) < 0.005             # the CoM comes to rest between the feet
     assert len(plan.replan_times) >= len(out) // 10
+
+
+def test_the_plan_takes_the_gravity_it_is_given():
+    """The preview under another gravity (the walker passes its robot model's): the ZMP still
+    follows the footsteps in single support and the CoM comes to rest between the feet."""
+    phases, steps, out, c, plan = _lipm_walk(g=6.0)
+    assert plan.omega == pytest.approx(np.sqrt(6.0 / 0.87))
+    single = [ph for ph in phases if ph.kind == "single"]
+    err = max(float(np.linalg.norm(z - r)) for t, z, r in out if any(ph.t0 <= t < ph.t1 for ph in single))
+    assert err < 0.025                                 # m (0.021 here; 0.011 at 9.81)
+    assert _inside_stance(phases, steps, out) > 0.02
+    end = (steps[-1].xy + steps[-2].xy) / 2
+    assert np.linalg.norm(c - end) < 0.005
 
 
 def test_replanning_from_the_measured_state_recovers_a_push():

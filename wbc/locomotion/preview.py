@@ -1,7 +1,7 @@
 """The CoM reference from the linear inverted pendulum: ZMP preview control (Kajita 2003),
 replanned from the measured CoM and DCM at a fixed rate.
 
-The LIPM at constant height z_c (g = 9.81 m/s²), per horizontal axis, as the cart-table of
+The LIPM at constant height z_c (g the robot model's gravity, m/s²), per horizontal axis, as the cart-table of
 period T with the CoM jerk u as input (state x = (c, ċ, c̈)):
 
     x_{k+1} = A x_k + B u_k,   A = [[1, T, T²/2], [0, 1, T], [0, 0, 1]],  B = [T³/6, T²/2, T]
@@ -29,18 +29,19 @@ import time
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
-G = 9.81
+#: m/s²: g when the caller gives none (the walker passes its robot model's)
+STANDARD_GRAVITY = 9.81
 
 
-def preview_gains(z_c: float, period: float, horizon: float, q: float = 1.0, r: float = 1e-6
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def preview_gains(z_c: float, period: float, horizon: float, q: float = 1.0, r: float = 1e-6,
+                  g: float = STANDARD_GRAVITY) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, K, f) of the preview controller (module docstring) for CoM height ``z_c`` (m),
     replan ``period`` T (s) and preview ``horizon`` (s, N = round(horizon/T) samples); ``q``
-    weighs the ZMP error (1/m²), ``r`` the jerk (s⁶/m²)."""
+    weighs the ZMP error (1/m²), ``r`` the jerk (s⁶/m²), ``g`` gravity (m/s²)."""
     T = period
     A = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])
     B = np.array([[T ** 3 / 6], [T * T / 2], [T]])
-    C = np.array([[1.0, 0.0, -z_c / G]])
+    C = np.array([[1.0, 0.0, -z_c / g]])
     P = solve_discrete_are(A, B, C.T @ C * q, np.array([[r]]))
     S = float(r + (B.T @ P @ B)[0, 0])
     K = (B.T @ P @ A) / S
@@ -60,16 +61,17 @@ def preview_gains(z_c: float, period: float, horizon: float, q: float = 1.0, r: 
 class ZmpPreview:
     """The CoM reference in x and y: replanned every ``period`` s from the measured state.
 
-    ``z_c``: CoM height (m); ``horizon``: preview (s); ``zmp_ahead(t, dt, n, out)``: fills
+    ``z_c``: CoM height (m); ``horizon``: preview (s); ``g``: gravity (m/s², the robot
+    model's); ``zmp_ahead(t, dt, n, out)``: fills
     out (n, 2) with the ZMP reference at t + dt, ..., t + n dt (m, world xy), e.g.
     :func:`wbc.locomotion.timing.zmp_samples`. ``replan_times`` collects each replan's wall
     time (s)."""
 
     def __init__(self, z_c: float, zmp_ahead, period: float = 0.01, horizon: float = 1.6,
-                 q: float = 1.0, r: float = 1e-6) -> None:
-        self.z_c, self.period, self.zmp_ahead = z_c, period, zmp_ahead
-        self.omega = math.sqrt(G / z_c)
-        self.A, self.B, self.K, self.f = preview_gains(z_c, period, horizon, q, r)
+                 q: float = 1.0, r: float = 1e-6, g: float = STANDARD_GRAVITY) -> None:
+        self.z_c, self.period, self.zmp_ahead, self.g = z_c, period, zmp_ahead, g
+        self.omega = math.sqrt(g / z_c)
+        self.A, self.B, self.K, self.f = preview_gains(z_c, period, horizon, q, r, g)
         self.n = len(self.f)
         self._r = np.zeros((self.n, 2))
         self.x = np.zeros((3, 2))          # (c, ċ, c̈) per axis at the last replan
@@ -119,7 +121,7 @@ class ZmpPreview:
     def zmp(self, t: float) -> np.ndarray:
         """The plan's ZMP p = c − z_c c̈ / g at ``t`` (xy, m)."""
         c, _, a = self.sample(t)
-        return c - self.z_c * a / G
+        return c - self.z_c * a / self.g
 
     def dcm(self, t: float) -> np.ndarray:
         """The plan's DCM ξ = c + ċ/ω at ``t`` (xy, m)."""

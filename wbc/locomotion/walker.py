@@ -176,7 +176,7 @@ class Walker:
         self.plan = WalkPlan(start, steps, spec.timing, spec.start, spec.limits)
         self.z_com = float(c[2])
         z_c = self.z_com - self.ground_z
-        self.preview = ZmpPreview(z_c, self._zmp_ahead, spec.replan_period, spec.horizon)
+        self.preview = ZmpPreview(z_c, self._zmp_ahead, spec.replan_period, spec.horizon, g=self.robot.gravity)
         self.preview.reset(c[:2], d.vcom[0][:2], t)
         self.yaw0 = _mean_yaw(start)
         self.orient_rot0 = {}
