@@ -2,7 +2,8 @@
 :class:`~wbc.problem.SolveResult` (``solve``); ``create`` builds one from the controller's
 options. Adding a solver is one class here (see ``docs/architecture.md``).
 
-May import: :mod:`wbc.problem`, their kernels and :mod:`wbc.errors` (and :mod:`wbc.options`), nothing else of wbc.
+May import: :mod:`wbc.problem`, their kernels, :mod:`wbc.cholesky` and :mod:`wbc.errors`
+(and :mod:`wbc.options`), nothing else of wbc.
 """
 
 from ..errors import SolverError

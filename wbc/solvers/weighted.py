@@ -20,6 +20,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
+from ..cholesky import cholesky_lower
 from ..problem.result import LevelInfo, SolveResult
 from ..problem.rows import Level, StackedRows
 from .cascade import Damping
@@ -165,27 +166,6 @@ GRAM_SIGMA_FLOOR = 1e-7
 
 
 @nb.njit(cache=True)
-def _cholesky(C):
-    """(L, True) with C = L Lᵀ, L lower triangular, or (L, False) when C is not positive
-    definite (a pivot ≤ 0). Compiled loops: a few µs at the sizes here."""
-    n = C.shape[0]
-    L = np.zeros_like(C)
-    for j in range(n):
-        d = C[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if d <= 0.0:
-            return L, False
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, n):
-            t = C[i, j]
-            for k in range(j):
-                t -= L[i, k] * L[j, k]
-            L[i, j] = t / L[j, j]
-    return L, True
-
-
-@nb.njit(cache=True)
 def _forward(L, B):
     """L⁻¹ B by forward substitution (L lower triangular)."""
     X = B.copy()
@@ -218,7 +198,7 @@ def own_sigma(A0, A, offsets, rank_tol, threshold):
     GA = np.ascontiguousarray(M[m0:, m0:])
     if m0 > 0:
         B = np.ascontiguousarray(M[:m0, m0:])           # A0 Aᵀ
-        L, chol_ok = _cholesky(np.ascontiguousarray(M[:m0, :m0]))
+        L, chol_ok = cholesky_lower(np.ascontiguousarray(M[:m0, :m0]), 0.0)
         if chol_ok:
             W = _forward(L, B)
         else:
@@ -235,7 +215,7 @@ def own_sigma(A0, A, offsets, rank_tol, threshold):
         Gs = G.copy()
         for i in range(G.shape[0]):
             Gs[i, i] -= threshold * threshold
-        if _cholesky(Gs)[1]:
+        if cholesky_lower(Gs, 0.0)[1]:
             continue
         s2 = np.linalg.eigvalsh(G)
         smax = np.sqrt(max(s2.max(), 0.0))

@@ -77,6 +77,7 @@ import numpy as np
 
 from wbc.validation.schema import number
 
+from ..cholesky import cholesky_lower
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
 from .base import Task, eq_rows
@@ -213,26 +214,12 @@ def nominal_forces(Jf, h, u, w):
         y[j] = h[u[j]]
     if not (np.all(np.isfinite(G)) and np.all(np.isfinite(y))):
         return f                                  # a non-finite state: no reference (0)
-    L = np.zeros((nu, nu))
     big = 0.0
     for j in range(nu):
         big = max(big, G[j, j])
     ok = big > 0.0
-    for j in range(nu):
-        if not ok:
-            break
-        dj = G[j, j]
-        for p in range(j):
-            dj -= L[j, p] * L[j, p]
-        if not dj > 1e-12 * big:
-            ok = False
-            break
-        L[j, j] = np.sqrt(dj)
-        for i in range(j + 1, nu):
-            t = G[i, j]
-            for p in range(j):
-                t -= L[i, p] * L[j, p]
-            L[i, j] = t / L[j, j]
+    if ok:
+        L, ok = cholesky_lower(G, 1e-12 * big)
     if ok:
         for i in range(nu):                       # L v = h_u, then Lᵀ y = v
             for p in range(i):

@@ -39,6 +39,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ...cholesky import cholesky_lower
 from ..lapack import UPLO_DIAG, dpotrf, dtrtri
 
 #: a multiplier of the wrong sign smaller than this, relative to the largest, is taken
@@ -201,22 +202,12 @@ def _cholesky_solve(S, e):
     """S⁻¹e for a small symmetric S by Cholesky; empty if a pivot falls below
     ``PIVOT_TOL`` of S's largest diagonal entry (S singular to working accuracy)."""
     n = S.shape[0]
-    L = np.zeros((n, n))
     big = 0.0
     for i in range(n):
         big = max(big, S[i, i])
-    for j in range(n):
-        d = S[j, j]
-        for p in range(j):
-            d -= L[j, p] * L[j, p]
-        if not d > PIVOT_TOL * big:
-            return np.empty(0)
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, n):
-            t = S[i, j]
-            for p in range(j):
-                t -= L[i, p] * L[j, p]
-            L[i, j] = t / L[j, j]
+    L, ok = cholesky_lower(S, PIVOT_TOL * big)
+    if not ok:
+        return np.empty(0)
     x = e.copy()
     for i in range(n):                            # L w = e
         for p in range(i):
