@@ -35,7 +35,7 @@ STEP_TOL = 1e-4
 
 
 def distances_below(model, q: np.ndarray, floor: float, data: pin.Data,
-                    geometry_data) -> tuple[np.ndarray, np.ndarray]:
+                    geometry_data, cmap: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(pair indices, exact distances in m) at ``q`` of every pair of ``model`` the broad phase
     cannot prove at least ``floor`` apart (bounding spheres: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d): every pair
     closer than ``floor`` is among them.
@@ -46,12 +46,17 @@ def distances_below(model, q: np.ndarray, floor: float, data: pin.Data,
         floor: the distance (m) to prove.
         data: pinocchio data for the placements.
         geometry_data: where the results go (its :meth:`new_geometry_data`).
+        cmap: the active-pair map to fill (ngeoms × ngeoms bool, reused across calls); None: a
+            new one.
     """
     gm, gd = model.geometry_model, geometry_data
     ks = np.flatnonzero(model.bounds_at(q, data, gd) < floor)
     if not len(ks):
         return ks, np.empty(0)
-    cmap = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+    if cmap is None:
+        cmap = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+    else:
+        cmap[:] = False
     cmap[model.pairs[ks, 0], model.pairs[ks, 1]] = True
     gd.setActiveCollisionPairs(gm, cmap)
     pin.computeDistances(gm, gd)
@@ -76,10 +81,12 @@ def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.
         tol: how far (m) below its floor a pair may land.
     """
     rm = model.robot.model
-    ks, d = distances_below(model, pin.integrate(rm, q, step), safety, data, geometry_data)
+    n = model.geometry_model.ngeoms
+    cmap = np.zeros((n, n), dtype=bool)          # one map for this step's checks
+    ks, d = distances_below(model, pin.integrate(rm, q, step), safety, data, geometry_data, cmap)
     if not len(ks) or d.min() >= safety - tol:
         return 1.0, None, np.inf
-    below0, d0 = distances_below(model, q, safety, data, geometry_data)
+    below0, d0 = distances_below(model, q, safety, data, geometry_data, cmap)
     floors = dict(zip(below0.tolist(), np.minimum(d0, safety - tol).tolist()))
 
     def worst(ks: np.ndarray, d: np.ndarray) -> tuple[int, float]:
@@ -97,7 +104,7 @@ def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.
     lo, hi, n = 0.0, 1.0, 0
     while n < checks or (lo == 0.0 and n < 3 * checks):
         a = 0.5 * (lo + hi)
-        ks, d = distances_below(model, pin.integrate(rm, q, a * step), safety, data, geometry_data)
+        ks, d = distances_below(model, pin.integrate(rm, q, a * step), safety, data, geometry_data, cmap)
         if worst(ks, d)[1] >= 0.0:
             lo = a
         else:
