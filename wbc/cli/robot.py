@@ -360,10 +360,35 @@ def _cmd_collisions(args) -> int:
     robot = load_robot(args.robot)
     if pair_file(robot) is None:
         raise RobotDefinitionError(f"robot '{robot.name}' has no YAML file to write the pairs beside")
+    if args.primitives:
+        return _fit_primitives(robot, args.max_excess)
     pairs, summary = sample_self_pairs(robot, influence=args.influence, samples=args.samples, seed=args.seed)
     path = write_pair_file(robot, pairs, summary)
     print(f"{robot.name}: {summary['kept']} of {summary['candidates']} self pairs come within {args.influence:g} m "
           f"in {args.samples} random configurations; wrote {path}")
+    return 0
+
+
+def _fit_primitives(robot, max_excess: float) -> int:
+    """``wbc robot collisions ROBOT --primitives``: a capsule or a box round each geometry's hull, kept where it
+    over-approximates the hull by at most ``max_excess`` (m), written to the collision file."""
+    from wbc.collision.model import CollisionModel
+    from wbc.collision.pairs import write_primitives
+    from wbc.collision.primitives import fit_primitives
+    from wbc.errors import ConfigError
+
+    if not 0 < max_excess < 1:
+        raise ConfigError(f"--max-excess must be in (0, 1) m, got {max_excess:g}")
+    kept, report = fit_primitives(CollisionModel(robot, self_collision=False), max_excess)
+    for name, kind, excess, ok in report:
+        print(f"{name:40s} {kind:8s} over-approximates its hull by {excess * 1e3:6.1f} mm{'' if ok else ': not kept'}")
+    worst = max((e for _, _, e, ok in report if ok), default=0.0)
+    summary = {"method": "a capsule or a box round each geometry's convex hull (it contains every hull vertex; the "
+                         "one nearer the hull), kept where its surface is at most max_excess from the hull",
+               "max_excess": max_excess, "kept": len(kept), "of": len(report), "worst_excess": round(worst, 5)}
+    path = write_primitives(robot, kept, summary)
+    print(f"{robot.name}: {len(kept)} of {len(report)} geometries get a primitive (worst over-approximation "
+          f"{worst * 1e3:.1f} mm); wrote {path}")
     return 0
 
 
@@ -388,4 +413,9 @@ def add_parser(sub) -> None:
     c.add_argument("--samples", type=int, default=2000, help="random configurations (default 2000)")
     c.add_argument("--influence", type=float, default=0.05, help="influence distance d_i in m (default 0.05)")
     c.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    c.add_argument("--primitives", action="store_true",
+                   help="instead: fit a capsule round each geometry's hull (containing it) and write those that "
+                        "over-approximate it by at most --max-excess to the file's 'primitives:'")
+    c.add_argument("--max-excess", type=float, default=0.03,
+                   help="largest over-approximation of a kept capsule in m (default 0.03)")
     c.set_defaults(fn=_cmd_collisions)

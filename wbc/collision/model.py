@@ -39,6 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RobotDefinitionError
+from .drift import cross_rows, curvature_drift, point_drift
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .shapes import Obstacle
@@ -64,13 +65,6 @@ class DistanceRows:
     p2: np.ndarray
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b of (k × 3) arrays (numpy's ``cross`` costs ~10 µs of overhead a call)."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
-
-
 def _pair_line(path, j: int) -> int | None:
     """The line (1-based) of the j-th pair of a pair file, or None."""
     if path is None:
@@ -92,11 +86,13 @@ class CollisionModel:
             YAML if there is one, else (and with ``"default"``) every pair minus the SRDF's
             disabled and adjacent ones.
         hull_dir: the hull cache directory (None: :func:`wbc.collision.hulls.cache_dir`).
+        primitives: replace the geometries that have one by the primitive of the robot's collision file
+            (:mod:`wbc.collision.primitives`); an error if it has none.
     """
 
     def __init__(self, robot, obstacles: Sequence[Obstacle] = (), obstacle_links: list[str] | None = None,
                  self_collision: bool = True, self_pairs: list[tuple[str, str]] | str | None = None,
-                 hull_dir: Path | None = None) -> None:
+                 hull_dir: Path | None = None, primitives: bool = False) -> None:
         from .pairs import default_self_pairs, pair_file, read_pair_file
 
         self.robot = robot
@@ -113,6 +109,9 @@ class CollisionModel:
                 g.geometry = convex_hull(g.geometry, g.meshPath, g.meshScale, hull_dir)
         self.n_robot = gm.ngeoms
         robot_names = [g.name for g in gm.geometryObjects]
+        self.primitive_names: list[str] = []
+        if primitives:
+            self._use_primitives(gm, robot_names)
         for ob in obstacles:
             gm.addGeometryObject(pin.GeometryObject(ob.name, 0, 0, ob.placement, ob.geometry))
         self.geometry_model = gm
@@ -153,13 +152,13 @@ class CollisionModel:
                        if isinstance(g.geometry, coal.Halfspace)}
         self._cycle: Any = None
         self._rows: Any = None
-        #: J̇_d q̇ from the distance's exact second difference (:meth:`_curvature_drift`); False:
+        #: J̇_d q̇ from the distance's exact second difference (:func:`wbc.collision.drift.curvature_drift`); False:
         #: the witness points' rigid-body drift only (cheaper, blind to the surfaces' curvature)
         self.exact_drift = True
         self.drift_step = 1e-2
-        self._fd_data = model.createData()
-        self._fd_gd = pin.GeometryData(gm)
-        for req in self._fd_gd.distanceRequests:
+        self.fd_data = model.createData()
+        self.fd_geometry_data = pin.GeometryData(gm)
+        for req in self.fd_geometry_data.distanceRequests:
             req.gjk_tolerance = 1e-8
         #: (njoints × nv) 1 where joint j's Jacobian may be non-zero (its supporting chain)
         self._support = np.zeros((model.njoints, model.nv))
@@ -187,6 +186,27 @@ class CollisionModel:
         self._proxies: dict[int, tuple[pin.GeometryData, list]] = {}
         #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
         self.computed = 0
+
+    def _use_primitives(self, gm: pin.GeometryModel, names: list[str]) -> None:
+        """Each robot geometry named in the collision file's ``primitives:`` becomes that primitive, placed in its
+        link's frame (:mod:`wbc.collision.primitives`)."""
+        from .pairs import pair_file
+        from .primitives import read_primitives
+
+        path = pair_file(self.robot)
+        prims = read_primitives(path, names) if path is not None and path.exists() else {}
+        if not prims:
+            raise RobotDefinitionError(f"robot '{self.robot.name}' has no collision primitives (expected a "
+                                       f"'primitives:' mapping in {path}; `wbc robot collisions "
+                                       f"{self.robot.name} --primitives` fits them)", key="primitives", file=path)
+        frames = self.robot.model.frames
+        for g in gm.geometryObjects:
+            p = prims.get(g.name)
+            if p is not None:
+                g.geometry = p.shape()
+                g.placement = frames[g.parentFrame].placement * p.placement
+        #: the geometries replaced by a primitive
+        self.primitive_names = sorted(prims)
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
@@ -231,18 +251,30 @@ class CollisionModel:
         return gaps
 
 
-    def _compute(self, active: np.ndarray | None, gd: pin.GeometryData | None = None) -> None:
-        """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs flagged in ``active`` (None: all), on the
-        placements already updated (in ``gd``, default the control cycle's :attr:`geometry_data`)."""
+    def pair_results(self, ks: np.ndarray | None, gd: pin.GeometryData | None = None,
+                     cmap: np.ndarray | None = None) -> list:
+        """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs ``ks`` (indices into :attr:`pairs`;
+        None: all) on the placements already updated in ``gd`` (default :attr:`geometry_data`), and their results
+        (coal ``DistanceResult``, in the order of ``ks``): the one place pairs are activated, computed and read.
+
+        Args:
+            ks: pair indices (k,), or None for every pair.
+            gd: the geometry data (placements in, results out).
+            cmap: the (ngeoms × ngeoms) bool map of active pairs to fill (reused across calls); None: the model's own.
+        """
         gm = self.geometry_model
         gd = self.geometry_data if gd is None else gd
-        n = gm.ngeoms
-        cmap = self._all_map if active is None else np.zeros((n, n), dtype=bool)
-        if active is not None:
-            near = self.pairs[active]
-            cmap[near[:, 0], near[:, 1]] = True
+        if ks is None:
+            gd.setActiveCollisionPairs(gm, self._all_map)
+            pin.computeDistances(gm, gd)
+            return self.results(gd)
+        cmap = self._map if cmap is None else cmap
+        cmap[:] = False
+        cmap[self._pa[ks], self._pb[ks]] = True
         gd.setActiveCollisionPairs(gm, cmap)
         pin.computeDistances(gm, gd)
+        res = self.results(gd)
+        return [res[k] for k in ks.tolist()]
 
     def all_distances(self, q: np.ndarray, data: pin.Data | None = None,
                       geometry_data: pin.GeometryData | None = None) -> np.ndarray:
@@ -260,8 +292,7 @@ class CollisionModel:
         gd = self.geometry_data if geometry_data is None else geometry_data
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
-        self._compute(None, gd)
-        return np.array([r.min_distance for r in self.results(gd)])
+        return np.array([r.min_distance for r in self.pair_results(None, gd)])
 
     def smallest_distances(self, q: np.ndarray, count: int, data: pin.Data,
                            geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
@@ -276,25 +307,18 @@ class CollisionModel:
             data: pinocchio data for the placements.
             geometry_data: where the results go (:meth:`new_geometry_data`).
         """
-        gm, gd = self.geometry_model, geometry_data
+        gd = geometry_data
         bound = self.bounds_at(q, data, gd)
         order = np.argsort(bound)
-        n = gm.ngeoms
         best_d: list[float] = []
         best_k: list[int] = []
-        res = self.results(gd)
         start, batch = 0, max(8, count)
         while start < len(order):
             if len(best_d) >= count and bound[order[start]] > sorted(best_d)[count - 1]:
                 break
             ks = order[start:start + batch]
-            cmap = np.zeros((n, n), dtype=bool)
-            cmap[self.pairs[ks, 0], self.pairs[ks, 1]] = True
-            gd.setActiveCollisionPairs(gm, cmap)
-            pin.computeDistances(gm, gd)
-            for k in ks:
-                best_d.append(float(res[int(k)].min_distance))
-                best_k.append(int(k))
+            best_d.extend(r.min_distance for r in self.pair_results(ks, gd, self._check_map))
+            best_k.extend(ks.tolist())
             start += batch
             batch *= 2
         d, k = np.array(best_d), np.array(best_k, dtype=np.int64)
@@ -333,14 +357,7 @@ class CollisionModel:
         than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
         near = np.flatnonzero(self._moved_bound(q) < influence)
         self.computed = len(near)
-        gm, gd = self.geometry_model, self.geometry_data
-        cmap = self._map
-        cmap[:] = False
-        cmap[self._pa[near], self._pb[near]] = True
-        gd.setActiveCollisionPairs(gm, cmap)
-        pin.computeDistances(gm, gd)
-        res = self.results(gd)
-        results = [res[k] for k in near.tolist()]
+        results = self.pair_results(near)
         dist = np.array([r.min_distance for r in results])
         self._d0[near] = dist                       # the bound's new references
         self._moved[near] = 0.0
@@ -393,7 +410,7 @@ class CollisionModel:
         m = len(ks)
         J, drift = self._jacobians(data, ks, P1, P2, N, drift=not self.exact_drift)
         if m and self.exact_drift:
-            drift = self._curvature_drift(robot, ks)
+            drift = curvature_drift(self, robot, ks)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
@@ -409,11 +426,11 @@ class CollisionModel:
             jid = self.joint_of[self.pairs[ks].T.ravel()]                     # (2k,): first sides, then second
             P = np.concatenate([P1, P2])
             NN = np.concatenate([-N, N])                                       # the first side with sign −1
-            coef = np.concatenate([NN, _cross(P, NN)], axis=1)                 # (2k × 6)
+            coef = np.concatenate([NN, cross_rows(P, NN)], axis=1)                 # (2k × 6)
             both = (coef @ data.J) * self._support[jid]
             J = both[:m] + both[m:]
             if drift:
-                dr = self._point_drift(data, jid, P, NN)
+                dr = point_drift(data, jid, P, NN)
                 dr = dr[:m] + dr[m:]
         return J, dr
 
@@ -429,72 +446,10 @@ class CollisionModel:
             data: pinocchio data of the robot's model (joint Jacobians are computed in it).
             geometry_data: a geometry data of this model (:meth:`new_geometry_data`).
         """
-        model, gm, gd = self.robot.model, self.geometry_model, geometry_data
+        model = self.robot.model
         pin.computeJointJacobians(model, data, q)
-        pin.updateGeometryPlacements(model, data, gm, gd)
-        cmap = self._check_map
-        cmap[:] = False
-        cmap[self._pa[ks], self._pb[ks]] = True
-        gd.setActiveCollisionPairs(gm, cmap)
-        pin.computeDistances(gm, gd)
-        proxies = self.results(gd)
-        res = [proxies[k] for k in ks.tolist()]
+        pin.updateGeometryPlacements(model, data, self.geometry_model, geometry_data)
+        res = self.pair_results(ks, geometry_data, self._check_map)
         d = np.array([r.min_distance for r in res], dtype=float)
         P1, N = self._witness_points(res)
         return d, self._jacobians(data, ks, P1, P1 + d[:, None] * N, N)[0]
-
-    def _curvature_drift(self, robot, ks: np.ndarray) -> np.ndarray:
-        """The exact J̇_d q̇ of the pairs ``ks`` (m/s²): the second derivative of their distance along q̈ = 0, d̈ = [d(q ⊕ εv) − 2
-        d(q) + d(q ⊖ εv)] / ε² (ε = :attr:`drift_step` s, coal at 1e-8 m, all three on this pass's own data: d(q) taken
-        from the cycle's exact phase instead moved ``tiago_table_reach``'s closest approach by 0.6-0.75 mm, to 18.96 mm <
-        d_s − 1 mm, both with the cycle's pass at coal's default 1e-6 m and at 1e-8 m, although the two runs of d(q) agree
-        to 5e-9 m on ``talos_hands_cross``: not understood, so not shared), which holds the terms the witness-point drift
-        leaves out: the normal's turn and the witness points sliding over curved or rotating surfaces (a hand hull sliding
-        round a sphere: −1.6 m/s² where the rigid drift says +0.14, which the damper turned into a steady violation of
-        1.75/ω² = 3.5 mm). ε = 10 ms, not less: between two hulls the distance is C¹ but not C² (the closest features
-        switch), and a 1 ms difference turned each switch into a −12 to −34 m/s² spike (Talos's torso against an upper
-        arm) that made level 0 infeasible; over ±10 ms the switch is spread ten times thinner, and a smooth curvature
-        (radius ≥ 5 cm at ≤ 0.5 m/s) is still exact to a few %.
-
-        Args:
-            robot: the robot at the cycle's state (q, q̇).
-            ks: the pairs (indices into :attr:`pairs`).
-        """
-        model, gm, gd, data = robot.model, self.geometry_model, self._fd_gd, self._fd_data
-        cmap = self._map
-        cmap[:] = False
-        cmap[self._pa[ks], self._pb[ks]] = True
-        gd.setActiveCollisionPairs(gm, cmap)
-        eps = self.drift_step
-        out = np.zeros(len(ks))
-        idx = ks.tolist()
-        for step, w in ((0.0, -2.0), (eps, 1.0), (-eps, 1.0)):
-            q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
-            pin.forwardKinematics(model, data, q)
-            pin.updateGeometryPlacements(model, data, gm, gd)
-            pin.computeDistances(gm, gd)
-            res = self.results(gd)
-            out += w * np.array([res[k].min_distance for k in idx])
-        return out / (eps * eps)
-
-    def _point_drift(self, data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
-        """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r), r = p − o_j, all
-        world-aligned (m/s²); zero on the universe (joint 0)."""
-        joints, inv = np.unique(jid, return_inverse=True)
-        u = len(joints)
-        Ru = np.empty((u, 3, 3))
-        ou = np.empty((u, 3))
-        vau = np.empty((u, 4, 3))
-        for i, j in enumerate(joints):  # once per joint: the per-joint quantities pinocchio holds
-            M = data.oMi[int(j)]
-            Ru[i], ou[i] = M.rotation, M.translation
-            v, acc = data.v[int(j)], data.a[int(j)]
-            vau[i] = (v.linear, v.angular, acc.linear, acc.angular)
-        R, o, va = Ru[inv], ou[inv], vau[inv]
-        world = np.einsum("kab,knb->kna", R, va)                       # rotated to the world
-        v_o, w, a_o, alpha = world[:, 0], world[:, 1], world[:, 2], world[:, 3]
-        r = P - o
-        a_p = a_o + _cross(w, v_o) + _cross(alpha, r) + _cross(w, _cross(w, r))
-        out = np.einsum("ka,ka->k", N, a_p)
-        out[jid == 0] = 0.0
-        return out

@@ -59,14 +59,44 @@ def pair_file(robot) -> Path | None:
 
 
 def write_pair_file(robot, pairs: list, summary: dict) -> Path:
+    """Write the self pairs to the robot's collision file (its ``primitives:``, if any, kept)."""
     path = pair_file(robot)
     if path is None:
         raise RobotDefinitionError(f"robot '{robot.name}' has no robot YAML to write its collision pairs beside")
+    old = _read(path)
     doc = {"robot": robot.name, "method": "MoveIt setup assistant's: default pairs that come within the influence "
                                           "distance in a random configuration", **summary,
            "pairs": [list(p) for p in pairs]}
-    path.write_text(yaml.safe_dump(doc, sort_keys=False, width=200))
+    if "primitives_fit" in old:
+        doc["primitives_fit"] = old["primitives_fit"]
+    text = yaml.safe_dump(doc, sort_keys=False, width=200)
+    if "primitives" in old:
+        text += yaml.safe_dump({"primitives": old["primitives"]}, sort_keys=False, width=200, default_flow_style=None)
+    path.write_text(text)
     return path
+
+
+def write_primitives(robot, primitives: dict, summary: dict) -> Path:
+    """Write ``primitives`` (geometry name → :class:`~wbc.collision.primitives.Primitive`) to the robot's collision
+    file, under ``primitives:`` (the rest of the file kept)."""
+    path = pair_file(robot)
+    if path is None:
+        raise RobotDefinitionError(f"robot '{robot.name}' has no robot YAML to write its primitives beside")
+    doc = _read(path) or {"robot": robot.name}
+    doc.pop("primitives", None)
+    doc["primitives_fit"] = summary
+    prims = {"primitives": {name: p.as_yaml() for name, p in primitives.items()}}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False, width=200)
+                    + yaml.safe_dump(prims, sort_keys=False, width=200, default_flow_style=None))
+    return path
+
+
+def _read(path: Path) -> dict:
+    """The collision file's mapping ({} when absent or not a mapping)."""
+    if not path.exists():
+        return {}
+    doc = yaml.safe_load(path.read_text())
+    return doc if isinstance(doc, dict) else {}
 
 
 def read_pair_file(robot) -> list[tuple[str, str]] | None:

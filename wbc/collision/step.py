@@ -49,19 +49,13 @@ def distances_below(model, q: np.ndarray, floor: float, data: pin.Data,
         cmap: the active-pair map to fill (ngeoms × ngeoms bool, reused across calls); None: a
             new one.
     """
-    gm, gd = model.geometry_model, geometry_data
-    ks = np.flatnonzero(model.bounds_at(q, data, gd) < floor)
+    ks = np.flatnonzero(model.bounds_at(q, data, geometry_data) < floor)
     if not len(ks):
         return ks, np.empty(0)
     if cmap is None:
-        cmap = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
-    else:
-        cmap[:] = False
-    cmap[model.pairs[ks, 0], model.pairs[ks, 1]] = True
-    gd.setActiveCollisionPairs(gm, cmap)
-    pin.computeDistances(gm, gd)
-    res = model.results(gd)
-    return ks, np.array([res[k].min_distance for k in ks.tolist()], dtype=float)
+        n = model.geometry_model.ngeoms
+        cmap = np.zeros((n, n), dtype=bool)
+    return ks, np.array([r.min_distance for r in model.pair_results(ks, geometry_data, cmap)], dtype=float)
 
 
 def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.Data, geometry_data,

@@ -50,6 +50,9 @@ class CollisionOptions(Options):
     """robot links checked against the obstacles (None: all)"""
     environment: bool = False
     """the scenario's ``environment:`` shapes are obstacles too"""
+    geometry: str = "hulls"
+    """the robot's shapes: ``hulls`` (each mesh's convex hull) or ``primitives`` (the capsules, spheres and boxes of
+    the robot's collision file where it has one, :mod:`wbc.collision.primitives`)"""
 
 
 class CollisionAvoidance(Task):
@@ -72,6 +75,8 @@ class CollisionAvoidance(Task):
         environment: whether the scenario's ``environment:`` shapes (ground, planes, boxes, spheres,
             cylinders) are obstacles too (against ``links``; the scenario loader hands them over,
             :meth:`use_environment`).
+        geometry: ``hulls`` (default) or ``primitives``: the robot's collision file's primitives
+            (capsules, spheres, boxes; each contains the hull it replaces) where it has one, for speed.
     """
 
     kind = "collision_avoidance"
@@ -105,6 +110,7 @@ class CollisionAvoidance(Task):
             text(x, f"links[{i}]", what="a link name", **err)
             for i, x in enumerate(sequence(links, "links", min_len=1, what="a list of link names", **err))]
         self.environment = boolean(environment, "environment", **err)
+        self.geometry = text(o.geometry, "geometry", choices=["hulls", "primitives"], **err)
         self.environment_obstacles: list = []
         self.omega = self.max_speed / (self.influence - self.safety)
         self.model: Any = None          # the CollisionModel, built at bind
@@ -120,7 +126,8 @@ class CollisionAvoidance(Task):
             from wbc.collision.model import CollisionModel
 
             self.model = CollisionModel(robot, obstacles=self.obstacles + self.environment_obstacles,
-                                        obstacle_links=self.links, self_collision=self.self_collision)
+                                        obstacle_links=self.links, self_collision=self.self_collision,
+                                        primitives=self.geometry == "primitives")
             if self.links is not None:
                 unknown = sorted(set(self.links) - {robot.model.frames[i].name for i in range(robot.model.nframes)})
                 if unknown:
@@ -188,6 +195,8 @@ class CollisionAvoidance(Task):
         p = super().params()
         p.update(influence=self.influence, safety=self.safety, max_speed=self.max_speed, max_rows=self.max_rows,
                  self_collision=self.self_collision, environment=self.environment)
+        if self.geometry != "hulls":
+            p["geometry"] = self.geometry
         if p["name"] == "collision_avoidance":
             del p["name"]
         return p
