@@ -13,6 +13,11 @@
    difference (the default) and from the witness points' rigid motion only, how many pairs
    are within the influence distance (rows) and how many the broad phase passed to coal.
 
+``--geometry primitives`` runs it all with the collision task on the robot's primitives
+(``geometry: primitives``: the capsules and boxes of ``talos.collisions.yaml``); with
+``--max-excess X`` (m) they are first refitted into a scratch copy of that file, every geometry
+whose primitive over-approximates its hull by at most X getting one (1.0: all of them).
+
 Reports ranges over the rounds with ``uptime``'s load (the machine is shared): numbers for
 benchmarks/collisions.md, not asserted anywhere.
 """
@@ -37,15 +42,43 @@ def _load() -> str:
     return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
+def _use_primitives(sc, max_excess: float | None) -> None:
+    """The scenario's collision task on the robot's primitives (refitted into a scratch copy of the collision file
+    when ``max_excess`` is given)."""
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from wbc.collision.model import CollisionModel
+    from wbc.collision.pairs import pair_file, write_primitives
+    from wbc.collision.primitives import fit_primitives
+
+    robot = sc.robot
+    if max_excess is not None:
+        tmp = Path(tempfile.mkdtemp(prefix="wbc_prims_"))
+        shutil.copy(pair_file(robot), tmp / pair_file(robot).name)
+        robot.source = tmp / robot.source.name
+        kept, _ = fit_primitives(CollisionModel(robot, self_collision=False), max_excess)
+        write_primitives(robot, kept, {"max_excess": max_excess})
+    task = sc.stack["collision_avoidance"]
+    task.geometry = "primitives"
+    task.model = None
+    task.bind(robot)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--every", type=int, default=10)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--geometry", choices=["hulls", "primitives"], default="hulls")
+    ap.add_argument("--max-excess", type=float, default=None)
     a = ap.parse_args()
     warnings.simplefilter("ignore")
     sc = load_config("talos_hands_cross")
+    if a.geometry == "primitives":
+        _use_primitives(sc, a.max_excess)
     r = ScenarioRun(sc, duration=a.seconds)
     hands = [t for t in sc.stack if t.kind == "frame" and t.moves_position]
     states = []
@@ -107,7 +140,8 @@ def main() -> None:
         phase["exact_drift" if exact else "witness_drift"] = {
             "median_ms": float(np.median(times)) * 1e3, "p90_ms": float(np.percentile(times, 90)) * 1e3}
     model.exact_drift = True
-    out = {"states": len(states), "pairs": len(model.pairs), "geometries": model.geometry_model.ngeoms,
+    out = {"geometry": a.geometry, "max_excess": a.max_excess, "primitives": len(model.primitive_names),
+           "states": len(states), "pairs": len(model.pairs), "geometries": model.geometry_model.ngeoms,
            "near_pairs": {"median": float(np.median(near)), "max": int(max(near))},
            "computed_pairs": {"median": float(np.median(computed)), "max": int(max(computed))},
            "collision_distance_min": metrics.get("collision_distance_min"),

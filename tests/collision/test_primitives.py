@@ -120,3 +120,35 @@ def test_capsule_pair_distance_jacobian_matches_finite_differences(talos_primiti
             break
     assert both, "no capsule-capsule pair within the influence distance in 200 random states"
     check_collision(robot, task, Layout(nv=robot.nv), q, v)
+
+
+def test_cli_fits_primitives_into_the_collision_file_and_keeps_its_pairs(tmp_path, capsys):
+    from wbc.cli.main import main
+    from wbc.collision.pairs import read_pair_file
+
+    robot = load_robot("panda")
+    shutil.copy(robot.source, tmp_path / "panda.yaml")
+    shutil.copy(robot.source.with_suffix(".collisions.yaml"), tmp_path / "panda.collisions.yaml")
+    pairs = read_pair_file(robot)
+    assert main(["robot", "collisions", str(tmp_path / "panda.yaml"), "--primitives", "--max-excess", "0.05"]) == 0
+    out = capsys.readouterr().out
+    assert "geometries get a primitive" in out
+    copy = load_robot(str(tmp_path / "panda.yaml"))
+    assert read_pair_file(copy) == pairs
+    prims = read_primitives(tmp_path / "panda.collisions.yaml")
+    assert prims and all(p.excess is not None and p.excess <= 0.05 for p in prims.values())
+    assert main(["robot", "collisions", "panda", "--primitives", "--max-excess", "2"]) == 2
+    assert "--max-excess" in capsys.readouterr().err
+
+
+def test_asking_for_primitives_that_do_not_exist_is_an_error():
+    from wbc.errors import TaskDefinitionError
+    from wbc.tasks.collision_avoidance import CollisionAvoidance
+
+    with pytest.raises(TaskDefinitionError, match=r"one of \['hulls', 'primitives'\], got 'capsules'") as e:
+        CollisionAvoidance(geometry="capsules")
+    assert e.value.key == "geometry"
+    robot = load_robot("tiago")             # its collision file has pairs, no primitives
+    with pytest.raises(RobotDefinitionError, match="no collision primitives") as e2:
+        CollisionAvoidance(geometry="primitives").bind(robot)
+    assert str(e2.value.file).endswith("tiago.collisions.yaml")

@@ -2,7 +2,9 @@
 and the distance rows of the near pairs, once per cycle.
 
 Geometry: the URDF's ``<collision>`` elements (``pin.buildGeomFromUrdf``), each mesh replaced by its convex hull
-(:mod:`wbc.collision.hulls`), plus fixed obstacles (:mod:`wbc.collision.shapes`) attached to the universe.
+(:mod:`wbc.collision.hulls`), or, opted in (``primitives=True``), by the capsule, box or sphere that the robot's
+collision file gives it (:mod:`wbc.collision.primitives`), plus fixed obstacles (:mod:`wbc.collision.shapes`)
+attached to the universe.
 
 Pairs: self pairs (every pair of robot geometries, minus the SRDF's disabled pairs, minus geometries on one joint or
 on adjacent joints; or the list ``wbc robot collisions ROBOT`` wrote beside the robot YAML,
