@@ -152,3 +152,18 @@ def test_asking_for_primitives_that_do_not_exist_is_an_error():
     with pytest.raises(RobotDefinitionError, match="no collision primitives") as e2:
         CollisionAvoidance(geometry="primitives").bind(robot)
     assert str(e2.value.file).endswith("tiago.collisions.yaml")
+
+
+def test_rewriting_the_pairs_keeps_the_primitives(tmp_path):
+    from wbc.collision.pairs import pair_file, read_pair_file, write_pair_file
+
+    robot = load_robot("talos")
+    shutil.copy(pair_file(robot), tmp_path / "talos.collisions.yaml")
+    robot.source = tmp_path / "talos.yaml"
+    before = read_primitives(pair_file(robot))
+    pairs = read_pair_file(robot)[:10]
+    write_pair_file(robot, pairs, {"kept": 10})
+    after = read_primitives(pair_file(robot))
+    assert read_pair_file(robot) == pairs and sorted(after) == sorted(before) and len(after) == 20
+    for name, p in before.items():
+        assert after[name].kind == p.kind and after[name].placement.isApprox(p.placement)
