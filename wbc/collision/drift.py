@@ -1,8 +1,8 @@
 """The drift J̇_d q̇ of the distance rows (:mod:`wbc.collision.model`), two ways.
 
-- :func:`point_drift`: the witness points' rigid-body drift nᵀ(a_p₂ − a_p₁), a_p the classical
-  acceleration at q̈ = 0 of the point of the geometry's joint (cheap; blind to the surfaces'
-  curvature and the normal's turn);
+- :func:`rigid_drift`: the witness points' rigid-body drift nᵀ(a_p₂ − a_p₁), a_p the classical
+  acceleration at q̈ = 0 of the point of the geometry's joint (one product; blind to the
+  surfaces' curvature and the normal's turn);
 - :func:`curvature_drift`: the exact second difference of the distance along q̈ = 0 (three
   more coal passes; the default, ``CollisionModel.exact_drift``).
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["cross_rows", "curvature_drift", "point_drift"]
+__all__ = ["cross_rows", "curvature_drift", "rigid_drift"]
 
 
 def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -52,31 +52,36 @@ def curvature_drift(cm, robot, ks: np.ndarray) -> np.ndarray:
     return out / (eps * eps)
 
 
-def point_drift(data, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
-    """nᵀ a_p (k,) of the points P on joints ``jid`` at q̈ = 0: a_p = a_o + α × r + ω × (ω × r), r = p − o_j, all
-    world-aligned (m/s²); zero on the universe (joint 0).
+def rigid_drift(cm, robot, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """The witness points' rigid-body drift nᵀ(a_p₂ − a_p₁) of the pairs ``ks`` (k,; m/s²): a_p the classical
+    acceleration at q̈ = 0 of the point p of its geometry's joint, world-aligned. With the joint's spatial twist at the
+    world origin V = J q̇ = (v_O, ω) and its spatial acceleration at q̈ = 0, J̇ q̇ = (a'_O, α) (pinocchio's world-frame
+    joint Jacobians and their time variation), a_p = a'_O + α × p + ω × v_p, v_p = v_O + ω × p, so
+    nᵀ a_p = [n; p × n]ᵀ (J̇ q̇) + nᵀ (ω × v_p): one (2k × 6)(6 × nv) product like J_d's, each row masked by its
+    joint's supporting chain (zero on the universe). Blind to the normal's turn and the witness points sliding
+    (:func:`curvature_drift` holds those).
 
     Args:
-        data: pinocchio data with the cycle's placements, velocities and accelerations at q̈ = 0.
-        jid: each point's joint (k,).
-        P: the points (k × 3, m, world).
-        N: the directions (k × 3, unit, world).
+        cm: the :class:`~wbc.collision.model.CollisionModel` (its ``fd_data`` gets the time variation).
+        robot: the robot at the cycle's state (q, q̇).
+        ks: the pairs (k,).
+        P1: first witness points (k × 3, m, world).
+        P2: second witness points (k × 3).
+        N: unit normals from the first geometry to the second (k × 3).
     """
-    joints, inv = np.unique(jid, return_inverse=True)
-    u = len(joints)
-    Ru = np.empty((u, 3, 3))
-    ou = np.empty((u, 3))
-    vau = np.empty((u, 4, 3))
-    for i, j in enumerate(joints):  # once per joint: the per-joint quantities pinocchio holds
-        M = data.oMi[int(j)]
-        Ru[i], ou[i] = M.rotation, M.translation
-        v, acc = data.v[int(j)], data.a[int(j)]
-        vau[i] = (v.linear, v.angular, acc.linear, acc.angular)
-    R, o, va = Ru[inv], ou[inv], vau[inv]
-    world = np.einsum("kab,knb->kna", R, va)                       # rotated to the world
-    v_o, w, a_o, alpha = world[:, 0], world[:, 1], world[:, 2], world[:, 3]
-    r = P - o
-    a_p = a_o + cross_rows(w, v_o) + cross_rows(alpha, r) + cross_rows(w, cross_rows(w, r))
-    out = np.einsum("ka,ka->k", N, a_p)
-    out[jid == 0] = 0.0
-    return out
+    m = len(ks)
+    if not m:
+        return np.zeros(0)
+    data, v = cm.fd_data, robot.v
+    pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, v)
+    jid = cm.joint_of[cm.pairs[ks].T.ravel()]
+    P = np.concatenate([P1, P2])
+    NN = np.concatenate([-N, N])
+    S = cm.support[jid]                                               # (2k × nv)
+    coef = np.concatenate([NN, cross_rows(P, NN)], axis=1)            # (2k × 6)
+    bias = ((coef @ data.dJ) * S) @ v                                 # [n; p × n]ᵀ (J̇ q̇)
+    twist = S @ (data.J * v).T                                        # (2k × 6): each row's J_j q̇
+    w = twist[:, 3:]
+    vp = twist[:, :3] + cross_rows(w, P)
+    out = bias + np.einsum("ka,ka->k", NN, cross_rows(w, vp))
+    return out[:m] + out[m:]

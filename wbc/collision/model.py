@@ -41,7 +41,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RobotDefinitionError
-from .drift import cross_rows, curvature_drift, point_drift
+from .drift import cross_rows, curvature_drift, rigid_drift
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .shapes import Obstacle
@@ -163,12 +163,12 @@ class CollisionModel:
         for req in self.fd_geometry_data.distanceRequests:
             req.gjk_tolerance = 1e-8
         #: (njoints × nv) 1 where joint j's Jacobian may be non-zero (its supporting chain)
-        self._support = np.zeros((model.njoints, model.nv))
+        self.support: np.ndarray = np.zeros((model.njoints, model.nv))
         for j in range(1, model.njoints):
             for s in model.supports[j]:
                 if s > 0:
                     jm = model.joints[s]
-                    self._support[j, jm.idx_v:jm.idx_v + jm.nv] = 1.0
+                    self.support[j, jm.idx_v:jm.idx_v + jm.nv] = 1.0
         self._all_map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         if len(self.pairs):
             self._all_map[self.pairs[:, 0], self.pairs[:, 1]] = True
@@ -410,31 +410,26 @@ class CollisionModel:
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
         ks, d, P1, P2, N = self.witness(influence, robot.q)
         m = len(ks)
-        J, drift = self._jacobians(data, ks, P1, P2, N, drift=not self.exact_drift)
-        if m and self.exact_drift:
-            drift = curvature_drift(self, robot, ks)
+        J = self._jacobians(data, ks, P1, P2, N)
+        drift = np.zeros(m)
+        if m:
+            drift = curvature_drift(self, robot, ks) if self.exact_drift else rigid_drift(self, robot, ks, P1, P2, N)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
 
-    def _jacobians(self, data: pin.Data, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray,
-                   drift: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """(J_d (k × nv), the witness points' rigid-body drift (k,), zeros unless ``drift``) of the pairs ``ks`` from their
-        witness points and normals and the world-frame joint Jacobians in ``data.J`` (:meth:`distance_rows`'
-        docstring)."""
+    def _jacobians(self, data: pin.Data, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray) -> np.ndarray:
+        """J_d (k × nv) of the pairs ``ks`` from their witness points and normals and the world-frame joint Jacobians in
+        ``data.J`` (:meth:`distance_rows`' docstring)."""
         m, nv = len(ks), self.robot.model.nv
-        J, dr = np.zeros((m, nv)), np.zeros(m)
-        if m:
-            jid = self.joint_of[self.pairs[ks].T.ravel()]                     # (2k,): first sides, then second
-            P = np.concatenate([P1, P2])
-            NN = np.concatenate([-N, N])                                       # the first side with sign −1
-            coef = np.concatenate([NN, cross_rows(P, NN)], axis=1)                 # (2k × 6)
-            both = (coef @ data.J) * self._support[jid]
-            J = both[:m] + both[m:]
-            if drift:
-                dr = point_drift(data, jid, P, NN)
-                dr = dr[:m] + dr[m:]
-        return J, dr
+        if not m:
+            return np.zeros((m, nv))
+        jid = self.joint_of[self.pairs[ks].T.ravel()]                     # (2k,): first sides, then second
+        P = np.concatenate([P1, P2])
+        NN = np.concatenate([-N, N])                                       # the first side with sign −1
+        coef = np.concatenate([NN, cross_rows(P, NN)], axis=1)             # (2k × 6)
+        both = (coef @ data.J) * self.support[jid]
+        return both[:m] + both[m:]
 
     def rows_at(self, q: np.ndarray, ks: np.ndarray, data: pin.Data,
                 geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
@@ -454,4 +449,4 @@ class CollisionModel:
         res = self.pair_results(ks, geometry_data, self._check_map)
         d = np.array([r.min_distance for r in res], dtype=float)
         P1, N = self._witness_points(res)
-        return d, self._jacobians(data, ks, P1, P1 + d[:, None] * N, N)[0]
+        return d, self._jacobians(data, ks, P1, P1 + d[:, None] * N, N)
