@@ -52,7 +52,7 @@ from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
 from .hqp_rows import LevelRows, StackPlan
 from .kernels import prepare
 from .kernels.active_set import certified_active_set, certified_from
-from .kernels.cascade_run import cascade_prefix
+from .kernels.cascade_run import cascade_prefix, cascade_prefix_keeping
 from .kernels.qp_rows import (
     certified_higher,
     certified_nearest_feasible,
@@ -81,6 +81,9 @@ class HierarchicalQP:
 
     #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
     options: tuple[str, ...] = ()
+    #: keep the basis of level 0's null space of each solve in :attr:`level0_basis` (the weighted
+    #: QP's singularity test reads it)
+    keep_level0_basis = False
 
     @classmethod
     def create(cls, backend: str = "daqp", damping: Damping | None = None) -> HierarchicalQP:
@@ -109,6 +112,9 @@ class HierarchicalQP:
         #: (:meth:`_stacked_rows`), and the damping tolerances per level of the last run
         self._stack_plan: StackPlan | None = None
         self._tols: tuple | None = None
+        #: (Z, Z is the identity) after level 0 of the last solve, when :attr:`keep_level0_basis`
+        #: (Z an orthonormal basis of level 0's null space; empty while the identity), else None
+        self.level0_basis: tuple[np.ndarray, bool] | None = None
         prepare()
 
     def solve(self, problem: Problem) -> SolveResult:
@@ -138,6 +144,7 @@ class HierarchicalQP:
         on it; a previous solution as x_ref let the directions no task decides (the
         internal contact forces) drift from cycle to cycle."""
         cas = Cascade(nx, self._hints)
+        self.level0_basis = None
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
         margin = self.margin if margin is None else margin
@@ -150,10 +157,16 @@ class HierarchicalQP:
             # every level from k that needs no back-end QP, in one compiled call; it hands
             # over the step it took where it stopped
             Z, identity = cas.kernel_basis()
-            out = cascade_prefix((rows.A, rows.b, rows.e_end), (rows.C, rows.lo, rows.hi, rows.i_end),
-                                 (cas.x, Z, identity, k, cas.calls), self._hints,
-                                 (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
-                                  self.certify, self.regularization, margin))
+            args = ((rows.A, rows.b, rows.e_end), (rows.C, rows.lo, rows.hi, rows.i_end),
+                    (cas.x, Z, identity, k, cas.calls), self._hints,
+                    (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
+                     self.certify, self.regularization, margin))
+            if self.keep_level0_basis and k == 0:
+                *out, Z0, identity0 = cascade_prefix_keeping(*args, 0)
+                if out[0] > 0:                          # the run went past level 0
+                    self.level0_basis = (Z0, identity0)
+            else:
+                out = cascade_prefix(*args)
             stop, pending, certified = adopt_run(levels, cas, infos, k, out)
             qp_count += certified
             if stop == n_levels:
@@ -165,6 +178,8 @@ class HierarchicalQP:
             if failed:
                 ok, msg = False, failed
             infos.append(info)
+            if stop == 0 and self.keep_level0_basis:
+                self.level0_basis = cas.kernel_basis()
             if info.relaxed:            # the lower levels keep its bounds relaxed by the slack
                 rows.relax(stop, w)
         res = SolveResult(cas.x, infos, ok, qp_count, msg or "; ".join(degraded))

@@ -8,8 +8,9 @@ Each folded level that can lose rank (one without a posture, whose rows are the 
 its joints) is therefore tested on its own rows in level 0's null space: when their σ_min < ε it is
 reported ``singular`` with their rank and σ_min (the solver's :class:`~wbc.solvers.cascade.Damping`
 threshold; the hierarchical QP projects into every higher level's null space, this solver has
-no order among the folded levels). One compiled call per cycle (:func:`own_sigma`): an
-eigen-decomposition of level 0's Gram and an m_k × m_k one per such level.
+no order among the folded levels). One compiled call per cycle (:func:`own_sigma`): the rows
+projected on the basis of level 0's null space the cascade left (level 0 is not factorised a
+second time) and a Cholesky test of an m_k × m_k Gram per such level.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ class WeightedQP(HierarchicalQP):
 
     #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
     options: tuple[str, ...] = ("level_weight",)
+    #: the cascade keeps level 0's null-space basis for :meth:`_own_conditioning`
+    keep_level0_basis = True
 
     @classmethod
     def create(cls, backend: str = "daqp", damping: Damping | None = None,
@@ -54,6 +57,9 @@ class WeightedQP(HierarchicalQP):
         #: the folded Level and its row blocks per level, refilled in place while the levels
         #: folded have the same structure (:meth:`_merge`)
         self._merge_plan: _MergePlan | None = None
+        #: the levels :meth:`_own_conditioning` tests, their row offsets and the array their rows
+        #: are copied into, for the merge plan they were worked out with
+        self._sigma_plan: tuple | None = None
 
     def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
                      dampings: dict | None = None, stacked: StackedRows | None = None, own: int | None = None,
@@ -89,17 +95,29 @@ class WeightedQP(HierarchicalQP):
 
     def _own_conditioning(self, top: Level, rest: list[Level], merged: LevelInfo) -> list[LevelInfo]:
         """``merged`` for each folded level; for a level without a posture whose equality rows
-        in the null space of level 0's have σ_min < ε (:func:`own_sigma`), their rank and σ_min
-        and ``singular`` (module doc)."""
+        in the null space of level 0's have σ_min < ε (:func:`own_sigma`, in the basis of that
+        null space the cascade left after level 0), their rank and σ_min and ``singular``
+        (module doc)."""
         d = self.damping
         out = [merged] * len(rest)
-        check = [i for i, lvl in enumerate(rest)
-                 if lvl.A.shape[0] and not set(lvl.kinds) & self.FULL_RANK_KINDS and not lvl.regularizers_only]
-        if not check or d.threshold <= 0.0:
+        if d.threshold <= 0.0:
             return out
-        A = np.vstack([rest[i].A for i in check]) if len(check) > 1 else rest[check[0]].A
-        offsets = np.cumsum([0] + [rest[i].A.shape[0] for i in check])
-        ranks, smins = own_sigma(top.A, A, offsets, d.rank_tol, d.threshold)
+        plan = self._sigma_plan
+        if plan is None or plan[0] is not self._merge_plan or self._merge_plan is None:
+            check = [i for i, lvl in enumerate(rest)
+                     if lvl.A.shape[0] and not set(lvl.kinds) & self.FULL_RANK_KINDS and not lvl.regularizers_only]
+            offsets = np.cumsum([0] + [rest[i].A.shape[0] for i in check]).astype(np.int64)
+            plan = self._sigma_plan = (self._merge_plan, check, offsets,
+                                       np.empty((int(offsets[-1]), top.A.shape[1])))
+        _, check, offsets, A = plan
+        if not check:
+            return out
+        for i, a, b in zip(check, offsets[:-1], offsets[1:]):
+            A[a:b] = rest[i].A
+        basis = self.level0_basis
+        if basis is None:                    # (every solve sets it; a basis of null(A0) all the same)
+            basis = (_null_space(top.A, d.rank_tol), False) if top.A.shape[0] else (np.empty((0, 0)), True)
+        ranks, smins = own_sigma(basis[0], basis[1], A, offsets, d.rank_tol, d.threshold)
         for i, rank, smin in zip(check, ranks.tolist(), smins.tolist()):
             if rank and smin < d.threshold:
                 out[i] = replace(merged, index=merged.index + i, rank=rank, sigma_min=smin, R=None, singular=True)
@@ -165,53 +183,32 @@ class _MergePlan(NamedTuple):
 GRAM_SIGMA_FLOOR = 1e-7
 
 
-@nb.njit(cache=True)
-def _forward(L, B):
-    """L⁻¹ B by forward substitution (L lower triangular)."""
-    X = B.copy()
-    for i in range(L.shape[0]):
-        for k in range(i):
-            X[i] -= L[i, k] * X[k]
-        X[i] /= L[i, i]
-    return X
+def _null_space(A0: np.ndarray, rank_tol: float) -> np.ndarray:
+    """An orthonormal basis of A0's null space (numpy's SVD; singular values above
+    ``rank_tol``·max(1, σ_max) count)."""
+    _, s, Vt = np.linalg.svd(A0)
+    rank = int(np.sum(s > rank_tol * max(1.0, s[0] if len(s) else 0.0)))
+    return np.ascontiguousarray(Vt[rank:].T)
 
 
 @nb.njit(cache=True)
-def own_sigma(A0, A, offsets, rank_tol, threshold):
-    """(rank, σ_min) per row block k of ``A`` (rows ``offsets[k]:offsets[k+1]``) in the null
-    space of ``A0``'s rows, worked out only when σ_min < ``threshold`` ε; (0, ∞) for a block
-    whose σ are all ≥ ε. σ² are the eigenvalues of G = A_k P A_kᵀ = A_k A_kᵀ − WᵀW,
-    W = L⁻¹ A0 A_kᵀ, A0 A0ᵀ = L Lᵀ (by A0's eigen-decomposition when A0 A0ᵀ is not positive
-    definite: W = Λ_r^{−½} U_rᵀ A0 A_kᵀ over the eigenvalues above (rank_tol·max(1, σ_max))²).
-    Every Gram block comes from one product S Sᵀ, S = [A0; A], and every block's WᵀW from one
-    more (a few small products per cycle, not four per block).
+def own_sigma(Z0, identity, A, offsets, rank_tol, threshold):
+    """(rank, σ_min) per row block k of ``A`` (rows ``offsets[k]:offsets[k+1]``) in level 0's
+    null space, whose orthonormal basis is ``Z0`` (``identity``: level 0 leaves every
+    direction free, ``Z0`` then unused), worked out only when σ_min < ``threshold`` ε;
+    (0, ∞) for a block whose σ are all ≥ ε. σ² are the eigenvalues of
+    G = A_k P A_kᵀ = (A_k Z0)(A_k Z0)ᵀ (P = Z0 Z0ᵀ, the projector onto level 0's null space;
+    Z0 is the basis the cascade left after level 0, so level 0 is not factorised again).
     σ_min ≥ ε exactly when G − ε² I has a Cholesky factor: the eigenvalues only then.
     Singular values below (``rank_tol`` + :data:`GRAM_SIGMA_FLOOR`)·max(1, σ_max) count as zero."""
     nb_ = offsets.shape[0] - 1
     ranks = np.zeros(nb_, dtype=np.int64)
     smins = np.full(nb_, np.inf)
-    m0, ma = A0.shape[0], A.shape[0]
-    S = np.empty((m0 + ma, A.shape[1]))
-    S[:m0] = A0
-    S[m0:] = A
-    M = S @ S.T
-    GA = np.ascontiguousarray(M[m0:, m0:])
-    if m0 > 0:
-        B = np.ascontiguousarray(M[:m0, m0:])           # A0 Aᵀ
-        L, chol_ok = cholesky_lower(np.ascontiguousarray(M[:m0, :m0]), 0.0)
-        if chol_ok:
-            W = _forward(L, B)
-        else:
-            w, U = np.linalg.eigh(np.ascontiguousarray(M[:m0, :m0]))
-            tol = (rank_tol * max(1.0, np.sqrt(max(w.max(), 0.0)))) ** 2
-            keep = np.flatnonzero(w > tol)
-            W = np.empty((keep.shape[0], ma))
-            for j in range(keep.shape[0]):
-                W[j] = (U[:, keep[j]] @ B) / np.sqrt(w[keep[j]])
-        GA -= W.T @ W
+    AZ = A if identity else A @ Z0
     for k in range(nb_):
         a, b = offsets[k], offsets[k + 1]
-        G = np.ascontiguousarray(GA[a:b, a:b])
+        P = AZ[a:b]
+        G = P @ P.T
         Gs = G.copy()
         for i in range(G.shape[0]):
             Gs[i, i] -= threshold * threshold

@@ -33,6 +33,24 @@ from .records import (
 
 @nb.njit(cache=True)
 def cascade_prefix(eq, ineq, start, hints, settings):
+    """The strict cascade's run (:func:`cascade_prefix_keeping`, which documents it)."""
+    out = _run(eq, ineq, start, hints, settings, -1)
+    return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
+
+
+@nb.njit(cache=True)
+def cascade_prefix_keeping(eq, ineq, start, hints, settings, keep):
+    """:func:`cascade_prefix`, and the basis Z the run left after level ``keep`` (an orthonormal
+    basis of the directions levels 0..``keep`` leave free) with whether it is still the
+    identity: (Z, identity) appended to its output; (empty, True) if the run did not reach the
+    end of that level (it started below it, or stopped at or above it). The weighted QP's
+    per-level singularity test reads level 0's null space from it instead of factorising
+    level 0's rows a second time."""
+    return _run(eq, ineq, start, hints, settings, keep)
+
+
+@nb.njit(cache=True)
+def _run(eq, ineq, start, hints, settings, keep):
     """The strict cascade's levels, one after the other, for as long as none needs a
     back-end QP: the hierarchical QP's common case in one call (``tests/helpers/reference_hqp.py``
     is the same mathematics, step for step, in Python).
@@ -66,6 +84,7 @@ def cascade_prefix(eq, ineq, start, hints, settings):
     regularization, margin)."""
     A, b, e_end = eq
     C, lo, hi, i_end = ineq
+    Z_keep, identity_keep = np.empty((0, 0)), True
     x0, Z0, identity0, k0, calls0 = start
     rank_tol, threshold, max_damping, gram_min_ratio, tol, certify, regularization, margin = settings
     L = e_end.shape[0]
@@ -105,11 +124,11 @@ def cascade_prefix(eq, ineq, start, hints, settings):
             set_calls(ints, L, calls)
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
                 if not certify:
-                    return k, x, Z, identity, ints, floats, packed, Z_next
+                    return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
                 H, g = least_squares_objective(AZ, rk, regularization)
                 ok, z = certified_higher(H, g, C[:i0], lo[:i0], hi[:i0], x, Z, identity, mk, tol)
                 if not ok:
-                    return k, x, Z, identity, ints, floats, packed, Z_next
+                    return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
                 x_next = x + (z if identity else Z @ z)
                 set_field(ints, k, CERTIFIED, 1)
         else:
@@ -124,8 +143,8 @@ def cascade_prefix(eq, ineq, start, hints, settings):
             if not ok:
                 set_field(ints, k, CERTIFIED, 0)       # the caller solves the whole level
                 if m and dof:
-                    return k, x, Z, identity, ints, floats, packed, Z_next
-                return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+                    return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
+                return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0)), Z_keep, identity_keep
             if not (m and dof):
                 Z_next = Z
             x_next = x_next + (z if identity and not (m and dof) else Z_next @ z)
@@ -136,6 +155,8 @@ def cascade_prefix(eq, ineq, start, hints, settings):
             identity = False
         else:
             x = x_next
+        if k == keep:
+            Z_keep, identity_keep = Z, identity
         e0 = e_end[k]
     set_calls(ints, L, calls)
-    return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0))
+    return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0)), Z_keep, identity_keep
