@@ -23,7 +23,8 @@ benchmarks/live_view.md by hand.
 ``--shadows on|off``: the page's lights cast shadows or not (``PageOptions.shadows``).
 ``--drawing-nice N``: the drawing process (and its session's autogroup) at nice N.
 ``--nice-browser``: Chromium's session (its autogroup: with ``kernel.sched_autogroup_enabled``
-a process's nice value counts only inside its session) at nice 19. ``--scale``: Chromium's device
+a process's nice value counts only inside its session) at nice 19 from the loop's first cycle (the
+page has loaded by then; niced earlier it may never load on a loaded machine). ``--scale``: Chromium's device
 scale factor; ``--window``: its window size (the canvas it renders, in CSS pixels).
 """
 
@@ -42,7 +43,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
-         "--no-first-run", "--disable-background-networking"]
+         "--no-first-run", "--disable-background-networking", "--disable-breakpad", "--disable-crash-reporter"]
 SLOW_S = 2e-3           # a solve slower than this is "slow" (headless p99 on an idle machine: 0.6-0.9 ms)
 
 
@@ -133,6 +134,9 @@ def child(probe_out: str, argv: list[str]) -> int:
 
     def probed_cycle(self, k):
         if not start:
+            nice = os.environ.get("LIVE_VIEW_NICE_BROWSER")
+            if nice and browser_pid_file.exists():      # now, once the page has loaded: it would starve loading
+                Path(f"/proc/{int(browser_pid_file.read_text())}/autogroup").write_text(nice)
             start.update(threads=threads(), others=others(), cpu=time.process_time(), thread_cpu=time.thread_time(),
                          wall=time.perf_counter(), ru=resource.getrusage(resource.RUSAGE_THREAD))
         r0 = resource.getrusage(resource.RUSAGE_THREAD)
@@ -186,7 +190,8 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(probe), "--",
            "run", scenario, "--duration", str(args.duration), "--metrics", str(out), "--fps", str(args.fps)]
     cmd += ["--wait", "--port", "8290"] if live else ["--headless"]
-    env = dict(os.environ, PYTHONPATH=str(ROOT), **({"LIVE_VIEW_SHADOWS": args.shadows} if args.shadows else {}))
+    env = dict(os.environ, PYTHONPATH=str(ROOT), **({"LIVE_VIEW_SHADOWS": args.shadows} if args.shadows else {}),
+               **({"LIVE_VIEW_NICE_BROWSER": "19"} if args.nice_browser else {}))
     pre = ["taskset", "-c", "0"] if args.pin else []      # --pin: the control process on CPU 0, the page's on CPU 1
     proc = subprocess.Popen(pre + cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
     browser, browser_cpu, stat0 = None, None, None
@@ -209,9 +214,6 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
                                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                                start_new_session=True)
                     Path(probe).with_suffix(".browser").write_text(str(browser.pid))
-                    if args.nice_browser:       # its session's autogroup (a nice value counts only inside it)
-                        Path(f"/proc/{browser.pid}/autogroup").write_text("19")
-                        os.setpriority(os.PRIO_PROCESS, browser.pid, 19)
                     break
             stat0 = cpu_times()
             for line in proc.stdout:            # the run's progress; the metrics line at its end
@@ -227,6 +229,12 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
                 browser_cpu = _session_cpu_s(browser.pid)
             os.killpg(browser.pid, signal.SIGKILL)
             browser.wait()
+            for p in Path("/proc").iterdir():       # its crash handlers: sessions of their own, our profile's path
+                try:
+                    if p.name.isdigit() and str(work / "profile").encode() in (p / "cmdline").read_bytes():
+                        os.kill(int(p.name), signal.SIGKILL)
+                except OSError:
+                    pass
     m = json.loads(out.read_text())
     d = [b - a for a, b in zip(stat0, stat1)]
     total = max(sum(d), 1)
