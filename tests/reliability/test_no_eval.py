@@ -2,7 +2,10 @@
 never code. Every module of ``wbc`` is parsed (ast) and every name is resolved through its
 imports (``import pickle as p; p.loads`` is ``pickle.loads``); refused: the builtins that run
 code (eval, exec, compile, __import__), YAML's loaders other than the safe one, pickle and its
-kin, numpy's ``allow_pickle=True``, imports by computed name, and shells. The scanner is
+kin, numpy's ``allow_pickle=True``, imports by computed name, shells, and in a module that imports
+``multiprocessing`` a ``.send(...)`` / ``.recv(...)`` on an object (a ``Connection``'s, which pickle:
+``send_bytes`` / ``recv_bytes`` carry bytes; a module's function of that name, such as
+``plain_codec.send``, or a class's own method, ``self.send``, is not flagged). The scanner is
 checked first on a snippet with every one of them."""
 
 from __future__ import annotations
@@ -24,12 +27,24 @@ NAMES = {f"yaml.{n}" for n in ("load", "load_all", "unsafe_load", "unsafe_load_a
                                "constructor.FullConstructor", "constructor.Constructor")} | {
     "importlib.import_module", "importlib.util.spec_from_file_location", "os.system", "os.popen",
     "numpy.load", "pandas.read_pickle", "torch.load"} | {f"builtins.{b}" for b in BUILTINS}
+PICKLING_METHODS = {"send", "recv"}       # multiprocessing.connection.Connection's (pickle.dumps / loads)
+# modules still exchanging pickles through a Connection, each with the reason it is not yet fixed
+KNOWN_CONNECTION_PICKLES = {
+    "wbc/sweep/local.py": "a sweep's worker processes (its own code, spawned by it) receive jobs and return "
+                          "results with Connection.send/recv: not yet moved to bytes (issue #25 left it)",
+}
 
 
 def offences(source: str, filename: str = "<snippet>") -> list[str]:
     tree = ast.parse(source, filename)
     alias: dict[str, str] = {}
+    bound: set[str] = set()             # every imported name, relative imports too (modules, functions)
+    uses_mp = False
     for node in ast.walk(tree):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            bound |= {a.asname or a.name.split(".")[0] for a in node.names}
+            mods = [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""]
+            uses_mp |= any(m.split(".")[0] == "multiprocessing" for m in mods)
         if isinstance(node, ast.Import):
             for a in node.names:
                 alias[a.asname or a.name.split(".")[0]] = a.name if a.asname else a.name.split(".")[0]
@@ -63,6 +78,10 @@ def offences(source: str, filename: str = "<snippet>") -> list[str]:
                     (isinstance(node, ast.Name) and node.id == "__builtins__"):
                 found.append(f"{where}: {name}")
         if isinstance(node, ast.Call):
+            f = node.func
+            if uses_mp and isinstance(f, ast.Attribute) and f.attr in PICKLING_METHODS and \
+                    not (isinstance(f.value, ast.Name) and (f.value.id in bound or f.value.id == "self")):
+                found.append(f"{where}: {ast.unparse(f)}() (a multiprocessing Connection's {f.attr} pickles)")
             for kw in node.keywords:
                 if kw.arg in ("allow_pickle", "shell") and not (isinstance(kw.value, ast.Constant) and not kw.value.value):
                     found.append(f"{where}: {kw.arg}={ast.unparse(kw.value)}")
@@ -89,11 +108,17 @@ import_module(name)
 getattr(yaml, "unsafe_load")(text)
 import builtins
 builtins.exec("x = 1"); getattr(builtins, "eval")("1"); __builtins__["eval"]("1")
+from multiprocessing.connection import Connection
+conn.send(("post", key)); msg = self._conn.recv()
 """
 GOOD = """
 import re, yaml
 yaml.safe_load(text); re.compile("x"); model.compile(); subprocess.run(["ls"], shell=False)
 getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+from multiprocessing.connection import Connection
+from . import plain_codec
+self.send("stop"); plain_codec.send(conn, ("post", key)); msg = plain_codec.receive(conn)
+conn.send_bytes(b"{}"); conn.recv_bytes()
 """
 
 
@@ -101,7 +126,8 @@ def test_the_scanner_finds_each_way_of_running_text():
     got = offences(BAD)
     for needle in ("imports pickle", "pickle.loads", "yaml.load", "yaml.Loader", "yaml.FullLoader", "eval", "exec",
                    "compile", "__import__", "allow_pickle=True", "shell=True", "importlib.import_module",
-                   "getattr(yaml, 'unsafe_load')", "builtins.exec", "getattr(builtins, 'eval')", "__builtins__"):
+                   "getattr(yaml, 'unsafe_load')", "builtins.exec", "getattr(builtins, 'eval')", "__builtins__",
+                   "conn.send()", "self._conn.recv()"):
         assert any(needle in g for g in got), f"{needle} not found in {got}"
     assert offences(GOOD) == []
 
@@ -111,7 +137,10 @@ def test_no_module_of_the_package_evaluates_or_unpickles():
     files = sorted(root.rglob("*.py"))
     assert len(files) > 50
     found = [o for f in files for o in offences(f.read_text(), str(f.relative_to(root.parent)))]
+    found = [o for o in found if not (o.split(":")[0] in KNOWN_CONNECTION_PICKLES and "Connection's" in o)]
     assert found == [], "\n".join(found)
+    for known in KNOWN_CONNECTION_PICKLES:      # an exception that no longer applies goes from the list
+        assert any("Connection's" in o for o in offences((root.parent / known).read_text(), known)), known
 
 
 @pytest.mark.parametrize("tag", ["!!python/object/apply:os.system ['true']", "!!python/name:builtins.eval"])

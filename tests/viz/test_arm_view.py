@@ -48,7 +48,9 @@ def test_live_arm_view_draws_in_the_viser_view(arm_view):
         while live.stats()["frames_drawn"] < 1 and time.monotonic() < t_end:
             time.sleep(0.1)
         assert live.stats()["frames_drawn"] >= 1
-        assert live.spec["environment"][0].top == pytest.approx(0.3)       # the plate's top face at its point
+        plate = live.spec["environment"][0]         # plain values (wbc.viz.live.surface_spec)
+        assert plate["kind"] == "box"
+        assert plate["center"][2] + 0.5 * plate["size"][2] == pytest.approx(0.3)     # its top face at its point
     finally:
         view.finish("unused.html")
     assert view.view.process.poll() is not None          # the drawing process ended

@@ -67,7 +67,7 @@ class Poster:
     def post(self, key, value) -> None:
         with self._lock:
             try:
-                self.conn.send(("post", key, value))
+                plain_codec.send(self.conn, ("post", key, value))
                 self.posted += 1
             except OSError:            # the control process is gone: nothing to act on
                 pass
@@ -80,11 +80,13 @@ class Drawer:
         import viser
 
         self.spec = spec
-        self.model: pin.Model = spec["model"]
+        self.model = pin.Model()
+        self.model.loadFromString(spec["model"])       # the controller's model (Model.saveToString)
         self.fps = float(spec["fps"])
         self.force_scale, self.push_scale = spec["force_scale"], spec["push_scale"]
         self.server = viser.ViserServer(host=spec["host"], port=spec["port"], label="wbc", verbose=False)
         self.server.scene.set_up_direction("+z")
+        self.server.scene.configure_default_lights(cast_shadow=bool(spec.get("shadows", False)))
         self.server.initial_camera.position, self.server.initial_camera.look_at = spec.get(
             "camera", ((2.2, -2.2, 1.6), (0.0, 0.0, 0.8)))
         self.data = self.model.createData()
@@ -124,7 +126,10 @@ class Drawer:
         self._sent = np.full((len(self.visuals), 7), np.inf)     # the poses last sent (none yet)
 
     def _environment(self, environment) -> None:
-        for i, s in enumerate(environment):
+        """The surfaces (:func:`wbc.viz.live.surface_spec`: plain values) as boxes."""
+        built = [Box(d["center"], d["size"], d["mu"], d["name"]) if d["kind"] == "box" else
+                 HalfSpace(d["point"], d["normal"], d["mu"], d["name"]) for d in environment]
+        for i, s in enumerate(built):
             if isinstance(s, Box):
                 self.server.scene.add_box(f"/env/{s.name}", color=(141, 110, 99), dimensions=tuple(s.size),
                                           position=tuple(s.center))
@@ -261,30 +266,44 @@ class Drawer:
             box.value = on
 
 
+def lower_priority(nice: int) -> None:
+    """Run this process ``nice`` steps below its priority. With the kernel's session autogroups
+    (``kernel.sched_autogroup_enabled``, Linux's default on desktops) a nice value only orders the
+    processes of one session, and this one has a session of its own (a Ctrl-C in the terminal is
+    not for it): its session's group gets the same lower weight (``/proc/self/autogroup``), or the
+    scheduler would still share the CPU equally between it and the control process."""
+    try:
+        os.nice(nice)
+    except OSError:         # not permitted here: the default priority
+        pass
+    try:
+        with open("/proc/self/autogroup", "w") as f:
+            f.write(str(nice))
+    except OSError:         # no autogroups (not Linux, or the kernel's sysctl off): the nice value is enough
+        pass
+
+
 def main(conn, slot_name: str) -> None:
     """The drawing process's body (see the module docstring): the spec comes first on ``conn``.
     It runs at a lower scheduling priority (``NICE``): on a machine with few cores the control
     loop gets the CPU first, the drawing what is left."""
-    try:
-        os.nice(NICE)
-    except OSError:         # not permitted here: the default priority
-        pass
-    spec = conn.recv()
+    lower_priority(NICE)
+    spec = plain_codec.receive(conn)
     poster = Poster(conn)
     try:
         drawer = Drawer(spec, poster)
     except Exception as exc:          # reported by LiveView in the control process
-        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        plain_codec.send(conn, ("error", f"{type(exc).__name__}: {exc}"))
         return
     slot = ss.SharedSlot(slot_name)
-    conn.send(("ready", drawer.server.get_port()))
+    plain_codec.send(conn, ("ready", drawer.server.get_port()))
     period, next_t, running = 1.0 / drawer.fps, time.perf_counter(), True
     parent = os.getppid()
     try:
         while running and os.getppid() == parent:
             try:
                 while running and conn.poll():
-                    running = drawer.handle(conn.recv())
+                    running = drawer.handle(plain_codec.receive(conn))
             except (EOFError, OSError):          # the control process closed its end
                 break
             payload = slot.read_new()

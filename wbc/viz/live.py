@@ -99,20 +99,48 @@ class PageOptions(Options):
     """N per mm of a push arrow"""
     camera: Any = None
     """the page's initial camera (position, look-at point), m; None: a humanoid's view"""
+    shadows: bool = False
+    """the page's lights cast shadows (each shadow-casting light renders the scene once more
+    per frame: a browser without a GPU, WebGL in software, spends its CPU there)"""
+
+
+def surface_spec(surface) -> dict | None:
+    """A surface the page draws (a box, a half-space) as plain values; None for the others."""
+    from ..sim.environment import Box, HalfSpace
+
+    if isinstance(surface, Box):
+        return {"kind": "box", "name": surface.name, "center": surface.center, "size": surface.size, "mu": surface.mu}
+    if isinstance(surface, HalfSpace):
+        return {"kind": "halfspace", "name": surface.name, "point": surface.point, "normal": surface.normal,
+                "mu": surface.mu}
+    return None
 
 
 def view_spec(robot, environment=(), stack=None, options: PageOptions | None = None, **settings) -> dict:
-    """What the drawing process needs, picklable (see :class:`LiveView` for the arguments)."""
+    """What the drawing process needs, as plain values (:mod:`wbc.viz.plain_codec`: the pinocchio
+    model as its own text serialisation, ``Model.saveToString``; see :class:`LiveView` for the
+    arguments)."""
     o = PageOptions.of(options, settings, "view_spec")
-    return {"model": robot.model, "environment": list(environment), "host": o.host, "port": int(o.port),
+    surfaces = [d for d in map(surface_spec, environment) if d is not None]
+    return {"model": robot.model.saveToString(), "environment": surfaces, "host": o.host, "port": int(o.port),
             "fps": float(o.fps),
             "visual": {"urdf_path": str(robot.urdf_path), "root": robot.root, "package_dirs": list(robot.package_dirs),
                        "locked_joints": list(robot.locked_joints)},
             "tasks": [] if stack is None else task_specs(stack), "levels": 0 if stack is None else len(stack.levels),
             "contacts": [] if stack is None else [c.name for c in stack.contacts()], "speed": float(o.speed),
             "push_frames": tuple(o.frames), "shown_frames": tuple(o.shown_frames), "overlays": dict(o.overlays or {}),
-            "force_scale": o.force_scale, "push_scale": o.push_scale,
+            "force_scale": o.force_scale, "push_scale": o.push_scale, "shadows": bool(o.shadows),
             "camera": ((2.2, -2.2, 1.6), (0.0, 0.0, 0.8)) if o.camera is None else tuple(map(tuple, o.camera))}
+
+
+def page_command(msg: list) -> tuple | None:
+    """(key, value) of a page's command as the drawing process sent it (``["post", key, value]``,
+    decoded JSON: a key such as ``("kp", task)`` arrives as a list and is a tuple again, the
+    mailbox's key); None for any other message."""
+    if not msg or msg[0] != "post":
+        return None
+    key = tuple(msg[1]) if isinstance(msg[1], list) else msg[1]
+    return key, msg[2]
 
 
 def encode(snap, rows: bool = True) -> bytes:
@@ -148,6 +176,7 @@ class LiveView:
         spec = view_spec(robot, environment, stack, o)
         self.spec = spec
         self.slot = ss.SharedSlot()
+        # messages both ways as JSON bytes (plain_codec.send / receive): Connection's own send/recv pickle
         mine, theirs = socket.socketpair()
         self._conn = Connection(mine.detach())
         root = str(Path(__file__).resolve().parents[2])      # the tree this wbc comes from
@@ -164,7 +193,7 @@ class LiveView:
         self._rows_t = -float("inf")
         self.published = 0
         try:
-            self._conn.send(spec)
+            plain_codec.send(self._conn, spec)
             self.port = self._await_ready()
         except BaseException:
             self._end_process()
@@ -180,7 +209,7 @@ class LiveView:
         t_end = time.monotonic() + START_TIMEOUT
         while time.monotonic() < t_end:
             if self._conn.poll(0.1):
-                msg = self._conn.recv()
+                msg = plain_codec.receive(self._conn)
                 if msg[0] == "ready":
                     return int(msg[1])
                 if msg[0] == "error":
@@ -222,12 +251,12 @@ class LiveView:
             return
         try:
             while self._conn.poll():
-                msg = self._conn.recv()
-                if msg[0] == "post":
-                    self.from_page.add(msg[1])
-                    self.page_log.append((msg[1], msg[2]))
+                cmd = page_command(plain_codec.receive(self._conn))
+                if cmd is not None:
+                    self.from_page.add(cmd[0])
+                    self.page_log.append(cmd)
                     self.page_commands += 1
-                    mailbox.post(msg[1], msg[2])
+                    mailbox.post(*cmd)
         except (EOFError, OSError):      # the drawing process is gone: the run goes on without a page
             self._page_gone = True
 
@@ -262,7 +291,7 @@ class LiveView:
     def send(self, *msg) -> None:
         """A message to the drawing process: ``("overlay", name, on)``, ``("gizmos", names or None)``."""
         with self._send_lock:
-            self._conn.send(msg)
+            plain_codec.send(self._conn, msg)
 
     def _end_process(self) -> None:
         try:

@@ -1,9 +1,12 @@
 """Plain data across the live view's process boundary: JSON, with numpy arrays tagged.
 
 The control process writes each snapshot into a shared-memory slot that the drawing process
-reads (:mod:`wbc.viz.shared_state`). The bytes are JSON, not pickle: a reader of the slot
-only ever builds numbers, strings, lists, dicts and arrays from them, whatever was written
-there (nothing in the package unpickles: ``tests/reliability/test_no_eval.py``).
+reads (:mod:`wbc.viz.shared_state`), and the two exchange messages on a socket pair (the scene's
+description, the page's commands: :func:`send` and :func:`receive`, a
+``multiprocessing.connection.Connection``'s ``send_bytes`` / ``recv_bytes``, never its pickling
+``send`` / ``recv``). The bytes are JSON, not pickle: a reader only ever builds numbers,
+strings, lists, dicts and arrays from them, whatever was written there (nothing in the package
+unpickles: ``tests/reliability/test_no_eval.py``).
 
 Encoding: an ``ndarray`` becomes ``{"__nd__": [dtype, shape, flat values]}`` (its dtype
 kept: float64 values round-trip exactly through ``repr``); numpy scalars their Python
@@ -53,3 +56,15 @@ def encode(obj: Any) -> bytes:
 def decode(payload: bytes) -> Any:
     """The value :func:`encode` wrote (tuples come back as lists, arrays as arrays)."""
     return json.loads(payload, object_hook=_array)
+
+
+def send(conn, obj: Any) -> None:
+    """Send ``obj`` (as :func:`encode` takes it) on a ``multiprocessing.connection.Connection``,
+    as one length-prefixed message of JSON bytes (``send_bytes``: no pickle)."""
+    conn.send_bytes(encode(obj))
+
+
+def receive(conn) -> Any:
+    """The next message :func:`send` sent on ``conn`` (blocks until one arrives; ``EOFError``
+    when the other end has closed)."""
+    return decode(conn.recv_bytes())

@@ -33,15 +33,21 @@ replay's clock.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
-import meshcat
-import meshcat.geometry as mg
-import meshcat.transformations as mt
 import numpy as np
 import pinocchio as pin
-from meshcat.animation import Animation
-from pinocchio.visualize import MeshcatVisualizer
+
+with warnings.catch_warnings():
+    # meshcat 0.3.2's package imports its server module, which imports zmq.eventloop.ioloop (pyzmq
+    # warns at that import: deprecated since pyzmq 17); meshcat's import, nothing of it we call
+    warnings.filterwarnings("ignore", "zmq.eventloop.ioloop is deprecated", DeprecationWarning)
+    import meshcat
+    import meshcat.geometry as mg
+    import meshcat.transformations as mt
+    from meshcat.animation import Animation
+    from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from ..tasks.collision_avoidance import CollisionAvoidance
