@@ -44,7 +44,7 @@ ALLOWED: dict[str, set[str]] = {
     "wbc.runner": BASE | {"wbc.validation", "wbc.robot", "wbc.tasks", "wbc.trajectories", "wbc.interaction",
                           "wbc.sim", "wbc.controller", "wbc.scenario", "wbc.collision",
                           "wbc.locomotion", "wbc.blas"},
-    "wbc.viz": BASE | {"wbc.sim", "wbc.robot", "wbc.tasks"},
+    "wbc.viz": BASE | {"wbc.sim", "wbc.robot", "wbc.tasks", "wbc.jsonable"},
     "wbc.sweep": BASE | {"wbc.validation", "wbc.jsonable", "wbc.blas", "wbc.robot", "wbc.scenario", "wbc.runner"},
 }
 #: may import anything of wbc (nothing of wbc imports them)

@@ -5,7 +5,7 @@ code (eval, exec, compile, __import__), YAML's loaders other than the safe one, 
 kin, numpy's ``allow_pickle=True``, imports by computed name, shells, and in a module that imports
 ``multiprocessing`` a ``.send(...)`` / ``.recv(...)`` on an object (a ``Connection``'s, which pickle:
 ``send_bytes`` / ``recv_bytes`` carry bytes; a module's function of that name, such as
-``plain_codec.send``, or a class's own method, ``self.send``, is not flagged). The scanner is
+``jsonable.send``, or a class's own method, ``self.send``, is not flagged). The scanner is
 checked first on a snippet with every one of them."""
 
 from __future__ import annotations
@@ -29,10 +29,7 @@ NAMES = {f"yaml.{n}" for n in ("load", "load_all", "unsafe_load", "unsafe_load_a
     "numpy.load", "pandas.read_pickle", "torch.load"} | {f"builtins.{b}" for b in BUILTINS}
 PICKLING_METHODS = {"send", "recv"}       # multiprocessing.connection.Connection's (pickle.dumps / loads)
 # modules still exchanging pickles through a Connection, each with the reason it is not yet fixed
-KNOWN_CONNECTION_PICKLES = {
-    "wbc/sweep/local.py": "a sweep's worker processes (its own code, spawned by it) receive jobs and return "
-                          "results with Connection.send/recv: not yet moved to bytes (issue #25 left it)",
-}
+KNOWN_CONNECTION_PICKLES: dict[str, str] = {}
 
 
 def offences(source: str, filename: str = "<snippet>") -> list[str]:
@@ -116,8 +113,8 @@ import re, yaml
 yaml.safe_load(text); re.compile("x"); model.compile(); subprocess.run(["ls"], shell=False)
 getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 from multiprocessing.connection import Connection
-from . import plain_codec
-self.send("stop"); plain_codec.send(conn, ("post", key)); msg = plain_codec.receive(conn)
+from . import jsonable
+self.send("stop"); jsonable.send(conn, ("post", key)); msg = jsonable.receive(conn)
 conn.send_bytes(b"{}"); conn.recv_bytes()
 """
 

@@ -37,8 +37,9 @@ def _run(name: str, cycles: int):
 
 def _drawn(sc, r, t: float, port: int):
     """(drawer, decoded snapshot) of the run's state now, drawn once."""
+    from wbc import jsonable
     from wbc.runner.interactive import snapshot
-    from wbc.viz import plain_codec, shown_frames
+    from wbc.viz import shown_frames
     from wbc.viz.drawing import Drawer, Poster
     from wbc.viz.live import encode, view_spec
     from wbc.viz.run_overlays import overlay_data, overlay_names
@@ -48,7 +49,7 @@ def _drawn(sc, r, t: float, port: int):
     mine, _theirs = Pipe()
     drawer = Drawer(pickle.loads(pickle.dumps(spec)), Poster(mine))
     drawer.pipe = (mine, _theirs)       # kept open while the drawer lives
-    snap = SimpleNamespace(**plain_codec.decode(encode(snapshot(r, t, extras=overlay_data))))
+    snap = SimpleNamespace(**jsonable.decode(encode(snapshot(r, t, extras=overlay_data))))
     drawer.draw(snap)
     return drawer, snap
 

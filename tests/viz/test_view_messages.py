@@ -1,7 +1,7 @@
 """The messages between the control process and the live view's drawing process, without pickle:
 the scene's description (:func:`wbc.viz.live.view_spec`) and the page's commands (the drawing
 process's :class:`~wbc.viz.drawing.Poster`) cross a real ``multiprocessing`` connection as JSON
-bytes (:func:`wbc.viz.plain_codec.send` / ``receive``) while the connection's pickler is made to
+bytes (:func:`wbc.viz.jsonable.send` / ``receive``) while the connection's pickler is made to
 fail; what arrives is what was sent (the pinocchio model equal to the controller's, the surfaces,
 the task sliders' ranges; a target's array bit for bit, a push's force and duration) and the
 mailbox key comes back as the tuple the control loop's commands are keyed by."""
@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbc.viz import plain_codec
+from wbc import jsonable
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -51,8 +51,8 @@ def test_the_scene_description_arrives_as_plain_data(pipe):
     sc = load_config(ROOT / "wbc" / "data" / "scenarios" / "tiago_table_reach.yaml")
     spec = view_spec(sc.robot, sc.environment, sc.stack, frames=("gripper",), overlays={"footsteps": True})
     ca, cb = pipe
-    plain_codec.send(ca, spec)
-    got = plain_codec.receive(cb)
+    jsonable.send(ca, spec)
+    got = jsonable.receive(cb)
     model = pin.Model()
     model.loadFromString(got["model"])
     assert model == sc.robot.model and model.nframes == sc.robot.model.nframes
@@ -79,7 +79,7 @@ def test_page_commands_arrive_keyed_as_posted(pipe):
     poster.post(("target", "right_hand"), target)
     poster.post(("push", "base"), (force, 0.25))
     poster.post("pause", True)
-    got = [page_command(plain_codec.receive(cb)) for _ in range(3)]
+    got = [page_command(jsonable.receive(cb)) for _ in range(3)]
     assert poster.posted == 3
     (k1, v1), (k2, v2), (k3, v3) = got
     assert k1 == ("target", "right_hand") and isinstance(k1, tuple) and hash(k1) == hash(("target", "right_hand"))

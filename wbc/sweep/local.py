@@ -1,8 +1,9 @@
 """The local executor: a pool of worker processes with a watchdog.
 
 ``workers`` processes (default: the cores this process may use), each a fresh
-``python -m wbc.sweep.local`` talking to the parent over two pipes (so the caller's own
-``__main__`` is never re-imported, as ``multiprocessing``'s spawn would), each running
+``python -m wbc.sweep.local`` (so the caller's own ``__main__`` is never re-imported, as
+``multiprocessing``'s spawn would) talking to the parent over two pipes in JSON bytes
+(:func:`wbc.jsonable.send` / :func:`~wbc.jsonable.receive`: no pickle), each running
 :func:`_serve`: it imports wbc once, then runs the cases it is
 sent one at a time (:func:`wbc.sweep.worker.execute`) and keeps its robots loaded between
 them. The parent sends a case only to an idle worker, so it knows when each case
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as mp_wait
 
+from ..jsonable import receive, send
 from .jobs import Job, Outcome, default_workers
 
 
@@ -46,15 +48,15 @@ def _serve(conn_in: Connection, conn_out: Connection) -> None:
 
     from . import worker
 
-    conn_out.send(("ready", os.getpid()))
+    send(conn_out, ("ready", os.getpid()))
     while True:
         try:
-            key, payload = conn_in.recv()
+            key, payload = receive(conn_in)
         except (EOFError, OSError):
             return
         res = worker.execute(payload)
         try:
-            conn_out.send(("done", key, res))
+            send(conn_out, ("done", key, res))
         except (BrokenPipeError, OSError):
             return
 
@@ -104,7 +106,7 @@ class LocalPool:
             if s.ready and s.job is None and self._queue:
                 s.job = self._queue.popleft()
                 s.started = time.perf_counter()
-                s.to_child.send((s.job.key, s.job.payload))
+                send(s.to_child, (s.job.key, s.job.payload))
 
     def _replace(self, i: int) -> None:
         s = self._slots[i]
@@ -127,7 +129,7 @@ class LocalPool:
             dead = False
             while s.conn in ready and s.conn.poll():
                 try:
-                    msg = s.conn.recv()
+                    msg = receive(s.conn)
                 except (EOFError, OSError):
                     dead = True
                     break

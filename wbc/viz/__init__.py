@@ -4,7 +4,8 @@ sliders, buttons and plots, :mod:`~wbc.viz.overlays` the run's overlays) and off
 :class:`Scene`): robot, targets, CoM and support polygon, contact forces, pushes, priority
 diagnostics, force tasks' desired and measured forces, a glass's frame. docs/viewer.md.
 
-May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.sim`, :mod:`wbc.robot`, :mod:`wbc.tasks`. Not the runner.
+May import: :mod:`wbc.errors` (and :mod:`wbc.options`), :mod:`wbc.sim`, :mod:`wbc.robot`, :mod:`wbc.tasks`,
+:mod:`wbc.jsonable` (messages between its processes). Not the runner.
 """
 
 from .diagnostics import text_table

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from .. import jsonable
 from ..sim.environment import Box, HalfSpace
-from . import plain_codec
 from . import shared_state as ss
 from .controls import Controls
 from .meshes import geometry_mesh, visual_model
@@ -67,7 +67,7 @@ class Poster:
     def post(self, key, value) -> None:
         with self._lock:
             try:
-                plain_codec.send(self.conn, ("post", key, value))
+                jsonable.send(self.conn, ("post", key, value))
                 self.posted += 1
             except OSError:            # the control process is gone: nothing to act on
                 pass
@@ -288,29 +288,29 @@ def main(conn, slot_name: str) -> None:
     It runs at a lower scheduling priority (``NICE``): on a machine with few cores the control
     loop gets the CPU first, the drawing what is left."""
     lower_priority(NICE)
-    spec = plain_codec.receive(conn)
+    spec = jsonable.receive(conn)
     poster = Poster(conn)
     try:
         drawer = Drawer(spec, poster)
     except Exception as exc:          # reported by LiveView in the control process
-        plain_codec.send(conn, ("error", f"{type(exc).__name__}: {exc}"))
+        jsonable.send(conn, ("error", f"{type(exc).__name__}: {exc}"))
         return
     slot = ss.SharedSlot(slot_name)
-    plain_codec.send(conn, ("ready", drawer.server.get_port()))
+    jsonable.send(conn, ("ready", drawer.server.get_port()))
     period, next_t, running = 1.0 / drawer.fps, time.perf_counter(), True
     parent = os.getppid()
     try:
         while running and os.getppid() == parent:
             try:
                 while running and conn.poll():
-                    running = drawer.handle(plain_codec.receive(conn))
+                    running = drawer.handle(jsonable.receive(conn))
             except (EOFError, OSError):          # the control process closed its end
                 break
             payload = slot.read_new()
             if payload is not None:
                 t0 = time.perf_counter_ns()
                 try:
-                    drawer.draw(SimpleNamespace(**plain_codec.decode(payload)))
+                    drawer.draw(SimpleNamespace(**jsonable.decode(payload)))
                 except Exception as exc:      # a drawing error must not end the view silently
                     print(f"wbc: live view: drawing failed: {exc!r}", flush=True)
                 dt = time.perf_counter_ns() - t0

@@ -8,7 +8,7 @@ imports nothing of the caller's main module), sends it a plain description of th
 - :meth:`LiveView.publish`, which the control loop calls every ``1/fps`` s of simulated time:
   the snapshot's arrays, the run's overlays and, at most ``DIAG_HZ`` times per wall and per
   simulated second, its solution's diagnostics rows are encoded as JSON
-  (:mod:`wbc.viz.plain_codec`: no pickle) and copied into one shared-memory slot under a
+  (:mod:`wbc.jsonable`: no pickle) and copied into one shared-memory slot under a
   sequence lock (:mod:`wbc.viz.shared_state`: no lock to wait on, no thread; about 0.1 ms per
   drawn frame, 0.3 ms more with the diagnostics rows); the drawing process takes the latest;
 - :meth:`LiveView.drain`, the feed of the mailbox the loop takes its commands from once per
@@ -39,10 +39,10 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from .. import jsonable
 from ..errors import WbcError
 from ..options import Options
 from ..tasks.tuning import adjustable, gain_range, weight_range
-from . import plain_codec
 from . import shared_state as ss
 from .diagnostics import diagnostics_rows
 
@@ -117,7 +117,7 @@ def surface_spec(surface) -> dict | None:
 
 
 def view_spec(robot, environment=(), stack=None, options: PageOptions | None = None, **settings) -> dict:
-    """What the drawing process needs, as plain values (:mod:`wbc.viz.plain_codec`: the pinocchio
+    """What the drawing process needs, as plain values (:mod:`wbc.jsonable`: the pinocchio
     model as its own text serialisation, ``Model.saveToString``; see :class:`LiveView` for the
     arguments)."""
     o = PageOptions.of(options, settings, "view_spec")
@@ -153,7 +153,7 @@ def encode(snap, rows: bool = True) -> bytes:
                                        "disabled", "paused", "speed", "rtf", "done")}
     d["rows"] = None if not rows else diagnostics_rows(snap.sol) if snap.sol is not None else []
     d["overlays"] = getattr(snap, "overlays", None) or {}
-    return plain_codec.encode(d)
+    return jsonable.encode(d)
 
 
 class LiveView:
@@ -176,7 +176,7 @@ class LiveView:
         spec = view_spec(robot, environment, stack, o)
         self.spec = spec
         self.slot = ss.SharedSlot()
-        # messages both ways as JSON bytes (plain_codec.send / receive): Connection's own send/recv pickle
+        # messages both ways as JSON bytes (jsonable.send / receive): Connection's own send/recv pickle
         mine, theirs = socket.socketpair()
         self._conn = Connection(mine.detach())
         root = str(Path(__file__).resolve().parents[2])      # the tree this wbc comes from
@@ -193,7 +193,7 @@ class LiveView:
         self._rows_t = -float("inf")
         self.published = 0
         try:
-            plain_codec.send(self._conn, spec)
+            jsonable.send(self._conn, spec)
             self.port = self._await_ready()
         except BaseException:
             self._end_process()
@@ -209,7 +209,7 @@ class LiveView:
         t_end = time.monotonic() + START_TIMEOUT
         while time.monotonic() < t_end:
             if self._conn.poll(0.1):
-                msg = plain_codec.receive(self._conn)
+                msg = jsonable.receive(self._conn)
                 if msg[0] == "ready":
                     return int(msg[1])
                 if msg[0] == "error":
@@ -251,7 +251,7 @@ class LiveView:
             return
         try:
             while self._conn.poll():
-                cmd = page_command(plain_codec.receive(self._conn))
+                cmd = page_command(jsonable.receive(self._conn))
                 if cmd is not None:
                     self.from_page.add(cmd[0])
                     self.page_log.append(cmd)
@@ -291,7 +291,7 @@ class LiveView:
     def send(self, *msg) -> None:
         """A message to the drawing process: ``("overlay", name, on)``, ``("gizmos", names or None)``."""
         with self._send_lock:
-            plain_codec.send(self._conn, msg)
+            jsonable.send(self._conn, msg)
 
     def _end_process(self) -> None:
         try:

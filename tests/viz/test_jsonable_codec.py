@@ -1,4 +1,4 @@
-"""The live view's snapshot encoding (wbc/viz/plain_codec.py): what the control process writes
+"""The live view's snapshot encoding (wbc/viz/jsonable.py): what the control process writes
 into the shared slot comes back equal, arrays with their dtype and shape and float64 values
 bit for bit, and only as plain data (JSON, never pickle)."""
 
@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from wbc.viz import plain_codec
+from wbc import jsonable
 
 
 def test_a_snapshot_comes_back_equal_with_its_arrays():
@@ -21,7 +21,7 @@ def test_a_snapshot_comes_back_equal_with_its_arrays():
             "overlays": {"collision pairs": {"segments": rng.standard_normal((2, 2, 3)),
                                              "colors": np.array([[255, 0, 0], [0, 255, 0]], np.uint8)}},
             "rows": [{"level": 0, "sigma_min": np.float64(0.25), "sacrificed": None}], "speed": np.float32(0.5)}
-    got = plain_codec.decode(plain_codec.encode(snap))
+    got = jsonable.decode(jsonable.encode(snap))
     assert np.array_equal(got["q"], snap["q"]) and got["q"].dtype == np.float64
     assert got["points"].shape == (8, 3) and got["forces"].shape == (0, 3)
     assert got["pushes"][0][0] == "torso" and np.array_equal(got["pushes"][0][1], [30.0, 0.0, 0.0])
@@ -31,9 +31,9 @@ def test_a_snapshot_comes_back_equal_with_its_arrays():
     assert seg["colors"].dtype == np.uint8
     assert got["levels"] == snap["levels"] and got["paused"] is False and np.isnan(got["rtf"])
     assert got["rows"][0]["sigma_min"] == 0.25 and got["speed"] == 0.5
-    json.loads(plain_codec.encode(snap))            # plain JSON: any reader builds only plain values
+    json.loads(jsonable.encode(snap))            # plain JSON: any reader builds only plain values
 
 
 def test_a_key_that_is_not_a_string_is_refused():
     with pytest.raises(TypeError, match="must be a string"):
-        plain_codec.encode({"targets": {3: np.zeros(3)}})
+        jsonable.encode({"targets": {3: np.zeros(3)}})
