@@ -169,7 +169,9 @@ def _joined(groups: list) -> np.ndarray:
 def fallen(q: np.ndarray, base_z0: float) -> bool:
     """Whether a free-flyer base that started at height ``base_z0`` (m) has fallen: below
     :data:`FALL_HEIGHT_FRACTION` of it, tilted beyond :data:`FALL_TILT`, or not finite."""
-    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT or not np.all(np.isfinite(q)))
+    # q·q is finite iff every entry is (or it overflowed: then checked entry by entry)
+    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT
+                or not (math.isfinite(q.dot(q)) or np.all(np.isfinite(q))))
 
 
 def tilt(q: np.ndarray) -> float:
@@ -376,7 +378,7 @@ class RunMetrics:
         self.relaxed_cycles += sol.relaxed
         self.saturated_cycles += sol.saturated
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
-        self.tau_ratio_max = max(self.tau_ratio_max, float(np.max(np.abs(sol.tau) * self.inv_tau_max, initial=0.0)))
+        self.tau_ratio_max = max(self.tau_ratio_max, float((np.abs(sol.tau) * self.inv_tau_max).max(initial=0.0)))
         errs, robot = self.errs, self.robot
         split, parts = self.err_split, self.err_parts
         for name, task, live in self.err_live:
