@@ -41,6 +41,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from wbc.errors import SolverError, WbcError
@@ -180,15 +181,31 @@ def diverged(q: np.ndarray, v: np.ndarray) -> str:
     """Why the simulated state (q, v) is one of a simulator that blew up, or "": a NaN or
     inf, a speed beyond :data:`DIVERGED_SPEED` or a coordinate beyond
     :data:`DIVERGED_POSITION`."""
-    if not (np.isfinite(q).all() and np.isfinite(v).all()):
+    q = np.asarray(q, dtype=float).reshape(-1)
+    v = np.asarray(v, dtype=float).reshape(-1)
+    finite, speed, reach = _extent(q, v)        # one compiled pass (the runner checks every cycle)
+    if not finite:
         return "simulated state not finite"
-    speed = float(np.max(np.abs(v), initial=0.0))
     if speed > DIVERGED_SPEED:
         return f"simulated speed {speed:.3g} (m/s or rad/s) beyond {DIVERGED_SPEED:g}, dof {int(np.argmax(np.abs(v)))}"
-    reach = float(np.max(np.abs(q), initial=0.0))
     if reach > DIVERGED_POSITION:
         return f"simulated coordinate {reach:.3g} beyond {DIVERGED_POSITION:g} (m or rad)"
     return ""
+
+
+@nb.njit(cache=True)
+def _extent(q, v):
+    """(whether q and v are all finite, max |v_i|, max |q_i|; 0 for none)."""
+    speed = reach = 0.0
+    for x in v:
+        if not math.isfinite(x):
+            return False, 0.0, 0.0
+        speed = max(speed, abs(x))
+    for x in q:
+        if not math.isfinite(x):
+            return False, 0.0, 0.0
+        reach = max(reach, abs(x))
+    return True, speed, reach
 
 
 def simulation_diverged(sim, failures_before: int) -> str:

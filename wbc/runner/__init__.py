@@ -1,5 +1,6 @@
 """The closed loop: :func:`~wbc.runner.loop.run` (scenario + controller + simulator, cycle
-by cycle), its metrics (:mod:`~wbc.runner.metrics`, :mod:`~wbc.runner.stats`), plots
+by cycle), its metrics (:mod:`~wbc.runner.metrics`, :mod:`~wbc.runner.stats`, the per-cycle figures
+compiled in :mod:`~wbc.runner.state_kernel`), plots
 (:mod:`~wbc.runner.plot`) and the numba compile notice.
 
 May import: everything below the CLI (:mod:`wbc.scenario`, :mod:`wbc.controller`,

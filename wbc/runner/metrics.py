@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
+from wbc.runner.state_kernel import VIOLATIONS, state_metrics
 from wbc.runner.stats import Running
 from wbc.tasks.contact import Contact
 
@@ -37,52 +38,49 @@ def support_margin(points_xy: np.ndarray, p: np.ndarray) -> float:
     return float(np.min(-(hull.equations[:, :2] @ p + hull.equations[:, 2])))
 
 
-def polygon_margin(vertices, p) -> float:
-    """Signed distance (m) of p to the boundary of a convex polygon given by its
-    vertices in counter-clockwise order (> 0 inside): min over edges of
-    cross(e_i, p − v_i) / ‖e_i‖. Plain floats: a handful of edges is faster in Python
-    than through numpy's per-call overhead."""
-    px, py = float(p[0]), float(p[1])
-    verts = vertices.tolist() if isinstance(vertices, np.ndarray) else vertices
-    x0, y0 = verts[-1][0], verts[-1][1]
-    best = math.inf
-    for v in verts:
-        x1, y1 = v[0], v[1]
-        ex, ey = x1 - x0, y1 - y0
-        d = (ex * (py - y0) - ey * (px - x0)) / math.hypot(ex, ey)
-        best = min(best, d)
-        x0, y0 = x1, y1
-    return best
-
-
 class SupportPolygon:
     """The support polygon's hull, built once per contact set.
 
     The hull's vertex indices (counter-clockwise, scipy's ConvexHull) are kept while the
     set of contact points is unchanged and refreshed every ``refresh`` cycles (feet may
     creep or turn); in between the margin is computed on the current positions of those
-    vertices: a few flops instead of a Qhull call per cycle."""
+    vertices (:func:`~wbc.runner.state_kernel.polygon_margin`, inside the cycle's one
+    compiled call): a few flops instead of a Qhull call per cycle. Per cycle:
+    :meth:`vertices` before the margin, :meth:`counted` after it."""
 
     def __init__(self, refresh: int = 50) -> None:
         self.refresh = refresh
         self._key: tuple | None = None
-        self._vertices: np.ndarray | None = None
+        self._vertices = _NO_POINTS
         self._age = 0
+        self._counting = False
 
-    def margin(self, idx: list[int], points_xy: np.ndarray, p: np.ndarray) -> float:
-        """Signed distance (m) of p to the hull of ``points_xy[idx]`` (> 0 inside)."""
-        if len(idx) < 3 or not np.all(np.isfinite(points_xy[idx])):
-            return -np.inf                       # no support, or a simulation that diverged
-        key = tuple(idx)
-        self._age += 1
-        if key != self._key or self._age >= self.refresh:
-            self._key, self._age = key, 0
-            try:
-                self._vertices = np.asarray(idx)[ConvexHull(points_xy[idx]).vertices]
-            except QhullError:   # degenerate (collinear) support
-                self._key, self._vertices = None, None
-                return -np.inf
-        return polygon_margin(points_xy[self._vertices], p)
+    def vertices(self, key: tuple, idx: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """The hull's vertices (indices into ``points``, counter-clockwise; empty: no
+        support, a degenerate one or non-finite points: the margin is −∞) of the support
+        points ``idx`` (``key``: the same as a tuple), refreshed from ``points`` (m, xy
+        used) when the set changed or ``refresh`` cycles passed."""
+        self._counting = False
+        if len(idx) < 3:
+            return _NO_POINTS                     # no support
+        if key == self._key and self._age + 1 < self.refresh:
+            self._counting = True                 # the age counts if the points are finite
+            return self._vertices
+        xy = points[idx, :2]
+        if not np.all(np.isfinite(xy)):
+            return _NO_POINTS                     # a simulation that diverged
+        self._key, self._age = key, 0
+        try:
+            self._vertices = idx[ConvexHull(xy).vertices]
+        except QhullError:   # degenerate (collinear) support
+            self._key, self._vertices = None, _NO_POINTS
+        return self._vertices
+
+    def counted(self, finite: bool) -> None:
+        """After the cycle's margin: ``finite``, whether the support points were all finite
+        (a cycle kept the hull's age only when they were)."""
+        if finite and self._counting:
+            self._age += 1
 
 
 class ContactMetrics:
@@ -91,69 +89,62 @@ class ContactMetrics:
     Centre of pressure of a sole (a contact with at least 3 simulated points, its corners):
     p = Σ f_z,i r_i / Σ f_z,i over its points (world xy, m), and its distance to the sole's
     edge, the signed margin of p in the polygon of those points (> 0 inside,
-    :func:`polygon_margin`), in every cycle in which the sole carries more than
-    ``loaded`` × m g. Reported per contact: ``cop_edge_min`` (m, the smallest distance
-    over the run), ``cop_inside_1cm`` (the fraction of its loaded cycles with the CoP at
-    least 1 cm inside) and ``normal_force_min`` (N, the least total normal force it carried:
-    a sole near 0 N is about to slip or lift).
+    :func:`~wbc.runner.state_kernel.polygon_margin`), in every cycle in which the sole
+    carries more than ``loaded`` × m g. Reported per contact: ``cop_edge_min`` (m, the
+    smallest distance over the run), ``cop_inside_1cm`` (the fraction of its loaded cycles
+    with the CoP at least 1 cm inside) and ``normal_force_min`` (N, the least total normal
+    force it carried: a sole near 0 N is about to slip or lift).
 
     Internal force of two contacts (``internal_force``, N): with F_a, F_b the resultant
     ground forces on the first and second contact's points and d the horizontal unit
     vector from b to a, s = (F_a − F_b)·d / 2: the part of the two forces that pulls the
     contacts towards each other (s < 0: the ground pulls them together, i.e. the legs push
     the feet apart) or pushes them apart (s > 0), which no motion needs. ``mean`` and
-    ``max_abs`` over the cycles in which both are watched."""
+    ``max_abs`` over the cycles in which both are watched.
+
+    The figures are worked out by :func:`~wbc.runner.state_kernel.state_metrics` into the
+    arrays held here (one entry per sole): ``fn_min``, ``edge_min``, ``inside``, ``loaded``."""
 
     def __init__(self, contacts, pts_of: dict, p0: np.ndarray, weight: float, loaded: float = 0.02) -> None:
-        self.soles = {}
+        names, idx, verts = [], [], []
         for c in contacts:
-            idx = np.asarray(pts_of[c.name])
-            if len(idx) >= 3:
+            pts = np.asarray(pts_of[c.name], dtype=np.int64)
+            if len(pts) >= 3:
                 try:
-                    order = idx[ConvexHull(p0[idx, :2]).vertices]    # counter-clockwise corners
+                    order = pts[ConvexHull(p0[pts, :2]).vertices]    # counter-clockwise corners
                 except QhullError:
                     continue
-                self.soles[c.name] = (idx, order)
+                names.append(c.name)
+                idx.append(pts)
+                verts.append(order)
+        self.index = {name: k for k, name in enumerate(names)}
+        ns = len(names)
         self.min_force = loaded * weight
-        self.edge_min = {name: np.inf for name in self.soles}
-        self.inside = {name: 0 for name in self.soles}
-        self.loaded = {name: 0 for name in self.soles}
-        self.fn_min = {name: np.inf for name in self.soles}
+        self.fn_min = np.full(ns, np.inf)
+        self.edge_min = np.full(ns, np.inf)
+        self.inside = np.zeros(ns, dtype=np.int64)
+        self.loaded = np.zeros(ns, dtype=np.int64)
+        self.watched = np.zeros(ns, dtype=np.bool_)
+        #: the soles for the compiled call: (ptr, point indices, vertex ptr, vertex indices, watched)
+        self.soles = (_offsets(idx), _joined(idx), _offsets(verts), _joined(verts), self.watched)
         self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
+        self.pair_points = tuple(np.asarray(pts_of[n], dtype=np.int64) for n in self.pair) if self.pair \
+            else (_NO_POINTS, _NO_POINTS)
         self.internal = Running()
 
-    def record(self, pf: np.ndarray, pts: np.ndarray, watched: set, pts_of: dict) -> None:
-        for name, (idx, order) in self.soles.items():
-            if name not in watched:
-                continue
-            fz = pf[idx, 2]
-            total = float(fz.sum())
-            if total < self.fn_min[name]:
-                self.fn_min[name] = total
-            if total <= self.min_force:
-                continue
-            cop = (fz @ pts[idx, :2]) / total
-            e = polygon_margin(pts[order, :2], cop)
-            self.loaded[name] += 1
-            self.inside[name] += e >= 0.01
-            if e < self.edge_min[name]:
-                self.edge_min[name] = e
-        if self.pair is not None and self.pair[0] in watched and self.pair[1] in watched:
-            a, b = pts_of[self.pair[0]], pts_of[self.pair[1]]
-            d = pts[a, :2].mean(axis=0) - pts[b, :2].mean(axis=0)
-            n = math.hypot(d[0], d[1])
-            if n > 1e-6:
-                fa, fb = pf[a, :2].sum(axis=0), pf[b, :2].sum(axis=0)
-                s = float((fa - fb) @ d) / (2.0 * n)
-                if math.isfinite(s):
-                    self.internal.add(s)
+    def watch(self, watched: set) -> bool:
+        """Watch the soles named in ``watched``; returns whether both contacts of the pair are."""
+        for name, k in self.index.items():
+            self.watched[k] = name in watched
+        return self.pair is not None and self.pair[0] in watched and self.pair[1] in watched
 
     def summary(self, name: str) -> dict:
-        if name not in self.soles or not np.isfinite(self.fn_min[name]):
+        k = self.index.get(name)
+        if k is None or not np.isfinite(self.fn_min[k]):
             return {}
-        out = {"normal_force_min": float(self.fn_min[name])}
-        if self.loaded[name]:
-            out.update(cop_edge_min=float(self.edge_min[name]), cop_inside_1cm=self.inside[name] / self.loaded[name])
+        out = {"normal_force_min": float(self.fn_min[k])}
+        if self.loaded[k]:
+            out.update(cop_edge_min=float(self.edge_min[k]), cop_inside_1cm=int(self.inside[k]) / int(self.loaded[k]))
         return out
 
     def internal_force(self) -> dict | None:
@@ -162,10 +153,25 @@ class ContactMetrics:
         return {"mean": self.internal.mean, "max_abs": self.internal.max_abs}
 
 
+_NO_POINTS = np.zeros(0, dtype=np.int64)
+_NO_VALUES = np.zeros(0)
+
+
+def _offsets(groups: list) -> np.ndarray:
+    """The start of each group in their concatenation, and the end (len(groups) + 1)."""
+    return np.concatenate([[0], np.cumsum([len(g) for g in groups])]).astype(np.int64)
+
+
+def _joined(groups: list) -> np.ndarray:
+    return np.concatenate(groups).astype(np.int64) if groups else _NO_POINTS
+
+
 def fallen(q: np.ndarray, base_z0: float) -> bool:
     """Whether a free-flyer base that started at height ``base_z0`` (m) has fallen: below
     :data:`FALL_HEIGHT_FRACTION` of it, tilted beyond :data:`FALL_TILT`, or not finite."""
-    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT or not np.all(np.isfinite(q)))
+    # q·q is finite iff every entry is (or it overflowed: then checked entry by entry)
+    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT
+                or not (math.isfinite(q.dot(q)) or np.all(np.isfinite(q))))
 
 
 def tilt(q: np.ndarray) -> float:
@@ -315,9 +321,11 @@ class RunMetrics:
             if len(kinds) > 1:
                 self.err_split[name] = [(u, np.flatnonzero([x == u for x in units])) for u in kinds]
                 self.err_parts[name] = {u: Running() for u in kinds}
-        self.viol = {"joint_position": 0, "joint_velocity": 0, "torque": 0, "friction": 0, "unilateral": 0}
-        self.slip = {c.name: 0.0 for c in contacts}
-        self.lifted = {c.name: False for c in contacts}
+        #: per cycle counts of :data:`~wbc.runner.state_kernel.VIOLATIONS`; per contact (``contacts``'
+        #: order) the largest squared slip (m²) and whether it lifted
+        self.viol_counts = np.zeros(len(VIOLATIONS), dtype=np.int64)
+        self.slip2 = np.zeros(len(contacts))
+        self.lifted = np.zeros(len(contacts), dtype=np.bool_)
         self.margins = Running()
         self.lateral = 0.0
         self.qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
@@ -327,7 +335,19 @@ class RunMetrics:
         self.tau_hi = robot.tau_max[robot.actuated_idx] * (1 + 1e-6) + 1e-9
         self.inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
         self.hull = SupportPolygon()
-        self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
+        cm = self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
+        # the compiled call's argument groups (wbc.runner.state_kernel.state_metrics), built once:
+        # their arrays are updated in place
+        self._limits = (self.qi.astype(np.int64), self.vi.astype(np.int64), self.q_lo, self.q_hi,
+                        _NO_VALUES if self.v_hi is None else self.v_hi, np.asarray(robot.actuated_idx, dtype=np.int64),
+                        self.tau_hi, float(mu_max))
+        self._watched = np.zeros(len(contacts), dtype=np.bool_)
+        groups = [np.asarray(pts_of[c.name], dtype=np.int64) for c in contacts]
+        self._contact_points = (_offsets(groups), _joined(groups), self._watched)
+        self._pair = (*cm.pair_points, False)
+        self._acc = (self.viol_counts, self.slip2, self.lifted, cm.fn_min, cm.edge_min, cm.inside, cm.loaded,
+                     float(cm.min_force))
+        self._support: tuple = (-1, _NO_POINTS, ())     # (stack version, support point indices, as a tuple)
         self.relaxed_cycles = self.saturated_cycles = 0
         #: per level, cycles whose σ_min fell below the damping threshold (index: level)
         self.singular_cycles: list[int] = []
@@ -347,6 +367,10 @@ class RunMetrics:
         self.err_live = [(name, task, name in stack) for name, task in self.err_tasks]
         self.watched = [(c.name, np.asarray(self.pts_of[c.name])) for c in self.contacts if c.name not in switched]
         self.watched_names = {name for name, _ in self.watched}
+        for k, c in enumerate(self.contacts):
+            self._watched[k] = c.name in self.watched_names
+        both = self.contact_metrics.watch(self.watched_names)
+        self._pair = (*self._pair[:2], both)
 
     def record_command(self, sol) -> None:
         """The cycle's solution: relaxed/saturated, torque ratios (sent and asked), task
@@ -354,7 +378,7 @@ class RunMetrics:
         self.relaxed_cycles += sol.relaxed
         self.saturated_cycles += sol.saturated
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
-        self.tau_ratio_max = max(self.tau_ratio_max, float(np.max(np.abs(sol.tau) * self.inv_tau_max, initial=0.0)))
+        self.tau_ratio_max = max(self.tau_ratio_max, float((np.abs(sol.tau) * self.inv_tau_max).max(initial=0.0)))
         errs, robot = self.errs, self.robot
         split, parts = self.err_split, self.err_parts
         for name, task, live in self.err_live:
@@ -389,39 +413,27 @@ class RunMetrics:
             counts[k] += 1
 
     def record_state(self, t: float, sim, sol, stack) -> None:
-        """The true (simulated) state after the step."""
+        """The true (simulated) state after the step: limits, contacts, soles, the internal
+        force and the CoM's support margin in one compiled call
+        (:func:`~wbc.runner.state_kernel.state_metrics`)."""
         qs, vs = sim.q, sim.v
-        viol, qi, vi = self.viol, self.qi, self.vi
-        if len(qi):
-            qj = qs[qi]
-            if (qj < self.q_lo).any() or (qj > self.q_hi).any():
-                viol["joint_position"] += 1
-            if (np.abs(vs[vi]) > self.v_hi).any():
-                viol["joint_velocity"] += 1
-        if (np.abs(sol.tau_full[self.robot.actuated_idx]) > self.tau_hi).any():
-            viol["torque"] += 1
         pf = sim.point_forces
-        fn = pf[:, 2]
-        if np.any(fn < -1e-6):
-            viol["unilateral"] += 1
-        if np.any(np.linalg.norm(pf[:, :2], axis=1) > self.mu_max * fn + 1e-6):
-            viol["friction"] += 1
         pts = sim.point_positions()
-        d = pts - self.p0
-        slip2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
-        up = d[:, 2] > 1e-3
-        for name, idx in self.watched:
-            s2 = float(slip2[idx].max())
-            self.slip[name] = max(self.slip[name], s2)          # squared until the end
-            if not self.lifted[name] and up[idx].any():
-                self.lifted[name] = True
-        self.contact_metrics.record(pf, pts, self.watched_names, self.pts_of)
-        # the controller removes a released contact when its force ramp ends: membership per cycle
-        support_idx = [i for c in self.contacts if c.name in stack for i in self.pts_of[c.name]]
-        if support_idx:
+        support = self._support_points(stack)
+        idx = support[1]
+        if len(idx):
             # true CoM, the simulator's model and data (its own com(): the kinematics point_positions ran)
             robot_com = sim.com() if hasattr(sim, "com") else pin.centerOfMass(sim.model, sim.data, qs)
-            margin = self.hull.margin(support_idx, pts[:, :2], robot_com[:2])
+            verts = self.hull.vertices(support[2], idx, pts)
+            where = (idx, verts, float(robot_com[0]), float(robot_com[1]))
+        else:
+            where = (idx, _NO_POINTS, 0.0, 0.0)
+        s, finite, margin = state_metrics(qs, vs, sol.tau_full, pf, pts, self.p0, self._limits, self._contact_points,
+                                          self.contact_metrics.soles, self._pair, where, self._acc)
+        if math.isfinite(s):    # NaN: the pair not watched, or its contacts coincide
+            self.contact_metrics.internal.add(s)
+        if len(idx):
+            self.hull.counted(finite)
             self.margins.add(margin)
         else:
             margin = np.nan
@@ -430,6 +442,16 @@ class RunMetrics:
                             [pf[self.pts_of[c.name]].sum(axis=0) for c in self.contacts], margin)
         if self.robot.differential_drive:
             self.lateral = max(self.lateral, abs(vs[1]))
+
+    def _support_points(self, stack) -> tuple:
+        """(stack version, the points of the contacts in ``stack``, the same as a tuple): the
+        controller removes a released contact when its force ramp ends, so membership is read
+        at each change of the stack's structure (its ``version``)."""
+        got = self._support
+        if got[0] != stack.version:
+            idx = [i for c in self.contacts if c.name in stack for i in self.pts_of[c.name]]
+            got = self._support = (stack.version, np.asarray(idx, dtype=np.int64), tuple(idx))
+        return got
 
     def _task_summary(self, name: str, err: Running) -> dict:
         out = {**err.stats(), "unit": self.err_units[name]}
@@ -443,10 +465,10 @@ class RunMetrics:
             # per task the norm of its error (rms, max, final over the cycles) in "unit"; a
             # task that mixes units (a pose: m and rad) also has each unit's part apart
             "tasks": {k: self._task_summary(k, v) for k, v in self.errs.items() if v},
-            "violations": self.viol,
-            "contacts": {c.contact: {"slip": math.sqrt(self.slip[c.name]), "lifted": self.lifted[c.name],
+            "violations": {name: int(n) for name, n in zip(VIOLATIONS, self.viol_counts, strict=True)},
+            "contacts": {c.contact: {"slip": math.sqrt(float(self.slip2[k])), "lifted": bool(self.lifted[k]),
                                      **self.contact_metrics.summary(c.name)}
-                         for c in self.contacts if c.name not in switched},
+                         for k, c in enumerate(self.contacts) if c.name not in switched},
             # cycles with a relaxed level (an inequality that could not hold), cycles whose
             # torque the controller clipped at ±τ_max, the worst |τ_i|/τ_max,i sent (≤ 1) and
             # asked for by the solver before the clipping
