@@ -49,7 +49,7 @@ from ..tasks.com import CoM
 from ..tasks.force import Force
 from ..tasks.frame import Frame
 from . import server
-from .collisions import draw_witnesses
+from .collisions import BINS, add_witness_nodes, slot_path, witness_slots
 from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
 from .meshes import cluster, geometry_mesh, visual_model
@@ -160,6 +160,7 @@ class Scene:
         self.live = (not record) if live is None else bool(live)   # draw to the server's page too
         self._target = None        # where _draw writes: None (the live scene) or an animation frame
         self._poses: dict[str, np.ndarray] = {}   # recording: each node's last rigid transform
+        self._witness_tasks: set[str] = set()      # collision tasks whose witness slots exist
         self._frame = 0
         self._diag_frames: list[int] = []
         self._diag_text: list[list[tuple[str, str]]] = []
@@ -325,8 +326,8 @@ class Scene:
             self._legend = [line for task in stack if isinstance(task, Force)
                             for line in self._draw_task_force(task, stack)]
             for task in stack:
-                if isinstance(task, CollisionAvoidance) and self._target is None:     # live only
-                    draw_witnesses(self.vis, task)
+                if isinstance(task, CollisionAvoidance):
+                    self._draw_witnesses(task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
             pin.updateFramePlacement(m, d, fid)
@@ -340,6 +341,27 @@ class Scene:
                 self._place(f"extras/{name}", *_arrow_pose(*arrow), hideable=True)
         for name, p in (points or {}).items():
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
+
+    def _draw_witnesses(self, task) -> None:
+        """A collision task's closest pairs' witness segments (:mod:`wbc.viz.collisions`): its
+        slots' fixed objects made on first use, then per frame each slot placed (or hidden) and
+        its distance's colour bin alone visible, live and in a recording alike."""
+        if task.name not in self._witness_tasks:
+            add_witness_nodes(self.vis, task)
+            self._witness_tasks.add(task.name)
+        for slot, drawn in enumerate(witness_slots(task)):
+            path = slot_path(task, slot)
+            if drawn is None:
+                self._hide(path)
+                continue
+            T, scale, b = drawn
+            self._place(path, T, scale, hideable=True)
+            for j in range(BINS):
+                node = self._node(f"{path}/c{j}")
+                if self._target is None:
+                    node.set_property("visible", j == b)
+                else:
+                    node.set_property("visible", "boolean", j == b)
 
     def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """(point, desired, measured) of a force task at the last drawn state
