@@ -242,8 +242,8 @@ class VelocityController:
         for _ in range(CORRECTION_PASSES):
             added = False
             for i, (t, rows) in enumerate(plan.collision_rows):
-                n = collision_correction(t, rows, self.robot, q, res.x[:nv], dt, used[i])
-                added |= n > used[i]
+                n, written = collision_correction(t, rows, self.robot, q, res.x[:nv], dt, used[i])
+                added |= written > 0
                 used[i] = n
             if not added:
                 break

@@ -331,7 +331,7 @@ SHORT = 0.125
 
 
 def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray, dt: float, used: int,
-                         tol: float = 1e-4) -> int:
+                         tol: float = 1e-4) -> tuple[int, int]:
     """Check the damper at the commanded next configuration and re-linearise where it fails.
 
     A row promises, to first order, d(q ⊕ q̇ dt) ≥ d_t = d + dt ḋ_min (ḋ_min = −ξ (d − d_s)/(d_i − d_s)).
@@ -349,7 +349,8 @@ def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray,
     command keeps it), pairs breaking their promise by the most first. Without that, a pair with
     no row could be carried below d_s by the command and refused by the step check
     (:mod:`wbc.collision.step`), which then scales the command to nothing, every cycle. Returns
-    the number of rows now used (``used`` plus those added; at most ``max_rows``).
+    (the number of rows now used: ``used`` plus those added, at most ``max_rows``; the rows
+    written, added or over another).
 
     Args:
         task: the :class:`~wbc.tasks.collision_avoidance.CollisionAvoidance` task whose rows
@@ -364,7 +365,7 @@ def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray,
     """
     r, order = task.last
     if not len(order):
-        return used
+        return used, 0
     if task.correction_data is None:
         task.correction_data = (robot.model.createData(), task.model.new_geometry_data())
     data, gd = task.correction_data
@@ -388,13 +389,14 @@ def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray,
     d_next = np.where(short, room_s / SHORT, d_next)
     failing = np.flatnonzero(room < -tol)
     if not len(failing):
-        return used
+        return used, 0
     nv = len(qd)
     C, lo, hi = rows.C, rows.lo, rows.hi
     assert C is not None and lo is not None and hi is not None      # collision_velocity_rows' rows
     # rows that may be given up when the task's rows are full: the pairs' own rows (not a
     # correction row), their pair keeping the most room at q_next
     spare = [j for j in np.argsort(-room[:nrow]).tolist() if room[j] >= 0.0]
+    written = 0
     for i in failing[np.argsort(room[failing])].tolist():
         if used < task.max_rows:
             slot = used
@@ -406,4 +408,5 @@ def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray,
         C[slot] = J_next[i, :nv]
         lo[slot] = J_next[i, :nv] @ qd + (target[i] - d_next[i]) / dt
         hi[slot] = np.inf
-    return used
+        written += 1
+    return used, written
