@@ -47,14 +47,16 @@ def slot_path(task, slot: int) -> str:
     return f"collision/{task.name}/{slot}"
 
 
-def add_witness_nodes(vis, task, count: int = COUNT) -> None:
+def add_witness_nodes(vis, task, count: int = COUNT) -> str:
     """The fixed objects of a collision task's ``count`` slots (module docstring) in the meshcat
-    visualizer ``vis``: per slot and bin a unit segment (0, 0, 0)–(1, 0, 0) of the bin's colour."""
+    visualizer ``vis``: per slot and bin a unit segment (0, 0, 0)–(1, 0, 0) of the bin's colour.
+    Returns the task's name."""
     unit = np.array([[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]], dtype=np.float32)
     for slot in range(count):
         for b in range(BINS):
             vis[f"{slot_path(task, slot)}/c{b}"].set_object(mg.Line(mg.PointsGeometry(unit), mg.LineBasicMaterial(
                 color=bin_color(b, task.safety, task.influence), linewidth=4)))
+    return task.name
 
 
 def segment_pose(p1: np.ndarray, p2: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, list[float]]:
@@ -88,3 +90,18 @@ def witness_slots(task, count: int = COUNT) -> list[tuple[np.ndarray, list[float
         T, scale = segment_pose(rows.p1[i], rows.p2[i], rows.normal[i])
         out.append((T, scale, color_bin(float(rows.d[i]), task.safety, task.influence)))
     return out
+
+
+def draw_witness_slots(task, place, hide, show, count: int = COUNT) -> None:
+    """Draw a collision task's slots (module docstring) through a scene's callbacks:
+    ``place(path, T, scale)`` a slot's group, ``hide(path)`` a slot without a pair, and
+    ``show(path, visible)`` each of its colour bins' segments (the distance's bin alone visible)."""
+    for slot, drawn in enumerate(witness_slots(task, count)):
+        path = slot_path(task, slot)
+        if drawn is None:
+            hide(path)
+            continue
+        T, scale, b = drawn
+        place(path, T, scale)
+        for j in range(BINS):
+            show(f"{path}/c{j}", j == b)

@@ -49,7 +49,7 @@ from ..tasks.com import CoM
 from ..tasks.force import Force
 from ..tasks.frame import Frame
 from . import server
-from .collisions import BINS, add_witness_nodes, slot_path, witness_slots
+from .collisions import add_witness_nodes, draw_witness_slots
 from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
 from .meshes import cluster, geometry_mesh, visual_model
@@ -325,9 +325,8 @@ class Scene:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
             self._legend = [line for task in stack if isinstance(task, Force)
                             for line in self._draw_task_force(task, stack)]
-            for task in stack:
-                if isinstance(task, CollisionAvoidance):
-                    self._draw_witnesses(task)
+            for task in (t for t in stack if isinstance(t, CollisionAvoidance)):
+                self._draw_witnesses(task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
             pin.updateFramePlacement(m, d, fid)
@@ -342,26 +341,12 @@ class Scene:
         for name, p in (points or {}).items():
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
 
-    def _draw_witnesses(self, task) -> None:
-        """A collision task's closest pairs' witness segments (:mod:`wbc.viz.collisions`): its
-        slots' fixed objects made on first use, then per frame each slot placed (or hidden) and
-        its distance's colour bin alone visible, live and in a recording alike."""
-        if task.name not in self._witness_tasks:
-            add_witness_nodes(self.vis, task)
-            self._witness_tasks.add(task.name)
-        for slot, drawn in enumerate(witness_slots(task)):
-            path = slot_path(task, slot)
-            if drawn is None:
-                self._hide(path)
-                continue
-            T, scale, b = drawn
-            self._place(path, T, scale, hideable=True)
-            for j in range(BINS):
-                node = self._node(f"{path}/c{j}")
-                if self._target is None:
-                    node.set_property("visible", j == b)
-                else:
-                    node.set_property("visible", "boolean", j == b)
+    def _draw_witnesses(self, task) -> None:     # a collision task's witness segments (wbc.viz.collisions)
+        if task.name not in self._witness_tasks:        # its slots' fixed objects, on first use
+            self._witness_tasks.add(add_witness_nodes(self.vis, task))
+        rec = self._target is not None      # a recording's set_property takes the value's type too
+        draw_witness_slots(task, lambda p, T, s: self._place(p, T, s, hideable=True), self._hide,
+                           lambda p, on: self._node(p).set_property("visible", *(("boolean", on) if rec else (on,))))
 
     def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """(point, desired, measured) of a force task at the last drawn state
