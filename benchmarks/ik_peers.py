@@ -20,8 +20,9 @@ own conversions; the convergence runs (``solve``) convert configurations between
 
 Measured per solver, interleaved (each round runs every solver once at the same state):
 ``time per solve`` (median over ROUNDS solves at q0, ms), ``iterations`` (full steps
-q ← q ⊕ Δq from q0 until ‖Δq‖ < 1e-9, at most 200), and the converged pose's errors (hand,
-CoM, feet drift in m; posture ‖q0 ⊖ q‖ over the joints in rad).
+q ← q ⊕ Δq from q0 until ‖Δq‖ < 1e-9, at most 200; the unreachable case: until three steps
+in a row are, at most 600, as wbc's step check may hold one step and not the next), and the
+converged pose's errors (hand, CoM, feet drift in m; posture ‖q0 ⊖ q‖ over the joints in rad).
 
 Unreachable case (``--unreachable``): the right gripper's target at the centre of the torso's
 convex hull (``torso_2_link_0``'s bounding box centre): wbc with ``collision_avoidance`` at level 0 (self
@@ -306,7 +307,7 @@ def timing(solvers: list, q0: np.ndarray, rounds: int) -> np.ndarray:
 
 def converge(pb: Problem, s, distances=None) -> tuple[np.ndarray, int, float]:
     """(final q, iterations, smallest monitored distance on the way) from q0."""
-    q, dmin = pb.q0.copy(), np.inf
+    q, dmin, still = pb.q0.copy(), np.inf, 0
     for k in range(MAX_ITER if distances is None else 3 * MAX_ITER):
         try:
             dq = s.solve(q)
@@ -316,8 +317,12 @@ def converge(pb: Problem, s, distances=None) -> tuple[np.ndarray, int, float]:
         q = pin.integrate(pb.model, q, dq)
         if distances is not None:
             dmin = min(dmin, distances(q))
-        if np.linalg.norm(dq) < 1e-9:
-            return q, k + 1, dmin
+        if np.linalg.norm(dq) >= 1e-9:
+            still = 0
+        elif distances is None or still == 2:     # converged (collisions: three zero steps in a row,
+            return q, k + 1 - still, dmin         # as wbc's step check may hold one step and not the next)
+        else:
+            still += 1
     return q, k + 1, dmin
 
 

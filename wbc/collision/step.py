@@ -9,10 +9,18 @@ broad-phase bound cannot prove d ≥ d_s gets coal's exact distance
 (:func:`distances_below`), and α is accepted when every
 such pair keeps
 
-    d_k(q⁺(α)) ≥ min(d_s − tol, d_k(q))
+    d_k(q⁺(α)) ≥ d_s − tol             if d_k(q) ≥ d_s − tol,
+    d_k(q⁺(α)) ≥ d_s − slack           if d_s − slack ≤ d_k(q) < d_s − tol,
+    d_k(q⁺(α)) ≥ d_k(q)                otherwise
 
-(a pair already below d_s at q must not get nearer: no tolerance there, else a long run of
-shortened steps could lose tol at each). α = 1 is tried first (one broad phase
+(a pair already below d_s − slack must not get nearer, else a long run of shortened steps
+could lose a little at each; ``slack`` = :data:`STEP_SLACK` = 0.5 mm, so no pair ever lands
+below d_s − 0.5 mm that was not there already). The band between d_s − slack and d_s − tol
+is there because the distance between hulls has kinks (two features tied): at a kink the
+rows' J_d, of one feature, can promise ḋ ≥ 0 while the other feature nears, so that every
+α > 0 of the direction brings a pair just below d_s nearer; with the floor at d_k(q), the
+step check then refused the whole command, the same at the next cycle, and a velocity IK
+(``benchmarks/ik_peers.py --unreachable``) stopped for good 9.8 mm from d_s = 10 mm. α = 1 is tried first (one broad phase
 and a few exact pairs: the collision-free cycle's whole cost); when it fails, α is bisected
 between the last accepted and the last refused value. Scaling the whole step keeps each
 task's direction, so the hierarchy's choice is kept and no level is traded for the
@@ -26,12 +34,14 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["STEP_CHECKS", "STEP_TOL", "distances_below", "step_scale"]
+__all__ = ["STEP_CHECKS", "STEP_SLACK", "STEP_TOL", "distances_below", "step_scale"]
 
 #: bisection checks after α = 1 fails (the returned α is within 2⁻ⁿ of the largest safe one)
 STEP_CHECKS = 6
 #: how far (m) below its floor a pair may land before the step is shortened
 STEP_TOL = 1e-4
+#: how far (m) below d_s a pair already within ``STEP_TOL`` … this of d_s may land (module docstring)
+STEP_SLACK = 5e-4
 
 
 def distances_below(model, q: np.ndarray, floor: float, data: pin.Data,
@@ -81,7 +91,8 @@ def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.
     if not len(ks) or d.min() >= safety - tol:
         return 1.0, None, np.inf
     below0, d0 = distances_below(model, q, safety, data, geometry_data, cmap)
-    floors = dict(zip(below0.tolist(), np.minimum(d0, safety - tol).tolist()))
+    floors = dict(zip(below0.tolist(), np.where(d0 >= safety - tol, safety - tol,
+                                                np.where(d0 >= safety - STEP_SLACK, safety - STEP_SLACK, d0)).tolist()))
 
     def worst(ks: np.ndarray, d: np.ndarray) -> tuple[int, float]:
         """The pair furthest below its floor and by how much (m; < 0: refused)."""

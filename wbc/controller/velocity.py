@@ -218,12 +218,15 @@ class VelocityController:
         status, relaxed = solve_status(ok, res)
         if not ok:
             qd = np.zeros(nv)
-        elif plan.collision_rows:
+        direction = qd
+        if ok and plan.collision_rows:
             qd, note = self._step_checked(q, qd, plan)
             if note:
                 message = f"{message}; {note}" if message else note
         buf = plan.buffer
-        values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
+        # the levels' diagnostics are the hierarchy's solution's: a step scaled by α (every level alike) is
+        # reported in the message and the faults, not as every equality level sacrificed
+        values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, direction)
         evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel))
@@ -239,8 +242,8 @@ class VelocityController:
         for _ in range(CORRECTION_PASSES):
             added = False
             for i, (t, rows) in enumerate(plan.collision_rows):
-                n = collision_correction(t, rows, self.robot, q, res.x[:nv], dt, used[i])
-                added |= n > used[i]
+                n, written = collision_correction(t, rows, self.robot, q, res.x[:nv], dt, used[i])
+                added |= written > 0
                 used[i] = n
             if not added:
                 break

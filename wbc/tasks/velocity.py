@@ -326,21 +326,31 @@ def _collision_writer(task, robot, nv: int, out: Rows | None) -> tuple[Writer, R
     return write, Rows(C=C, lo=lo, hi=hi)
 
 
+#: the fraction of the command :func:`collision_correction` also checks
+SHORT = 0.125
+
+
 def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray, dt: float, used: int,
-                         tol: float = 1e-4) -> int:
+                         tol: float = 1e-4) -> tuple[int, int]:
     """Check the damper at the commanded next configuration and re-linearise where it fails.
 
     A row promises, to first order, d(q ⊕ q̇ dt) ≥ d_t = d + dt ḋ_min (ḋ_min = −ξ (d − d_s)/(d_i − d_s)).
     The distance between convex hulls is only piecewise smooth (its witness features switch as
     the links turn) and curved, so a step the row allows can bring another feature closer: d at
     the commanded q_next is computed exactly (coal, :meth:`~wbc.collision.model.CollisionModel.rows_at`)
-    and, for each pair with d_next < d_t − ``tol``, a row linearised at q_next is added to the
-    task's unused rows,
+    for every pair within the influence distance, with a row or not (more near pairs than
+    ``max_rows``: those beyond the nearest have none), and, for each pair with d_next < d_t −
+    ``tol``, a row linearised at q_next is written,
 
         d_next + J_next (q̇' − q̇) dt ≥ d_t,   i.e.   J_next q̇' ≥ J_next q̇ + (d_t − d_next)/dt,
 
-    (one Gauss–Newton step on the violated constraint). Returns the number of rows now used
-    (``used`` plus those added; at most ``max_rows``).
+    (one Gauss–Newton step on the violated constraint), into the task's unused rows; when none is
+    left, over the row of the pair with the most room at q_next (d_next − d_t largest, ≥ 0: the
+    command keeps it), pairs breaking their promise by the most first. Without that, a pair with
+    no row could be carried below d_s by the command and refused by the step check
+    (:mod:`wbc.collision.step`), which then scales the command to nothing, every cycle. Returns
+    (the number of rows now used: ``used`` plus those added, at most ``max_rows``; the rows
+    written, added or over another).
 
     Args:
         task: the :class:`~wbc.tasks.collision_avoidance.CollisionAvoidance` task whose rows
@@ -354,23 +364,49 @@ def collision_correction(task, rows: Rows, robot, q: np.ndarray, qd: np.ndarray,
         tol: how far (m) below its promise a distance may land before a row is added.
     """
     r, order = task.last
-    if not len(order) or used >= task.max_rows:
-        return used
+    if not len(order):
+        return used, 0
     if task.correction_data is None:
         task.correction_data = (robot.model.createData(), task.model.new_geometry_data())
     data, gd = task.correction_data
-    ks = r.pairs[order]
+    nrow = len(order)
+    # the rows' pairs first (row j holds pair order[j] for j < len(order)), then the near pairs without one
+    idx = np.concatenate([order, np.setdiff1d(np.arange(len(r.d)), order, assume_unique=True)])
+    ks = r.pairs[idx]
+    d0 = r.d[idx]
+    rate = -task.max_speed * (d0 - task.safety) / (task.influence - task.safety)
     d_next, J_next = task.model.rows_at(pin.integrate(robot.model, q, qd * dt), ks, data, gd)
-    d0 = r.d[order]
-    target = d0 - dt * task.max_speed * (d0 - task.safety) / (task.influence - task.safety)
+    target = d0 + dt * rate
+    room = d_next - target
+    # a short step too: at a kink (two features tied) a feature the rows do not hold may near first
+    d_s, J_s = task.model.rows_at(pin.integrate(robot.model, q, qd * (SHORT * dt)), ks, data, gd)
+    room_s = d_s - (d0 + SHORT * dt * rate)
+    short = (room_s < -tol) & (room_s < room)
+    d_next, J_next, room = d_next.copy(), J_next.copy(), np.where(short, room_s, room)
+    # the short step's linearisation, written as the full step's: J (q̇' − q̇) SHORT dt ≥ −room_s
+    J_next[short] = J_s[short]
+    target = np.where(short, 0.0, target)
+    d_next = np.where(short, room_s / SHORT, d_next)
+    failing = np.flatnonzero(room < -tol)
+    if not len(failing):
+        return used, 0
     nv = len(qd)
     C, lo, hi = rows.C, rows.lo, rows.hi
     assert C is not None and lo is not None and hi is not None      # collision_velocity_rows' rows
-    for i in np.flatnonzero(d_next < target - tol):
-        if used >= task.max_rows:
+    # rows that may be given up when the task's rows are full: the pairs' own rows (not a
+    # correction row), their pair keeping the most room at q_next
+    spare = [j for j in np.argsort(-room[:nrow]).tolist() if room[j] >= 0.0]
+    written = 0
+    for i in failing[np.argsort(room[failing])].tolist():
+        if used < task.max_rows:
+            slot = used
+            used += 1
+        elif spare:
+            slot = spare.pop(0)
+        else:
             break
-        C[used] = J_next[i, :nv]
-        lo[used] = J_next[i, :nv] @ qd + (target[i] - d_next[i]) / dt
-        hi[used] = np.inf
-        used += 1
-    return used
+        C[slot] = J_next[i, :nv]
+        lo[slot] = J_next[i, :nv] @ qd + (target[i] - d_next[i]) / dt
+        hi[slot] = np.inf
+        written += 1
+    return used, written

@@ -55,7 +55,7 @@ from ..tasks.com import CoM
 from ..tasks.force import Force
 from ..tasks.frame import Frame
 from . import server
-from .collisions import draw_witnesses
+from .collisions import add_witness_nodes, draw_witness_slots
 from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
 from .meshes import cluster, geometry_mesh, visual_model
@@ -166,6 +166,7 @@ class Scene:
         self.live = (not record) if live is None else bool(live)   # draw to the server's page too
         self._target = None        # where _draw writes: None (the live scene) or an animation frame
         self._poses: dict[str, np.ndarray] = {}   # recording: each node's last rigid transform
+        self._witness_tasks: set[str] = set()      # collision tasks whose witness slots exist
         self._frame = 0
         self._diag_frames: list[int] = []
         self._diag_text: list[list[tuple[str, str]]] = []
@@ -330,9 +331,8 @@ class Scene:
                     self._node(f"targets/{task.name}").set_transform(task.target.homogeneous)
             self._legend = [line for task in stack if isinstance(task, Force)
                             for line in self._draw_task_force(task, stack)]
-            for task in stack:
-                if isinstance(task, CollisionAvoidance) and self._target is None:     # live only
-                    draw_witnesses(self.vis, task)
+            for task in (t for t in stack if isinstance(t, CollisionAvoidance)):
+                self._draw_witnesses(task)
         for name in self.frames:
             fid = self.robot.frame_id(name)
             pin.updateFramePlacement(m, d, fid)
@@ -346,6 +346,13 @@ class Scene:
                 self._place(f"extras/{name}", *_arrow_pose(*arrow), hideable=True)
         for name, p in (points or {}).items():
             self._node(f"extras/{name}").set_transform(mt.translation_matrix(p))
+
+    def _draw_witnesses(self, task) -> None:     # a collision task's witness segments (wbc.viz.collisions)
+        if task.name not in self._witness_tasks:        # its slots' fixed objects, on first use
+            self._witness_tasks.add(add_witness_nodes(self.vis, task))
+        rec = self._target is not None      # a recording's set_property takes the value's type too
+        draw_witness_slots(task, lambda p, T, s: self._place(p, T, s, hideable=True), self._hide,
+                           lambda p, on: self._node(p).set_property("visible", *(("boolean", on) if rec else (on,))))
 
     def task_forces(self, task, stack) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """(point, desired, measured) of a force task at the last drawn state
