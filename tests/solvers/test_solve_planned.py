@@ -1,0 +1,59 @@
+"""HierarchicalQP.solve_planned (the velocity plan's entry) gives solve's result bit for bit:
+x, the QP count and every level's record, both when the compiled run solves every level
+(its records then decoded only when read) and when it stops at a level for a back-end QP
+(certify off, a hand target the joint limits refuse); the weighted QP, a subclass that solves
+otherwise, is handed to its own solve."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wbc import Controller, Stack
+from wbc.problem.result import DeferredLevels
+from wbc.solvers.hqp import HierarchicalQP
+from wbc.solvers.weighted import WeightedQP
+from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture
+
+
+def _problem(robot, hand_offset):
+    robot.update(robot.q_default.copy(), np.zeros(robot.nv))
+    hand = Frame("right_hand", mask="position")
+    hand.target = robot.frame_placement(robot.frame_id("right_hand")).translation + hand_offset
+    com = CoM(target=robot.com.copy())
+    stack = Stack([[Contact("left_foot"), Contact("right_foot"), JointLimits(horizon=1.0)], [com], [hand],
+                   [Posture()]])
+    ctrl = Controller(robot, stack, mode="velocity", dt=1.0, gain=1.0)
+    ctrl.solve(robot.q_default.copy())          # plans the rows at q0
+    return ctrl._plan.problem
+
+
+def _same(a, b):
+    assert np.array_equal(a.x, b.x)
+    assert (a.ok, a.qp_count, a.message, a.degraded) == (b.ok, b.qp_count, b.message, b.degraded)
+    assert len(a.levels) == len(b.levels)
+    for la, lb in zip(a.levels, b.levels):
+        assert (la.index, la.rank, la.dof_before, la.used_qp, la.qp_status, la.relaxed) == \
+            (lb.index, lb.rank, lb.dof_before, lb.used_qp, lb.qp_status, lb.relaxed)
+        assert la.sigma() == lb.sigma()
+
+
+@pytest.mark.parametrize("certify", [True, False])
+@pytest.mark.parametrize("offset", [(0.10, -0.05, 0.10), (0.0, -2.0, 0.0)])
+def test_solve_planned_is_solve(talos, certify, offset):
+    p = _problem(talos, np.array(offset))
+    ref, fast = HierarchicalQP(certify=certify, margin=1e-3), HierarchicalQP(certify=certify, margin=1e-3)
+    for _ in range(3):                          # the second and later calls reuse the run's arguments
+        a, b = ref.solve(p), fast.solve_planned(p)
+        _same(a, b)
+    if offset[1] == -2.0 and not certify:      # the run stopped at a level: the back-end went on from there
+        assert a.qp_count > 0
+        assert not isinstance(b.levels, DeferredLevels)
+    if offset[1] != -2.0:
+        assert isinstance(b.levels, DeferredLevels)
+
+
+def test_weighted_takes_its_own_solve(talos):
+    p = _problem(talos, np.array([0.10, -0.05, 0.10]))
+    a, b = WeightedQP().solve(p), WeightedQP().solve_planned(p)
+    assert np.array_equal(a.x, b.x)
