@@ -1,8 +1,8 @@
 """HierarchicalQP.solve_planned (the velocity plan's entry) gives solve's result bit for bit:
 x, the QP count and every level's record, both when the compiled run solves every level
 (its records then decoded only when read) and when it stops at a level for a back-end QP
-(certify off, a hand target the joint limits refuse); the weighted QP, a subclass that solves
-otherwise, is handed to its own solve."""
+(a hand target the joint limits refuse: certify off, or a QP the certificate does not
+settle); the weighted QP, a subclass that solves otherwise, is handed to its own solve."""
 
 from __future__ import annotations
 
@@ -39,18 +39,19 @@ def _same(a, b):
 
 
 @pytest.mark.parametrize("certify", [True, False])
-@pytest.mark.parametrize("offset", [(0.10, -0.05, 0.10), (0.0, -2.0, 0.0)])
-def test_solve_planned_is_solve(talos, certify, offset):
+@pytest.mark.parametrize("offset, kind", [((0.10, -0.05, 0.10), "free"),      # no limit active
+                                          ((-0.4, 0.0, 0.0), "certified"),    # QPs the run certifies
+                                          ((0.0, 0.0, 0.6), "backend")])      # the run stops for the back-end
+def test_solve_planned_is_solve(talos, certify, offset, kind):
     p = _problem(talos, np.array(offset))
     ref, fast = HierarchicalQP(certify=certify, margin=1e-3), HierarchicalQP(certify=certify, margin=1e-3)
     for _ in range(3):                          # the second and later calls reuse the run's arguments
         a, b = ref.solve(p), fast.solve_planned(p)
         _same(a, b)
-    if offset[1] == -2.0 and not certify:      # the run stopped at a level: the back-end went on from there
+    if kind != "free":
         assert a.qp_count > 0
-        assert not isinstance(b.levels, DeferredLevels)
-    if offset[1] != -2.0:
-        assert isinstance(b.levels, DeferredLevels)
+    # the whole run compiled: records deferred; stopped at a level: solve_levels' loop went on
+    assert isinstance(b.levels, DeferredLevels) == (kind == "free" or (kind == "certified" and certify))
 
 
 def test_weighted_takes_its_own_solve(talos):

@@ -153,7 +153,8 @@ class HierarchicalQP:
         if out[0] != L:
             return self._cascade(levels, problem.layout.nx, "", x0, None, problem.rows, None, margin, out)
         ints, floats = out[4], out[5]
-        certified = int(ints[CERTIFIED_FIELD:LEVEL_INTS * L:LEVEL_INTS].sum())
+        item = ints.item
+        certified = sum(item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
         infos = DeferredLevels(partial(_decoded, ints, floats, levels))
         return SolveResult(out[1], infos, True, certified, "")
 
