@@ -42,15 +42,14 @@ answer is computed, not the answer (the fallback back-end is not warm-started).
 
 from __future__ import annotations
 
-from functools import partial
-
 import numpy as np
 
 from ..problem.problem import Problem
-from ..problem.result import CERTIFIED, DeferredLevels, LevelInfo, SolveResult
+from ..problem.result import CERTIFIED, LevelInfo, SolveResult
 from ..problem.rows import Level, StackedRows
 from .backends import Backend, QPResult, make_backend
-from .cascade import _NO_BASIS, GRAM_MIN_RATIO, Cascade, Damping, adopt_run
+from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
+from .hqp_planned import PlannedEntry
 from .hqp_rows import LevelRows, StackPlan
 from .kernels import prepare
 from .kernels.active_set import certified_active_set, certified_from
@@ -63,15 +62,14 @@ from .kernels.qp_rows import (
     max_violation,
     nearest_feasible_rows,
 )
-from .kernels.records import CERTIFIED as CERTIFIED_FIELD
-from .kernels.records import LEVEL_INTS, decode, hint_table
+from .kernels.records import hint_table
 
 #: the last fallback of a level's QP that both back-ends failed: its Hessian's diagonal raised by
 #: this fraction of its mean diagonal (at least 1; unitless), trading the level's optimum
 #: for a well-conditioned QP; the result is reported degraded
 LAST_RESORT_REGULARIZATION = 1e-3
 
-class HierarchicalQP:
+class HierarchicalQP(PlannedEntry):
     """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names;
     ``margin`` (units of each inequality row: N, N·m, rad/s²) the room a QP keeps
     from a limit where it can, so later levels rarely need one (none at the lowest level:
@@ -122,42 +120,6 @@ class HierarchicalQP:
         return self.solve_levels(problem.levels, problem.layout.nx, x_ref=problem.x_ref,
                                  stacked=problem.rows, margin=problem.margin)
 
-    def solve_planned(self, problem: Problem) -> SolveResult:
-        """:meth:`solve` (the same result, bit for bit) for a problem whose rows stay in the
-        same arrays from one cycle to the next (the velocity mode's plan,
-        :mod:`wbc.controller.velocity_plan`): the compiled run's arguments are built once per
-        problem and solver setting, and when the run solves every level (no back-end QP: the
-        common case) the levels' :class:`LevelInfo` are decoded only when read
-        (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
-        in :meth:`solve_levels` from where it stopped (nothing computed twice). A subclass
-        that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
-        cls = type(self)
-        if cls.solve is not HierarchicalQP.solve or cls.solve_levels is not HierarchicalQP.solve_levels:
-            return self.solve(problem)
-        levels = problem.levels
-        d = self.damping
-        margin = self.margin if problem.margin is None else problem.margin
-        key = (len(levels), margin, d.rank_tol, d.threshold, d.max_damping, self.tol, self.certify,
-               self.regularization)
-        got = self._planned
-        if got is None or got[0] is not problem or got[1] is not problem.rows or got[2] != key:
-            rows = self._rows(levels, problem.layout.nx, {}, problem.rows, len(levels))
-            got = self._planned = (problem, problem.rows, key, (rows.A, rows.b, rows.e_end),
-                                   (rows.C, rows.lo, rows.hi, rows.i_end),
-                                   (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
-                                    self.certify, self.regularization, margin))
-        x_ref = problem.x_ref
-        x0 = np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
-        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
-        L = len(levels)
-        if out[0] != L:
-            return self._cascade(levels, problem.layout.nx, "", x0, None, problem.rows, None, margin, out)
-        ints, floats = out[4], out[5]
-        item = ints.item
-        certified = sum(item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
-        infos = DeferredLevels(partial(_decoded, ints, floats, levels))
-        return SolveResult(out[1], infos, True, certified, "")
-
     def solve_levels(self, levels: list[Level], nx: int, key: str = "", x_ref: np.ndarray | None = None,
                      dampings: dict | None = None, stacked: StackedRows | None = None, own: int | None = None,
                      margin: float | None = None) -> SolveResult:
@@ -178,12 +140,14 @@ class HierarchicalQP:
         of the lower levels' QPs (:func:`~wbc.solvers.kernels.qp_rows.higher_rows`), depend
         on it; a previous solution as x_ref let the directions no task decides (the
         internal contact forces) drift from cycle to cycle."""
-        return self._cascade(levels, nx, key, x_ref, dampings, stacked, own, margin, None)
+        return self._cascade(levels, nx, key, x_ref, (dampings, stacked, own, margin), None)
 
-    def _cascade(self, levels: list[Level], nx: int, key: str, x_ref: np.ndarray | None, dampings: dict | None,
-                 stacked: StackedRows | None, own: int | None, margin: float | None, first: tuple | None) -> SolveResult:
-        """:meth:`solve_levels`; ``first``: the output of the compiled run from level 0 already
-        made with these arguments (:meth:`solve_planned`), taken instead of running it again."""
+    def _cascade(self, levels: list[Level], nx: int, key: str, x_ref: np.ndarray | None, rows_of: tuple,
+                 first: tuple | None) -> SolveResult:
+        """:meth:`solve_levels` (``rows_of`` = its (dampings, stacked, own, margin)); ``first``:
+        the output of the compiled run from level 0 already made with these arguments
+        (:meth:`solve_planned`), taken instead of running it again."""
+        dampings, stacked, own, margin = rows_of
         cas = Cascade(nx, self._hints)
         if x_ref is not None:
             cas.x = np.array(x_ref, dtype=float)
@@ -525,8 +489,3 @@ class HierarchicalQP:
         z = res.z
         assert z is not None, "an accepted QP result has its point"
         return z[:r], z[r:], res.status
-
-
-def _decoded(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> list[LevelInfo]:
-    """The LevelInfo of a compiled run that solved every level (:meth:`HierarchicalQP.solve_planned`)."""
-    return decode(ints, floats, levels, 0, len(levels))[0]
