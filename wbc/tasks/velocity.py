@@ -257,45 +257,15 @@ def _posture_writer(task, robot, nv: int, gain: float | None, out: Rows | None) 
     A[:] = 0.0
     A[np.arange(m), idx] = 1.0
     K = _Gain(task, m, idx, gain)
-    qi = _subtracted_coordinates(robot.model, idx)
-    nq = robot.nq
-    qt, e = np.zeros(m), np.zeros(m)
 
     def write() -> bool:
-        T = task.target
-        if qi is not None and T is not None and T.shape == (nq,) and task.coordinates(robot) is idx:
-            # q_d ⊖ q on 1-dof revolute or prismatic joints is q_d − q (pinocchio's difference
-            # for them, the same numbers), without the whole configuration's difference
-            np.take(T, qi, out=qt)
-            np.take(robot.q, qi, out=e)
-            np.subtract(qt, e, out=e)
-            np.multiply(K.get(), e, out=b)
-            return True
-        err = task.error(robot)
-        if len(err) != m:
+        e = task.error(robot)
+        if len(e) != m:
             return False
-        np.multiply(K.get(), err, out=b)
+        np.multiply(K.get(), e, out=b)
         return True
 
     return write, Rows(A=A, b=b)
-
-
-#: pinocchio joints whose configuration difference q₁ ⊖ q₀ is q₁ − q₀ (one coordinate each)
-_SUBTRACTED = frozenset(("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
-                         "JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"))
-
-
-def _subtracted_coordinates(model, idx: np.ndarray) -> np.ndarray | None:
-    """The configuration index of each velocity index in ``idx`` when every one belongs to a
-    joint of :data:`_SUBTRACTED`, else None."""
-    q_of: dict[int, int] = {}
-    for j in range(1, model.njoints):
-        jm = model.joints[j]
-        if jm.shortname() in _SUBTRACTED:
-            q_of[jm.idx_v] = jm.idx_q
-    if not all(int(i) in q_of for i in idx):
-        return None
-    return np.array([q_of[int(i)] for i in idx], dtype=np.int64)
 
 
 def _joint_limit_writer(task, robot, dt: float, out: Rows | None) -> tuple[Writer, Rows]:
