@@ -8,6 +8,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from wbc.problem.result import DeferredLevels
+
 
 @dataclass
 class LevelDiagnostics:
@@ -237,11 +239,15 @@ def solve_status(ok: bool, res) -> tuple[str, bool]:
         ok: whether the solve succeeded and its x is finite.
         res: the solver's :class:`~wbc.problem.result.SolveResult`.
     """
-    relaxed = False
-    for info in res.levels:
-        if info.relaxed:
-            relaxed = True
-            break
+    levels = res.levels
+    if isinstance(levels, DeferredLevels):       # known without decoding them
+        relaxed = levels.relaxed
+    else:
+        relaxed = False
+        for info in levels:
+            if info.relaxed:
+                relaxed = True
+                break
     if not ok:
         return "failed", relaxed
     if relaxed:

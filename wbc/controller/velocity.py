@@ -86,6 +86,13 @@ class VelocitySolution(Solution):
 _ZEROS: dict[int, np.ndarray] = {}
 
 
+def _solve_planned(solver, problem):
+    """The plan's problem by the solver's entry for rows that stay in the same arrays
+    (:meth:`wbc.solvers.hqp.HierarchicalQP.solve_planned`: the same result), else its ``solve``."""
+    planned = getattr(solver, "solve_planned", None)
+    return solver.solve(problem) if planned is None else planned(problem)
+
+
 def _zeros(n: int) -> np.ndarray:
     """A read-only zero vector of size n, made once: the torque fields of every velocity
     solution (a cycle computes no torque)."""
@@ -207,7 +214,7 @@ class VelocityController:
         if plan is None or not plan.matches(groups, key) or not plan.fill():
             plan = self._plan = VelocityPlan(groups, key, robot, self.dt, self.gain, self.margin)
         self.levels = plan.levels
-        res = self.solver.solve(plan.problem)
+        res = _solve_planned(self.solver, plan.problem)
         nv = robot.nv
         if res.ok and plan.collision_rows:
             res = self._corrected(q, res, plan)
@@ -248,7 +255,7 @@ class VelocityController:
             if not added:
                 break
             self.corrections += 1
-            again = self.solver.solve(plan.problem)
+            again = _solve_planned(self.solver, plan.problem)
             if not again.ok:
                 break
             res = again

@@ -7,6 +7,7 @@ it into torques and a :class:`~wbc.controller.solution.Solution` without knowing
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,6 +64,42 @@ class LevelInfo:
         return self.sigma_min
 
 
+class DeferredLevels(Sequence):
+    """The :class:`LevelInfo` list of a solve, decoded when first read: a compiled run hands its
+    levels over as two flat arrays (:func:`wbc.solvers.kernels.records.decode` reads them),
+    and a cycle whose diagnostics nobody asks for need not decode them. ``relaxed`` is known
+    without decoding (a run that solved every level relaxed none).
+
+    Args:
+        decode: () -> the list of LevelInfo (called once, on first access).
+        relaxed: whether a level was relaxed.
+    """
+
+    __slots__ = ("_decode", "_infos", "relaxed")
+
+    def __init__(self, decode: Callable[[], list[LevelInfo]], relaxed: bool = False) -> None:
+        self._decode, self.relaxed = decode, relaxed
+        self._infos: list[LevelInfo] | None = None
+
+    def _list(self) -> list[LevelInfo]:
+        infos = self._infos
+        if infos is None:
+            infos = self._infos = self._decode()
+        return infos
+
+    def __getitem__(self, i):
+        return self._list()[i]
+
+    def __len__(self) -> int:
+        return len(self._list())
+
+    def __iter__(self) -> Iterator[LevelInfo]:
+        return iter(self._list())
+
+    def __add__(self, other: list) -> list[LevelInfo]:
+        return self._list() + list(other)
+
+
 @dataclass
 class SolveResult:
     """x = (q̈, f) (m/s², rad/s², N, N·m), a :class:`LevelInfo` per level, ``ok`` (False: a
@@ -77,7 +114,7 @@ class SolveResult:
     levels' residuals."""
 
     x: np.ndarray
-    levels: list[LevelInfo]
+    levels: list[LevelInfo] | DeferredLevels
     ok: bool = True
     qp_count: int = 0
     message: str = ""

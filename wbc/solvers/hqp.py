@@ -49,6 +49,7 @@ from ..problem.result import CERTIFIED, LevelInfo, SolveResult
 from ..problem.rows import Level, StackedRows
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
+from .hqp_planned import PlannedEntry
 from .hqp_rows import LevelRows, StackPlan
 from .kernels import prepare
 from .kernels.active_set import certified_active_set, certified_from
@@ -68,7 +69,7 @@ from .kernels.records import hint_table
 #: for a well-conditioned QP; the result is reported degraded
 LAST_RESORT_REGULARIZATION = 1e-3
 
-class HierarchicalQP:
+class HierarchicalQP(PlannedEntry):
     """Strict-priority solver: ``backend`` any of :func:`make_backend`'s names;
     ``margin`` (units of each inequality row: N, N·m, rad/s²) the room a QP keeps
     from a limit where it can, so later levels rarely need one (none at the lowest level:
@@ -115,6 +116,8 @@ class HierarchicalQP:
         #: (Z, Z is the identity) after level 0 of the last solve, when :attr:`keep_level0_basis`
         #: (Z an orthonormal basis of level 0's null space; empty while the identity), else None
         self.level0_basis: tuple[np.ndarray, bool] | None = None
+        #: the compiled run's arguments for one problem (:meth:`solve_planned`), and their key
+        self._planned: tuple | None = None
         prepare()
 
     def solve(self, problem: Problem) -> SolveResult:
@@ -143,6 +146,14 @@ class HierarchicalQP:
         of the lower levels' QPs (:func:`~wbc.solvers.kernels.qp_rows.higher_rows`), depend
         on it; a previous solution as x_ref let the directions no task decides (the
         internal contact forces) drift from cycle to cycle."""
+        return self._cascade(levels, nx, key, x_ref, (dampings, stacked, own, margin), None)
+
+    def _cascade(self, levels: list[Level], nx: int, key: str, x_ref: np.ndarray | None, rows_of: tuple,
+                 first: tuple | None) -> SolveResult:
+        """:meth:`solve_levels` (``rows_of`` = its (dampings, stacked, own, margin)); ``first``:
+        the output of the compiled run from level 0 already made with these arguments
+        (:meth:`solve_planned`), taken instead of running it again."""
+        dampings, stacked, own, margin = rows_of
         cas = Cascade(nx, self._hints)
         self.level0_basis = None
         if x_ref is not None:
@@ -157,16 +168,19 @@ class HierarchicalQP:
             # every level from k that needs no back-end QP, in one compiled call; it hands
             # over the step it took where it stopped
             Z, identity = cas.kernel_basis()
-            args = ((rows.A, rows.b, rows.e_end), (rows.C, rows.lo, rows.hi, rows.i_end),
-                    (cas.x, Z, identity, k, cas.calls), self._hints,
-                    (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
-                     self.certify, self.regularization, margin))
-            if self.keep_level0_basis and k == 0:
-                *out, Z0, identity0 = cascade_prefix_keeping(*args, 0)
-                if out[0] > 0:                          # the run went past level 0
-                    self.level0_basis = (Z0, identity0)
+            if first is not None and k == 0:
+                out = first
             else:
-                out = cascade_prefix(*args)
+                args = ((rows.A, rows.b, rows.e_end), (rows.C, rows.lo, rows.hi, rows.i_end),
+                        (cas.x, Z, identity, k, cas.calls), self._hints,
+                        (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
+                         self.certify, self.regularization, margin))
+                if self.keep_level0_basis and k == 0:
+                    *out, Z0, identity0 = cascade_prefix_keeping(*args, 0)
+                    if out[0] > 0:                          # the run went past level 0
+                        self.level0_basis = (Z0, identity0)
+                else:
+                    out = cascade_prefix(*args)
             stop, pending, certified = adopt_run(levels, cas, infos, k, out)
             qp_count += certified
             if stop == n_levels:
@@ -490,4 +504,3 @@ class HierarchicalQP:
         z = res.z
         assert z is not None, "an accepted QP result has its point"
         return z[:r], z[r:], res.status
-

@@ -47,6 +47,7 @@ from wbc.robot.model import LOCAL, WORLD_ALIGNED
 from ..errors import TaskDefinitionError
 from ..problem.rows import Rows
 from .base import MotionTask, Task
+from .velocity_frames import frame_rows, frame_support
 
 #: task kinds with a velocity form (:func:`velocity_rows`)
 VELOCITY_KINDS = ("frame", "com", "posture", "contact", "joint_limits", "collision_avoidance",
@@ -163,8 +164,10 @@ class _Gain:
 
 def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -> tuple[Writer, Rows]:
     """J q̇ = ẋ_d + K e on the task's selected axes (frame, CoM, contact; module docstring). The
-    writer holds the pinocchio data's placements and CoM (references into ``robot.data``, which
-    ``update_kinematics`` refreshes in place): each read through the bindings costs ~1 µs."""
+    writer holds pinocchio's arrays it reads (``data.J``, the frame's placement, the CoM and
+    J_com: ``update_kinematics`` refreshes them in place, each read through the bindings costs
+    ~1 µs) and writes a point's or a contact's rows in one compiled call
+    (:func:`~wbc.tasks.velocity_frames.frame_rows`)."""
     kind = task.kind
     model, data = robot.model, robot.data
     placements = data.oMf
@@ -175,7 +178,7 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
         linear = bool(sel.max() < 3)
     elif kind == "com":
         sel, dim = np.array(["xyz".index(a) for a in task.axes]), 3
-        com = data.com
+        com, Jcom = data.com[0], data.Jcom
     else:
         surface = robot.contact(task.contact)
         fid = robot.frame_id(surface.frame)
@@ -186,15 +189,25 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
     m = len(sel)
     A, b = _equality_arrays(out, m, nv)
     K, e, zero = _Gain(task, dim, sel, gain), np.zeros(dim), np.zeros(dim)
+    if kind != "com":
+        J, support = data.J, frame_support(model, fid)
+        oMf = placements[fid]
+        R, p = oMf.rotation, oMf.translation          # views pinocchio refreshes in place
+        held: list = [None, None, None]                # the target (or reference) and its rotation, translation
+
+        def target_arrays(T) -> tuple[np.ndarray, np.ndarray]:
+            if T is not held[0]:
+                held[:] = T, T.rotation, T.translation
+            return held[1], held[2]
 
     def write_frame() -> bool:
         T = task.target
         if linear and T is not None:
-            np.subtract(T.translation, placements[fid].translation, out=e[:3])
-            err = e
-        else:
-            err = task.full_error(robot)
-        _motion_rows(A, b, jacobian(model, data, fid, WORLD_ALIGNED), sel, task.target_velocity, K.get(), err)
+            Rt, pt = target_arrays(T)
+            frame_rows(A, b, J, support, R, p, Rt, pt, sel, task.target_velocity, K.get(), e, False)
+            return True
+        _motion_rows(A, b, jacobian(model, data, fid, WORLD_ALIGNED), sel, task.target_velocity, K.get(),
+                     task.full_error(robot))
         return True
 
     def write_com() -> bool:
@@ -204,21 +217,21 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
         if target is None:
             task.error(robot)                 # the CoM at the first cycle becomes the target
             target = task.target
-        np.subtract(target, com[0], out=e)
-        _motion_rows(A, b, data.Jcom, sel, task.target_velocity, K.get(), e)
+        np.subtract(target, com, out=e)
+        _motion_rows(A, b, Jcom, sel, task.target_velocity, K.get(), e)
         return True
 
     def write_contact() -> bool:
         if task.sliding != (m < dim):
             return False
-        oMc = placements[fid]
         ref = task.reference
         if ref is None:
-            ref = task.reference = oMc.copy()
-        if dim == 6:        # log₆(oMc⁻¹ M_ref) in the contact frame
-            err = pin.log6(oMc.actInv(ref)).vector
-        else:               # p_ref − p, world
-            err = ref.translation - oMc.translation
+            ref = task.reference = placements[fid].copy()
+        Rt, pt = target_arrays(ref)
+        if frame_rows(A, b, J, support, R, p, Rt, pt, sel, zero, K.get(), e, dim == 6):
+            return True
+        # log₆ at θ near π (a contact turned half a turn from its reference): pinocchio's
+        err = pin.log6(placements[fid].actInv(ref)).vector
         _motion_rows(A, b, jacobian(model, data, fid, frame), sel, zero, K.get(), err)
         return True
 

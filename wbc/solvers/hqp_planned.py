@@ -1,0 +1,81 @@
+"""The hierarchical QP's entry for a problem whose rows stay in the same arrays from one cycle to
+the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`):
+:meth:`PlannedEntry.solve_planned`, a method of :class:`~wbc.solvers.hqp.HierarchicalQP`
+(kept here, with the run's records decoded when read, so that hqp.py stays one idea)."""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from ..problem.problem import Problem
+from ..problem.result import DeferredLevels, LevelInfo, SolveResult
+from ..problem.rows import Level
+from .cascade import _NO_BASIS, GRAM_MIN_RATIO
+from .kernels.cascade_run import cascade_prefix
+from .kernels.records import CERTIFIED as CERTIFIED_FIELD
+from .kernels.records import LEVEL_INTS, decode
+
+
+class PlannedEntry:
+    """:meth:`solve_planned` for :class:`~wbc.solvers.hqp.HierarchicalQP` (its base: the
+    methods and state it reads are the solver's own)."""
+
+    _planned: tuple | None = None
+
+    def solve_planned(self: Any, problem: Problem) -> SolveResult:
+        """:meth:`solve` (the same result, bit for bit) for a problem whose rows stay in the
+        same arrays from one cycle to the next (the velocity mode's plan,
+        :mod:`wbc.controller.velocity_plan`): the compiled run's arguments are built once per
+        problem and solver setting, and when the run solves every level (no back-end QP: the
+        common case) the levels' :class:`LevelInfo` are decoded only when read
+        (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
+        in :meth:`solve_levels` from where it stopped (nothing computed twice). A subclass
+        that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
+        if not _plain(type(self)):
+            return self.solve(problem)
+        levels = problem.levels
+        d = self.damping
+        margin = self.margin if problem.margin is None else problem.margin
+        key = (len(levels), margin, d.rank_tol, d.threshold, d.max_damping, self.tol, self.certify,
+               self.regularization)
+        got = self._planned
+        if got is None or got[0] is not problem or got[1] is not problem.rows or got[2] != key:
+            rows = self._rows(levels, problem.layout.nx, {}, problem.rows, len(levels))
+            got = self._planned = (problem, problem.rows, key, (rows.A, rows.b, rows.e_end),
+                                   (rows.C, rows.lo, rows.hi, rows.i_end),
+                                   (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
+                                    self.certify, self.regularization, margin))
+        x_ref = problem.x_ref
+        x0 = np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
+        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
+        L = len(levels)
+        if out[0] != L:
+            return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, margin), out)
+        ints, floats = out[4], out[5]
+        item = ints.item
+        certified = sum(item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
+        infos = DeferredLevels(partial(_decoded, ints, floats, levels))
+        return SolveResult(out[1], infos, True, certified, "")
+
+
+
+_PLAIN: dict[type, bool] = {}
+
+
+def _plain(cls: type) -> bool:
+    """Whether ``cls`` solves as the class that first took :class:`PlannedEntry` as a base (the
+    hierarchical QP): a subclass with its own ``solve`` or ``solve_levels`` (the weighted QP)
+    solves otherwise."""
+    got = _PLAIN.get(cls)
+    if got is None:
+        owner = next(c for c in reversed(cls.__mro__) if PlannedEntry in c.__bases__)
+        got = _PLAIN[cls] = cls.solve is owner.solve and cls.solve_levels is owner.solve_levels  # type: ignore[attr-defined]
+    return got
+
+
+def _decoded(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> list[LevelInfo]:
+    """The LevelInfo of a compiled run that solved every level (:meth:`PlannedEntry.solve_planned`)."""
+    return decode(ints, floats, levels, 0, len(levels))[0]
