@@ -14,7 +14,17 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factorizations import projected_rows_full, step_from
+from .factored_basis import basis_times, explicit_basis, push_level, rows_through, transposed_times
+from .factorizations import (
+    AUTO,
+    GRAM,
+    QR,
+    orthonormal_accepted,
+    pack_step,
+    projected_rows_full,
+    qr_factor,
+    step_from,
+)
 from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
 from .records import (
     CERTIFIED,
@@ -34,7 +44,15 @@ from .records import (
 @nb.njit(cache=True)
 def cascade_prefix(eq, ineq, start, hints, settings):
     """The strict cascade's run (:func:`cascade_prefix_keeping`, which documents it)."""
-    out = _run(eq, ineq, start, hints, settings, -1)
+    out = _run(eq, ineq, start, hints, settings, -1, True)
+    return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
+
+
+@nb.njit(cache=True)
+def cascade_prefix_explicit(eq, ineq, start, hints, settings):
+    """:func:`cascade_prefix` with every basis formed as a matrix (no level's basis kept as
+    reflectors, :mod:`.factored_basis`): the form the factored run is tested against."""
+    out = _run(eq, ineq, start, hints, settings, -1, False)
     return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
 
 
@@ -46,11 +64,27 @@ def cascade_prefix_keeping(eq, ineq, start, hints, settings, keep):
     end of that level (it started below it, or stopped at or above it). The weighted QP's
     per-level singularity test reads level 0's null space from it instead of factorising
     level 0's rows a second time."""
-    return _run(eq, ineq, start, hints, settings, keep)
+    return _run(eq, ineq, start, hints, settings, keep, True)
 
 
 @nb.njit(cache=True)
-def _run(eq, ineq, start, hints, settings, keep):
+def _explicit(A, b, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n):
+    """The level's basis before (Z) and after (Z_next) its step, and A Z, as matrices, when
+    the run kept them as reflectors (``nf`` levels; ``fstep``: this level's step was taken
+    in factored form, 1 by QR with reflectors ``Qn``, ``taun``, 2 by the orthonormal
+    shortcut, which leaves nothing free)."""
+    Zc = explicit_basis(qs, taus, ms, nf) if nf else Z
+    if fstep == 1:
+        nf = push_level(qs, taus, ms, nf, Qn, taun, m)
+        Z_next = explicit_basis(qs, taus, ms, nf)
+    else:
+        Z_next = np.empty((n, 0))
+    AZ, _, _ = projected_rows_full(A, b, x, Zc, identity)
+    return Zc, Z_next, AZ
+
+
+@nb.njit(cache=True)
+def _run(eq, ineq, start, hints, settings, keep, factored):
     """The strict cascade's levels, one after the other, for as long as none needs a
     back-end QP: the hierarchical QP's common case in one call (``tests/helpers/reference_hqp.py``
     is the same mathematics, step for step, in Python).
@@ -81,7 +115,13 @@ def _run(eq, ineq, start, hints, settings, keep):
     ``eq`` = (A, b, e_end), the equality rows; ``ineq`` = (C, lo, hi, i_end), the inequality
     rows; ``start`` = (x0, Z0, identity0, k0, calls0), where the run starts; ``hints``;
     ``settings`` = (rank_tol, threshold, max_damping, gram_min_ratio, tol, certify,
-    regularization, margin)."""
+    regularization, margin).
+
+    ``factored``: from the identity on, while every level takes the QR route (or, last, the
+    orthonormal shortcut of a posture over every coordinate), the basis is kept as the
+    levels' Householder reflectors (:mod:`.factored_basis`) and formed as a matrix only
+    when a level needs it (another route, a QP over it, the run handing it back): the
+    same numbers to rounding, without the n × k products (the 156-joint chain's cascade)."""
     A, b, e_end = eq
     C, lo, hi, i_end = ineq
     Z_keep, identity_keep = np.empty((0, 0)), True
@@ -103,26 +143,64 @@ def _run(eq, ineq, start, hints, settings, keep):
     calls = calls0
     set_calls(ints, L, calls)
     e0 = e_end[k0 - 1] if k0 else 0
+    qs = [np.empty((1, 1)).T]                    # the basis as reflectors (.factored_basis)
+    taus = [np.empty(1)]
+    ms = [0]
+    nf = 0
     for k in range(k0, L):
         i0 = i_end[k - 1] if k else 0
         m = e_end[k] - e0
-        dof = n if identity else Z.shape[1]
+        dof = n if identity else (qs[nf - 1].shape[0] - ms[nf - 1] if nf else Z.shape[1])
         mk = margin if k < L - 1 else 0.0
         start_level(ints, floats, k, m, dof)
         x_next = x
+        fstep = 0                                # 1: QR step, reflectors kept; 2: orthonormal shortcut
+        Qn, taun = qs[0], taus[0]
+        Z_next = np.empty((0, 0))
         if m and dof:
-            AZ, rk, orthonormal = projected_rows_full(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity)
+            Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
             path = hint_route(hints, calls, m, dof)
-            _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
-                AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio,
-                orthonormal)
-            x_next = packed[dof:dof + n]
+            route = path if path != AUTO else (GRAM if m >= dof else QR)
+            if factored and (identity or nf):
+                AZ, rk, orthonormal = projected_rows_full(Ak, bk, x, Z, True)   # (A, b − A x̂)
+                if route == QR:
+                    AZ = AZ if identity else rows_through(Ak, qs, taus, ms, nf)
+                    ok, z, Qn, taun, R, _ = qr_factor(AZ, rk, rank_tol[k], threshold[k])
+                    if ok:
+                        fstep = 1
+                        x_next = x + (z if identity else basis_times(z, qs, taus, ms, nf))
+                        packed = pack_step(z, x_next, R)
+                        rank, smin, smax, lam2 = m, np.nan, np.nan, 0.0
+                elif route == GRAM and orthonormal and nf and orthonormal_accepted(dof, rank_tol[k], threshold[k],
+                                                                                   gram_min_ratio):
+                    u = np.zeros(n)                      # Aᵀ r, then (A Z)ᵀ r = Zᵀ Aᵀ r
+                    for i in range(m):
+                        for j in range(n):
+                            u[j] += Ak[i, j] * rk[i]
+                    z = transposed_times(u, qs, taus, ms, nf)
+                    fstep = 2
+                    x_next = x + basis_times(z, qs, taus, ms, nf)
+                    packed = pack_step(z, x_next, np.empty((0, 0)))
+                    rank, smin, smax, lam2 = dof, 1.0, 1.0, 0.0
+                    Z_next = np.empty((n, 0))
+            if fstep == 0:
+                if nf:
+                    Z = explicit_basis(qs, taus, ms, nf)
+                    nf = 0
+                AZ, rk, orthonormal = projected_rows_full(Ak, bk, x, Z, identity)
+                _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
+                    AZ, rk, x, Z, identity, path, False, rank_tol[k], threshold[k], max_damping[k], gram_min_ratio,
+                    orthonormal)
+                x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
             r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
             end_r_factors(ints, L, k, r_at)
             calls += 1
             set_calls(ints, L, calls)
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
+                if fstep or nf:
+                    Z, Z_next, AZ = _explicit(Ak, bk, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n)
+                    fstep = nf = 0
                 if not certify:
                     return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
                 H, g = least_squares_objective(AZ, rk, regularization)
@@ -134,6 +212,10 @@ def _run(eq, ineq, start, hints, settings, keep):
         else:
             end_r_factors(ints, L, k, r_at)
         if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
+            if fstep or nf:
+                Z, Z_next, _ = _explicit(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, qs, taus, ms, nf, fstep,
+                                         Qn, taun, m, n)
+                fstep = nf = 0
             ok = False
             if certify:
                 stepped = m > 0 and dof > 0
@@ -151,12 +233,21 @@ def _run(eq, ineq, start, hints, settings, keep):
             add_to_field(ints, k, CERTIFIED, 1)
         if m and dof:
             x = x_next
-            Z = Z_next
+            if fstep == 1:
+                nf = push_level(qs, taus, ms, nf, Qn, taun, m)
+            else:
+                Z = Z_next
+                nf = 0                           # the orthonormal shortcut left nothing free
             identity = False
         else:
             x = x_next
         if k == keep:
+            if nf:
+                Z = explicit_basis(qs, taus, ms, nf)
+                nf = 0
             Z_keep, identity_keep = Z, identity
         e0 = e_end[k]
+    if nf:
+        Z = explicit_basis(qs, taus, ms, nf)
     set_calls(ints, L, calls)
     return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0)), Z_keep, identity_keep

@@ -117,7 +117,7 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
 
 
 @nb.njit(cache=True)
-def _apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
+def apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
     """LAPACK's dormqr: C (m × n, Fortran layout, leading dimension ``ldc``) times Q or Qᵀ as
     ``side_trans`` says ("LT": Qᵀ C, "RT": C Qᵀ), Q the k reflectors a QR left in ``a``
     with factors ``tau``; returns LAPACK's info (0: done)."""
@@ -126,6 +126,45 @@ def _apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
            a.ctypes, io[3:].ctypes, tau.ctypes, c.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
            io[6:].ctypes)
     return io[6]
+
+
+@nb.njit(cache=True)
+def qr_factor(AZ, r, rank_tol, threshold):
+    """The QR route's factorisation and step (:func:`_qr`), its basis not formed: (ok, z, Q, τ, R,
+    work) with (AZ)ᵀ = Q [R; 0], Q's m Householder reflectors below the diagonal of the
+    k × k Fortran-order array ``Q`` with factors τ, z = Q [R⁻ᵀ r; 0]. null(AZ) = Q[:, m:] is
+    left to the caller: :func:`_qr` forms it, the compiled cascade
+    (:mod:`.factored_basis`) keeps the reflectors."""
+    m, k = AZ.shape
+    Q = np.empty((k, k)).T                       # Fortran order, k × k
+    Q[:, :m] = AZ.T
+    tau = np.empty(m)
+    lwork = 64 * k
+    work = np.empty(lwork)
+    iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
+    dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
+           iw[3:].ctypes, iw[4:].ctypes)
+    R = np.zeros((m, m))
+    Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
+    if iw[4] != 0:
+        return False, np.empty(0), Q, tau, R, work
+    for j in range(m):
+        for i in range(j + 1):
+            R[i, j] = Q[i, j]
+            Rinv[i, j] = Q[i, j]
+    mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
+    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
+           mi[2:].ctypes)
+    if mi[2] != 0:
+        return False, np.empty(0), Q, tau, R, work
+    ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
+    lb_min = 1.0 / np.sqrt(np.sum(Rinv * Rinv))  # ≤ σ_min
+    if not lb_min > max(rank_tol * max(1.0, ub_max), threshold):
+        return False, np.empty(0), Q, tau, R, work
+    z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
+    z[:m] = Rinv.T @ r
+    apply_reflectors(Q, tau, m, z, False)
+    return True, z, Q, tau, R, work
 
 
 @nb.njit(cache=True)
@@ -139,39 +178,16 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
     product, hence the factor 2: with 12 rows over 29 the product is faster)."""
     m, k = AZ.shape
     n = Z.shape[0]
-    Q = np.empty((k, k)).T                       # Fortran order, k × k
-    Q[:, :m] = AZ.T
-    tau = np.empty(m)
-    lwork = 64 * max(k, n)
-    work = np.empty(lwork)
-    iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
-    dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
-           iw[3:].ctypes, iw[4:].ctypes)
-    R = np.zeros((m, m))
-    Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
-    if iw[4] != 0:
+    ok, z, Q, tau, R, work = qr_factor(AZ, r, rank_tol, threshold)
+    if not ok:
         return False, np.empty(0), np.empty((0, 0)), R
-    for j in range(m):
-        for i in range(j + 1):
-            R[i, j] = Q[i, j]
-            Rinv[i, j] = Q[i, j]
-    mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
-    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
-           mi[2:].ctypes)
-    if mi[2] != 0:
-        return False, np.empty(0), np.empty((0, 0)), R
-    ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
-    lb_min = 1.0 / np.sqrt(np.sum(Rinv * Rinv))  # ≤ σ_min
-    if not lb_min > max(rank_tol * max(1.0, ub_max), threshold):
-        return False, np.empty(0), np.empty((0, 0)), R
+    if work.shape[0] < 64 * n:
+        work = np.empty(64 * n)
     nm = k - m
-    z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
-    z[:m] = Rinv.T @ r
-    apply_reflectors(Q, tau, m, z, False)
     if not identity and 4 * n * m < 2 * nm * m + n * nm:
         # (Z Q)ᵀ = Qᵀ Zᵀ by LAPACK's dormqr from the left: Z's C layout is Zᵀ's Fortran one
         W = Z.copy()
-        if _apply_q(LEFT_TRANS, k, n, m, Q, k, tau, W, k, work) != 0:
+        if apply_q(LEFT_TRANS, k, n, m, Q, k, tau, W, k, work) != 0:
             return False, np.empty(0), np.empty((0, 0)), R
         return True, z, np.ascontiguousarray(W[:, m:]), R
     # null(AZ) = Q[0; I], the last k − m columns of Q, without forming Q: as (Eᵀ Qᵀ)ᵀ with
@@ -180,7 +196,7 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
     null = np.zeros((k, nm))
     for j in range(nm):
         null[m + j, j] = 1.0
-    if _apply_q(SIDE_TRANS, nm, k, m, Q, k, tau, null, nm, work) != 0:
+    if apply_q(SIDE_TRANS, nm, k, m, Q, k, tau, null, nm, work) != 0:
         return False, np.empty(0), np.empty((0, 0)), R
     return True, z, null if identity else Z @ null, R
 
@@ -289,7 +305,7 @@ def _svd(AZ, r, rank_tol, threshold, max_damping):
 
 
 @nb.njit(cache=True)
-def _pack(z, x_new, R):
+def pack_step(z, x_new, R):
     out = np.empty(z.shape[0] + x_new.shape[0] + R.size)
     out[:z.shape[0]] = z
     out[z.shape[0]:z.shape[0] + x_new.shape[0]] = x_new
@@ -381,6 +397,14 @@ def level_step(A, b, x, Z, identity, path, strict, rank_tol, threshold, max_damp
 
 
 @nb.njit(cache=True)
+def orthonormal_accepted(k, rank_tol, threshold, gram_min_ratio):
+    """The GRAM route's acceptance tests for k orthonormal columns (σ_min = σ_max = 1,
+    ‖AZ‖_F² = k): :func:`_orthonormal`."""
+    ub2 = float(k)
+    return 1.0 >= gram_min_ratio * ub2 and 1.0 > max(rank_tol * max(1.0, np.sqrt(ub2)), threshold)
+
+
+@nb.njit(cache=True)
 def _orthonormal(AZ, r, rank_tol, threshold, gram_min_ratio):
     """A level whose AZ has orthonormal columns (:func:`projected_rows_full`): every
     singular value is 1, G = (AZ)ᵀAZ = I, so the GRAM route's answer is z = (AZ)ᵀ r with
@@ -389,8 +413,7 @@ def _orthonormal(AZ, r, rank_tol, threshold, gram_min_ratio):
     ‖AZ‖_F² = k; z then differs from the Cholesky route's by the rounding of Z's
     orthonormality (~1e-15 relative). Returns (ok, z); σ_min = σ_max = 1, no factor kept."""
     m, k = AZ.shape
-    ub2 = float(k)
-    if not (1.0 >= gram_min_ratio * ub2 and 1.0 > max(rank_tol * max(1.0, np.sqrt(ub2)), threshold)):
+    if not orthonormal_accepted(k, rank_tol, threshold, gram_min_ratio):
         return False, np.empty(0)
     z = np.zeros(k)
     for i in range(m):
@@ -410,35 +433,35 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     R = np.empty((0, 0))
     none = np.empty((n, 0))
     if not (np.all(np.isfinite(AZ)) and np.all(np.isfinite(r))):
-        return True, path, 0, np.nan, np.nan, 0.0, _pack(np.full(k, np.nan), np.full(n, np.nan), R), none
+        return True, path, 0, np.nan, np.nan, 0.0, pack_step(np.full(k, np.nan), np.full(n, np.nan), R), none
     route = path
     if route == AUTO:
         route = GRAM if m >= k else QR
     if orthonormal and route == GRAM:
         ok, z = _orthonormal(AZ, r, rank_tol, threshold, gram_min_ratio)
         if ok:
-            return True, GRAM, k, 1.0, 1.0, 0.0, _pack(z, x + (z if identity else Z @ z), R), none
+            return True, GRAM, k, 1.0, 1.0, 0.0, pack_step(z, x + (z if identity else Z @ z), R), none
     if route == GRAM:
         ok, z, U, smin, smax, lam2 = _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio)
         if ok:
-            return True, GRAM, k, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), U), none
+            return True, GRAM, k, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), U), none
         if strict:
-            return False, GRAM, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
+            return False, GRAM, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
         route = COD
     elif route == QR:
         ok, z, Z_next, Rq = _qr(AZ, r, rank_tol, threshold, Z, identity)
         if ok:
-            return True, QR, m, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), Rq), Z_next
+            return True, QR, m, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), Rq), Z_next
         if strict:
-            return False, QR, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
+            return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
         route = COD
     if route == COD:
         ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
         if ok:
             Z_next = null if identity else Z @ null
-            return True, COD, rank, np.nan, np.nan, 0.0, _pack(z, x + (z if identity else Z @ z), T), Z_next
+            return True, COD, rank, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), T), Z_next
         if strict:
-            return False, COD, 0, 0.0, 0.0, 0.0, _pack(np.zeros(k), x, R), none
+            return False, COD, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
     z, null, rank, smin, smax, lam2 = _svd(AZ, r, rank_tol, threshold, max_damping)
     Z_next = null if identity else Z @ null
-    return True, SVD, rank, smin, smax, lam2, _pack(z, x + (z if identity else Z @ z), R), Z_next
+    return True, SVD, rank, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), R), Z_next
