@@ -90,7 +90,7 @@ def inverse_factor(H):
             U[i, j] = H[i, j]
         for i in range(j + 1, k):
             U[i, j] = 0.0
-    ki = np.array([k, k, 0], dtype=np.int32)      # n, lda, info
+    ki = np.array([k, max(k, 1), 0], dtype=np.int32)      # n, lda (LAPACK: ≥ 1 also when n = 0), info
     dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] != 0:
         return False, np.empty((0, 0))

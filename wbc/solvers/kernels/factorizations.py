@@ -92,7 +92,7 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
             U[i, j] = 0.5 * (G[i, j] + G[j, i])
         for i in range(j + 1, k):
             U[i, j] = 0.0
-    ki = np.array([k, k, 0], dtype=np.int32)     # n, lda, info
+    ki = np.array([k, max(k, 1), 0], dtype=np.int32)     # n, lda (LAPACK: ≥ 1 also when n = 0), info
     dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] == 0:
         Uinv = U.copy().T.copy().T               # Fortran-order copy
