@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["cross_rows", "curvature_drift", "rigid_drift"]
+__all__ = ["cross_rows", "curvature_drift", "point_drift", "rigid_drift"]
 
 
 def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -72,16 +72,32 @@ def rigid_drift(cm, robot, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np
     m = len(ks)
     if not m:
         return np.zeros(0)
+    jid = cm.joint_of[cm.pairs[ks].T.ravel()]
+    out = point_drift(cm, robot, jid, np.concatenate([P1, P2]), np.concatenate([-N, N]))
+    return out[:m] + out[m:]
+
+
+def point_drift(cm, robot, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """nᵀ a_p (k,; m/s²) of points p fixed on joints ``jid`` (k,), directions N (k × 3), at q̈ = 0:
+    a_p the classical acceleration of p, world-aligned, zero on the universe (joint 0). The formula
+    of :func:`rigid_drift` (which sums it over each pair's two witness points, n and −n), for any
+    points: the collision task's vertex rows take it for a hull vertex and the other witness point.
+
+    Args:
+        cm: the :class:`~wbc.collision.model.CollisionModel` (its ``fd_data`` gets the time variation).
+        robot: the robot at the cycle's state (q, q̇).
+        jid: each point's joint (k,).
+        P: the points (k × 3, m, world).
+        N: the directions (k × 3).
+    """
+    if not len(jid):
+        return np.zeros(0)
     data, v = cm.fd_data, robot.v
     pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, v)
-    jid = cm.joint_of[cm.pairs[ks].T.ravel()]
-    P = np.concatenate([P1, P2])
-    NN = np.concatenate([-N, N])
-    S = cm.support[jid]                                               # (2k × nv)
-    coef = np.concatenate([NN, cross_rows(P, NN)], axis=1)            # (2k × 6)
+    S = cm.support[jid]                                               # (k × nv)
+    coef = np.concatenate([N, cross_rows(P, N)], axis=1)              # (k × 6)
     bias = ((coef @ data.dJ) * S) @ v                                 # [n; p × n]ᵀ (J̇ q̇)
-    twist = S @ (data.J * v).T                                        # (2k × 6): each row's J_j q̇
+    twist = S @ (data.J * v).T                                        # (k × 6): each row's J_j q̇
     w = twist[:, 3:]
     vp = twist[:, :3] + cross_rows(w, P)
-    out = bias + np.einsum("ka,ka->k", NN, cross_rows(w, vp))
-    return out[:m] + out[m:]
+    return bias + np.einsum("ka,ka->k", N, cross_rows(w, vp))

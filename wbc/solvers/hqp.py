@@ -50,7 +50,7 @@ from ..problem.rows import Level, StackedRows
 from .backends import Backend, QPResult, make_backend
 from .cascade import GRAM_MIN_RATIO, Cascade, Damping, adopt_run
 from .hqp_planned import PlannedEntry
-from .hqp_rows import LevelRows, StackPlan
+from .hqp_rows import LevelRows, StackPlan, stacked_rows
 from .kernels import prepare
 from .kernels.active_set import certified_active_set, certified_from
 from .kernels.cascade_run import cascade_prefix, cascade_prefix_keeping
@@ -110,7 +110,7 @@ class HierarchicalQP(PlannedEntry):
         #: the fallback back-end (:meth:`_fallback`), made when first needed
         self._fb: Backend | None = None
         #: the arrays levels not all of the problem's own rows are copied into
-        #: (:meth:`_stacked_rows`), and the damping tolerances per level of the last run
+        #: (:func:`~wbc.solvers.hqp_rows.stacked_rows`), and the damping tolerances per level of the last run
         self._stack_plan: StackPlan | None = None
         self._tols: tuple | None = None
         #: (Z, Z is the identity) after level 0 of the last solve, when :attr:`keep_level0_basis`
@@ -216,37 +216,11 @@ class HierarchicalQP(PlannedEntry):
                                 .reshape(n, 3).T.copy())
         tols = got[1]
         if stacked is None or own < n:
-            return self._stacked_rows(levels, nx, key, tols, stacked, 0 if stacked is None else own)
+            self._stack_plan, rows = stacked_rows(self._stack_plan, levels, nx, key, tols, stacked,
+                                                  0 if stacked is None else own)
+            return rows
         return LevelRows((stacked.A, stacked.b, stacked.eq_end[:n]),
                           (stacked.C, stacked.lo, stacked.hi, stacked.ineq_end[:n]), tols, True)
-
-    def _stacked_rows(self, levels: list[Level], nx: int, key: tuple, tols: np.ndarray,
-                      stacked: StackedRows | None, own: int) -> LevelRows:
-        """The levels' rows copied into one set of arrays, laid out as the stacked rows; the
-        arrays are kept and refilled while the levels come with the same shapes (the
-        weighted QP's folded level), else made afresh. When only the problem's own leading
-        ``own`` levels have inequality rows (the folded level has none), the inequalities
-        are read from ``stacked`` itself."""
-        shapes = [(lvl.A.shape[0], lvl.n_in) for lvl in levels]
-        from_stacked = stacked is not None and own > 0 and not any(mi for _, mi in shapes[own:])
-        plan = self._stack_plan
-        if plan is None or plan.key != key or plan.shapes != shapes or plan.from_stacked != from_stacked or \
-                plan.nx != nx:
-            e_end = np.cumsum([0] + [me for me, _ in shapes], dtype=np.int64)
-            i_end = np.cumsum([0] + [mi for _, mi in shapes], dtype=np.int64)
-            ne, ni = int(e_end[-1]), (0 if from_stacked else int(i_end[-1]))
-            plan = self._stack_plan = StackPlan(key, shapes, nx, e_end, i_end, np.zeros((ne, nx)), np.zeros(ne),
-                                                 np.zeros((ni, nx)), np.zeros(ni), np.zeros(ni), from_stacked)
-        e_end, i_end, A, b, C, lo, hi = plan.e_end, plan.i_end, plan.A, plan.b, plan.C, plan.lo, plan.hi
-        for k, lvl in enumerate(levels):
-            e0, e1, i0, i1 = e_end[k], e_end[k + 1], i_end[k], i_end[k + 1]
-            A[e0:e1] = lvl.A
-            b[e0:e1] = lvl.b
-            if i1 > i0 and not from_stacked:
-                C[i0:i1], lo[i0:i1], hi[i0:i1] = lvl.inequalities(nx)
-        if stacked is not None and from_stacked:     # the problem's own levels' rows, where the rest add none
-            return LevelRows((A, b, e_end[1:]), (stacked.C, stacked.lo, stacked.hi, i_end[1:]), tols, True)
-        return LevelRows((A, b, e_end[1:]), (C, lo, hi, i_end[1:]), tols, False)
 
     def _backend_level(self, lvl: Level, step, rows: LevelRows, k: int, cas: Cascade, key: str,
                        degraded: list, margin: float) -> tuple:

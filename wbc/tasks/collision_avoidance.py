@@ -215,6 +215,8 @@ class CollisionAvoidance(Task):
         gap first, as many as fit; returns how many."""
         import pinocchio as pin
 
+        from wbc.collision.drift import point_drift
+
         m, data = self.model, robot.data
         w = self.omega
         cand = []      # (gap, row, bound)
@@ -246,18 +248,21 @@ class CollisionAvoidance(Task):
                     kept.append(x)
                     # x on the witness's body: v_x = v_wit + ω × r, r = x − wit, so ġ = ḋ + sign (r × n)ᵀ J_ω q̇
                     row = r.J[i] + sign * np.cross(x - wit, n) @ Jw
-                    # drift: sign nᵀ(a_x − a_other) at q̈ = 0, both points fixed on their bodies, n frozen
-                    drift = float(m._point_drift(data, np.array([jid, jo]), np.stack([x, other]),
-                                                 np.stack([sign * n, -sign * n])).sum())
                     g_dot = float(row @ robot.v)
                     gap = float(gaps[j])
-                    cand.append((gap, row, -2.0 * w * g_dot - w * w * (gap - self.safety) - drift,
-                                 (int(r.pairs[i]), side, g, j, n.copy(), other.copy())))
+                    cand.append((gap, row, -2.0 * w * g_dot - w * w * (gap - self.safety),
+                                 (int(r.pairs[i]), side, g, j, n.copy(), other.copy()), (jid, jo, x, sign * n)))
         cand.sort(key=lambda c: c[0])
         cand = cand[: len(lo)]
-        for j, (_, row, bound, _) in enumerate(cand):
+        if cand:
+            # drift: sign nᵀ(a_x − a_other) at q̈ = 0, both points fixed on their bodies, n frozen
+            jids = np.array([j for c in cand for j in c[4][:2]])
+            P = np.array([p for c in cand for p in (c[4][2], c[3][5])])
+            N = np.array([d for c in cand for d in (c[4][3], -c[4][3])])
+            drift = point_drift(m, robot, jids, P, N).reshape(-1, 2).sum(axis=1)
+        for j, (_, row, bound, _, _) in enumerate(cand):
             C[j] = row
-            lo[j] = bound
+            lo[j] = bound - drift[j]
         self.vertex_last = [c[3] for c in cand]
         return len(cand)
 

@@ -12,8 +12,9 @@ booleans and interpolates the pose between frames.
 
 from __future__ import annotations
 
-import meshcat.geometry as mg
 import numpy as np
+
+from .meshcat_quiet import mg
 
 #: the closest pairs drawn
 COUNT = 5

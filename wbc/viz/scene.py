@@ -33,21 +33,10 @@ replay's clock.
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-
-with warnings.catch_warnings():
-    # meshcat 0.3.2's package imports its server module, which imports zmq.eventloop.ioloop (pyzmq
-    # warns at that import: deprecated since pyzmq 17); meshcat's import, nothing of it we call
-    warnings.filterwarnings("ignore", "zmq.eventloop.ioloop is deprecated", DeprecationWarning)
-    import meshcat
-    import meshcat.geometry as mg
-    import meshcat.transformations as mt
-    from meshcat.animation import Animation
-    from pinocchio.visualize import MeshcatVisualizer
 
 from ..sim.environment import Box, Cylinder, HalfSpace, Sphere
 from ..tasks.collision_avoidance import CollisionAvoidance
@@ -58,6 +47,7 @@ from . import server
 from .collisions import add_witness_nodes, draw_witness_slots
 from .diagnostics import overlay_html, render_png, table_lines
 from .keyframes import thin_animation
+from .meshcat_quiet import Animation, MeshcatVisualizer, meshcat, mg, mt
 from .meshes import cluster, geometry_mesh, visual_model
 from .scene_options import SceneOptions
 from .task_forces import task_forces

@@ -71,11 +71,7 @@ def main(argv: list[str] | None = None) -> None:
             probe.bind((host, 0))
     except OSError as exc:
         sys.exit(f"{exc}")
-    import warnings
-
-    with warnings.catch_warnings():     # its import of zmq.eventloop.ioloop (pyzmq: deprecated since 17)
-        warnings.filterwarnings("ignore", "zmq.eventloop.ioloop is deprecated", DeprecationWarning)
-        from meshcat.servers.zmqserver import ZMQWebSocketBridge
+    from .meshcat_quiet import ZMQWebSocketBridge
 
     class Bridge(ZMQWebSocketBridge):
         def make_app(self):
