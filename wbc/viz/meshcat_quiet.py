@@ -1,7 +1,9 @@
 """meshcat 0.3.2 (and pinocchio's visualizer on it), imported in one place with its import-time
 DeprecationWarning silenced: meshcat's package imports its server module, which imports
 ``zmq.eventloop.ioloop`` (pyzmq warns at that import: deprecated since pyzmq 17). Nothing of it
-is called by the package. Every module of :mod:`wbc.viz` takes meshcat from here."""
+is called by the package. Every module of :mod:`wbc.viz` takes meshcat from here, but the
+Meshcat server's script (:mod:`wbc.viz.server`, run by its path, outside the package), which
+silences the same warning at its own import."""
 
 from __future__ import annotations
 
@@ -13,7 +15,6 @@ with warnings.catch_warnings():
     import meshcat.geometry as mg
     import meshcat.transformations as mt
     from meshcat.animation import Animation
-    from meshcat.servers.zmqserver import ZMQWebSocketBridge
     from pinocchio.visualize import MeshcatVisualizer
 
-__all__ = ["Animation", "MeshcatVisualizer", "ZMQWebSocketBridge", "meshcat", "mg", "mt"]
+__all__ = ["Animation", "MeshcatVisualizer", "meshcat", "mg", "mt"]

@@ -71,7 +71,11 @@ def main(argv: list[str] | None = None) -> None:
             probe.bind((host, 0))
     except OSError as exc:
         sys.exit(f"{exc}")
-    from .meshcat_quiet import ZMQWebSocketBridge
+    import warnings
+
+    with warnings.catch_warnings():     # as in wbc/viz/meshcat_quiet.py (a script run by path: no package)
+        warnings.filterwarnings("ignore", "zmq.eventloop.ioloop is deprecated", DeprecationWarning)
+        from meshcat.servers.zmqserver import ZMQWebSocketBridge
 
     class Bridge(ZMQWebSocketBridge):
         def make_app(self):
