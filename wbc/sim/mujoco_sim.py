@@ -78,12 +78,17 @@ import pinocchio as pin
 
 from ..errors import WbcError
 from .environment import Box, HalfSpace
+from .mujoco_contacts import GeomPoints, read_contacts
 from .mujoco_model import build_model
 from .options import SimOptions
 from .simulator import Push, contact_points
 
 if TYPE_CHECKING:
     from wbc.robot.model import RobotModel
+
+#: the warnings on which MuJoCo resets the state (a diverged step)
+_BAD = np.array([mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC],
+                dtype=np.int64)
 
 class MujocoSimulator:
     """:class:`wbc.sim.Simulator`'s interface on MuJoCo (module docstring). Units: s, m, rad, N, N·m.
@@ -132,6 +137,7 @@ class MujocoSimulator:
         #: the robot geometries added with ``link_geoms`` (what :meth:`link_contacts` watches)
         self.link_geom_names = [g[0] for g in link_geoms]
         self.mj_data = mujoco.MjData(mm)
+        self._warned = self.mj_data.warning.number      # a view: the counts of each warning, live
         # pinocchio joint -> MuJoCo body, and the (q, v) <-> (qpos, qvel) indices of the joints
         self._body = np.zeros(m.njoints, int)
         self._n_root = {"free_flyer": 6, "planar": 3, "fixed": 0}[robot.root]
@@ -150,6 +156,7 @@ class MujocoSimulator:
         self._qi, self._qm, self._vi, self._vm = (np.array(x, int) for x in (qi, qm, vi, vm))
         self._root_q = int(mm.jnt_qposadr[0]) if self._n_root else 0
         self._root_v = int(mm.jnt_dofadr[0]) if self._n_root else 0
+        self._T0: np.ndarray | None = None      # velocity_map's constant part
         self._act_v = np.asarray(robot.actuated_idx, int)   # actuator k drives pinocchio dof _act_v[k]
         gp: dict[int, list] = {}
         for i, (_, r, kind, _, cname) in enumerate(pts):
@@ -158,11 +165,16 @@ class MujocoSimulator:
             gp.setdefault(g, []).append((i, r))
         # robot geom -> (its points' indices, their offsets in the body frame)
         self._geom_points = {g: (np.array([i for i, _ in v]), np.array([r for _, r in v])) for g, v in gp.items()}
+        if mm.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:     # read_contacts reads efc_force as mj_contactForce does then
+            raise WbcError("MujocoSimulator: the contact read-out needs elliptic friction cones")
+        self._geom_table = GeomPoints(mm.ngeom, self._geom_points, mm.geom_bodyid).args
         self._sites = np.array([mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, f"wbc_point_{i}")
                                 for i in range(len(pts))], int)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(pts), 3))
-        self._contacts: list[tuple[int, np.ndarray, np.ndarray]] = []   # (body, point, force), body frame
+        # the last step's robot contacts (body, point, force; body frame): the first _ncontacts rows
+        self._cbody, self._cpoint, self._cforce = np.zeros(16, dtype=np.int64), np.zeros((16, 3)), np.zeros((16, 3))
+        self._ncontacts = 0
         self._rng = np.random.default_rng(o.seed)
         self.noise_q, self.noise_v = o.noise_q, o.noise_v
         self._delay: deque = deque(maxlen=o.latency_steps + 1)
@@ -218,12 +230,17 @@ class MujocoSimulator:
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
         """T(q) (nv × nv, orthogonal): qvel = T v."""
-        T, a, n = np.zeros((self.mj_model.nv, self.model.nv)), self._root_v, self._n_root
-        if n:
-            T[a: a + n, :n] = np.eye(n)
-            k = 3 if self.root == "free_flyer" else 2
+        T0 = self._T0
+        if T0 is None:      # the part that does not depend on q, built once
+            T0, a, n = np.zeros((self.mj_model.nv, self.model.nv)), self._root_v, self._n_root
+            if n:
+                T0[a: a + n, :n] = np.eye(n)
+            T0[self._vm, self._vi] = 1.0
+            self._T0 = T0
+        T = T0.copy()
+        if self._n_root:
+            a, k = self._root_v, (3 if self.root == "free_flyer" else 2)
             T[a: a + k, :k] = self._root_rotation(q)
-        T[self._vm, self._vi] = 1.0
         return T
 
     def velocity_map_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -360,8 +377,7 @@ class MujocoSimulator:
     def _advance(self) -> None:
         """``substeps`` MuJoCo steps at the current ctrl, then the contacts and the state read."""
         mm, d = self.mj_model, self.mj_data
-        w = mujoco.mjtWarning          # MuJoCo resets the state on any of these (a diverged step)
-        bad = (w.mjWARN_BADQPOS, w.mjWARN_BADQVEL, w.mjWARN_BADQACC)
+        warned = self._warned       # MuJoCo resets the state on any of these warnings (a diverged step)
         for _ in range(self.substeps):
             d.xfrc_applied[:] = self.push_wrenches(self.t) if self.pushes else 0.0
             if self.differential_drive:
@@ -369,13 +385,13 @@ class MujocoSimulator:
                 mujoco.mj_forward(mm, d)
                 e, Me = self._lateral()
                 d.qfrc_applied[:] = e * (-(e @ (d.qvel + self.h * d.qacc)) / (self.h * (e @ Me)))
-            n_bad = sum(d.warning[k].number for k in bad)
+            n_bad = int(warned[_BAD].sum())
             mujoco.mj_step(mm, d)
             self._fresh = False
             if self.differential_drive:       # the impulse along the new heading's lateral axis
                 e, Me = self._lateral()
                 d.qvel[:] -= Me * ((e @ d.qvel) / (e @ Me))
-            self.solver_failures += sum(d.warning[k].number for k in bad) - n_bad
+            self.solver_failures += int(warned[_BAD].sum()) - n_bad
             self.t += self.h
         self._read_contacts()
         self._read_state()
@@ -391,23 +407,16 @@ class MujocoSimulator:
 
     def _read_contacts(self) -> None:
         """The last step's contact forces on the robot (world, N): each kept with its point in
-        the body's frame, and added to the nearest of its geom's points."""
-        mm, d = self.mj_model, self.mj_data
-        self.point_forces[:] = 0.0
-        self._contacts = []
-        for k in range(d.ncon):
-            c = d.contact[k]
-            g, sign = (int(c.geom2), 1.0) if int(c.geom2) in self._geom_points else (int(c.geom1), -1.0)
-            if g not in self._geom_points:
-                continue
-            mujoco.mj_contactForce(mm, d, k, self._f6)
-            f = sign * (c.frame.reshape(3, 3).T @ self._f6[:3])      # on geom g
-            b = mm.geom_bodyid[g]
-            R = d.xmat[b].reshape(3, 3)
-            r = R.T @ (c.pos - d.xpos[b])
-            self._contacts.append((b, r, R.T @ f))
-            idx, offs = self._geom_points[g]
-            self.point_forces[idx[np.argmin(((offs - r) ** 2).sum(axis=1))]] += f
+        the body's frame, and added to the nearest of its geom's points
+        (:func:`~wbc.sim.mujoco_contacts.read_contacts`, one compiled call)."""
+        d = self.mj_data
+        con = d.contact
+        if d.ncon > len(self._cbody):
+            n = 2 * d.ncon
+            self._cbody, self._cpoint, self._cforce = np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.zeros((n, 3))
+        self._ncontacts = read_contacts(con.geom, con.frame, con.pos, con.efc_address, con.dim, d.efc_force, d.xmat,
+                                        d.xpos, self._geom_table, self.point_forces, self._cbody, self._cpoint,
+                                        self._cforce)
 
     def link_contacts(self) -> list[tuple[str, str, float]]:
         """MuJoCo's own contact list, now, between the links' collision geometries added with
@@ -442,7 +451,8 @@ class MujocoSimulator:
         f = self._frame(frame)
         b, bMf = self._body[f.parentJoint], f.placement
         w = np.zeros(6)
-        for body, r, fb in self._contacts:
+        n = self._ncontacts
+        for body, r, fb in zip(self._cbody[:n], self._cpoint[:n], self._cforce[:n], strict=True):
             if body == b:
                 fl = bMf.rotation.T @ fb
                 w[:3] += fl
