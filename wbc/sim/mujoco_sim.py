@@ -219,7 +219,8 @@ class MujocoSimulator:
         q, a = np.zeros(self.model.nq), self._root_q
         if self.root == "free_flyer":
             q[:3] = qpos[a: a + 3]
-            w, x, y, z = qpos[a + 3: a + 7] / np.linalg.norm(qpos[a + 3: a + 7])
+            quat = qpos[a + 3: a + 7]
+            w, x, y, z = quat / math.sqrt(quat.dot(quat))       # np.linalg.norm's arithmetic, without its checks
             q[3:7] = x, y, z, w
         elif self.root == "planar":
             q[:4] = qpos[a], qpos[a + 1], math.cos(qpos[a + 2]), math.sin(qpos[a + 2])
