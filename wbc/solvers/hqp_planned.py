@@ -15,6 +15,7 @@ from ..problem.result import DeferredLevels, LevelInfo, SolveResult
 from ..problem.rows import Level
 from .cascade import _NO_BASIS, GRAM_MIN_RATIO
 from .kernels.cascade_run import cascade_prefix
+from .kernels.equality_run import equality_cascade
 from .kernels.records import CERTIFIED as CERTIFIED_FIELD
 from .kernels.records import LEVEL_INTS, decode
 
@@ -24,16 +25,23 @@ class PlannedEntry:
     methods and state it reads are the solver's own)."""
 
     _planned: tuple | None = None
+    #: try the equality-only cascade first (:mod:`~wbc.solvers.kernels.equality_run`: the same
+    #: solution when no inequality is met on the way, else the full run); False: the full run only
+    equality_first: bool = True
 
     def solve_planned(self: Any, problem: Problem) -> SolveResult:
-        """:meth:`solve` (the same result, bit for bit) for a problem whose rows stay in the
+        """:meth:`solve` (the same result: bit for bit by the full run, to rounding by the
+        equality-only one) for a problem whose rows stay in the
         same arrays from one cycle to the next (the velocity mode's plan,
         :mod:`wbc.controller.velocity_plan`): the compiled run's arguments are built once per
-        problem and solver setting, and when the run solves every level (no back-end QP: the
-        common case) the levels' :class:`LevelInfo` are decoded only when read
-        (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
-        in :meth:`solve_levels` from where it stopped (nothing computed twice). A subclass
-        that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
+        problem and solver setting; the equality-only cascade is tried first
+        (:func:`~wbc.solvers.kernels.equality_run.equality_cascade`: one Householder QR of the
+        stacked wide levels, the hqp's acceptance tests, every inequality checked on the way;
+        when any test fails, the full run below, so the result is the hqp's to rounding); and
+        when the run solves every level (no back-end QP: the common case) the levels'
+        :class:`LevelInfo` are decoded only when read (:class:`~wbc.problem.result.DeferredLevels`).
+        A run that stops at a level goes on in :meth:`solve_levels` from where it stopped
+        (nothing computed twice). A subclass that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
         if not _plain(type(self)):
             return self.solve(problem)
         levels = problem.levels
@@ -50,6 +58,10 @@ class PlannedEntry:
                                     self.certify, self.regularization, margin))
         x_ref = problem.x_ref
         x0 = np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
+        if self.equality_first:
+            done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
+            if done:
+                return SolveResult(x, DeferredLevels(partial(_decoded, ints, floats, levels)), True, 0, "")
         out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
         L = len(levels)
         if out[0] != L:

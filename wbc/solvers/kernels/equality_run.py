@@ -1,0 +1,344 @@
+"""The strict cascade of a problem none of whose inequalities is met by its solution's steps:
+its equalities alone, in one compiled pass (the velocity mode's common cycle).
+
+When every point the cascade passes through (x̂ after each level) meets the inequality rows
+of that level and the levels above it, the hierarchical QP's run
+(:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`) takes no QP: it is a cascade of
+least squares. Over the levels whose rows are fewer than the directions left (wide
+levels, each full row rank), that cascade is one Householder QR of the stacked rows,
+
+    [A₀; A₁; …; A_w]ᵀ = Q R,     Z_k = Q[:, M_k:]   (M_k: rows of levels 0..k),
+
+since the reflectors of level k's columns are computed from columns the previous levels'
+reflectors have already transformed: A_k Z_{k−1} = R_kkᵀ in the basis Q[:, M_{k−1}:M_k]
+(R_kk the diagonal block, with the singular values the hqp's QR route bounds), and the
+steps are the block forward substitution R_kkᵀ y_k = b_k − A_k x̂_{k−1}, x̂_k = x₀ + Q [y_0..k; 0].
+The first level with at least as many rows as directions left (a posture) takes the GRAM
+route on A Z = A Q[:, M:], its Gram matrix (for distinct unit rows, e.g. a posture over the
+joints: G = I − Z_S̄ᵀ Z_S̄ with S̄ the coordinates it leaves out, six rows of Z for a floating
+base instead of 32), Cholesky G = UᵀU, z = U⁻¹U⁻ᵀ (AZ)ᵀ r; levels below it have no
+direction left.
+
+Every acceptance test is the hqp's own (:mod:`.factorizations`): a wide level only if
+1/‖R_kk⁻¹‖_F > max(rank_tol·max(1, ‖R_kk‖_F), ε) (full rank, undamped), the tall level
+only on the Cholesky branch's bounds; the inequalities are checked at every x̂_k against
+the rows of levels 0..k to ``tol``, as the run does. Any test that fails, a route hint in
+force, or a non-finite number: ``ok`` False and the caller runs the full hqp, so the
+result is always the hqp's (to rounding: the same factorisations by another order of
+operations, ~1e-15 relative on the Talos IK problem). Records in the format of
+:mod:`.records` (:func:`~.records.decode`), as the run writes them.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .factorizations import GRAM, QR
+from .records import CALL as CALL_FIELD
+from .records import LAMBDA2 as LAMBDA2_FIELD
+from .records import (
+    LEVEL_FLOATS,
+    LEVEL_INTS,
+    end_r_factors,
+    new_outputs,
+    set_calls,
+    start_level,
+)
+from .records import RANK as RANK_FIELD
+from .records import ROUTE as ROUTE_FIELD
+from .records import SIGMA_MAX as SIGMA_MAX_FIELD
+from .records import SIGMA_MIN as SIGMA_MIN_FIELD
+
+
+@nb.njit(cache=True, fastmath=True)
+def _householder_rows(V, tau, rdiag):
+    """In place, the Householder QR of Vᵀ (V: M × n, C order, M ≤ n): row j of V ends as
+    (R[0..j, j], v_j[j+1:]) with v_j the j-th reflector (v_j[j] = 1, H_j = I − τ_j v_j v_jᵀ,
+    LAPACK's convention) and R[j, j] in ``rdiag``. False if a column is zero."""
+    M, n = V.shape
+    for j in range(M):
+        vj = V[j]
+        alpha = vj[j]
+        s = 0.0
+        for i in range(j + 1, n):
+            s += vj[i] * vj[i]
+        norm = np.sqrt(alpha * alpha + s)
+        if not norm > 0.0:
+            return False
+        beta = -norm if alpha >= 0.0 else norm
+        t = (beta - alpha) / beta
+        scale = 1.0 / (alpha - beta)
+        for i in range(j + 1, n):
+            vj[i] *= scale
+        vj[j] = beta
+        tau[j] = t
+        rdiag[j] = beta
+        for r in range(j + 1, M):               # H_j applied to the columns still to factor
+            vr = V[r]
+            d = vr[j]
+            for i in range(j + 1, n):
+                d += vj[i] * vr[i]
+            d *= t
+            vr[j] -= d
+            for i in range(j + 1, n):
+                vr[i] -= d * vj[i]
+    return True
+
+
+@nb.njit(cache=True, fastmath=True)
+def _q_times(V, tau, count, u):
+    """Q u in place for the first ``count`` reflectors of V (H_0 ⋯ H_{count−1} u)."""
+    n = u.shape[0]
+    for j in range(count - 1, -1, -1):
+        d = u[j]
+        for i in range(j + 1, n):
+            d += V[j, i] * u[i]
+        d *= tau[j]
+        u[j] -= d
+        for i in range(j + 1, n):
+            u[i] -= d * V[j, i]
+
+
+@nb.njit(cache=True, fastmath=True)
+def _qt_times(V, tau, count, u):
+    """Qᵀ u in place (H_{count−1} ⋯ H_0 u)."""
+    n = u.shape[0]
+    for j in range(count):
+        d = u[j]
+        for i in range(j + 1, n):
+            d += V[j, i] * u[i]
+        d *= tau[j]
+        u[j] -= d
+        for i in range(j + 1, n):
+            u[i] -= d * V[j, i]
+
+
+@nb.njit(cache=True, fastmath=True)
+def _upper_inverse(R):
+    """R⁻¹ of an upper-triangular m × m R with nonzero diagonal (back substitution)."""
+    m = R.shape[0]
+    X = np.zeros((m, m))
+    for j in range(m):
+        X[j, j] = 1.0 / R[j, j]
+        for i in range(j - 1, -1, -1):
+            s = 0.0
+            for p in range(i + 1, j + 1):
+                s += R[i, p] * X[p, j]
+            X[i, j] = -s / R[i, i]
+    return X
+
+
+@nb.njit(cache=True, fastmath=True)
+def _violated(C, lo, hi, end, x, tol):
+    """Whether a row of C[:end] x within [lo, hi] is violated by more than ``tol``."""
+    n = x.shape[0]
+    for i in range(end):
+        y = 0.0
+        for j in range(n):
+            y += C[i, j] * x[j]
+        if lo[i] - y > tol or y - hi[i] > tol:
+            return True
+    return False
+
+
+@nb.njit(cache=True, fastmath=True)
+def equality_cascade(eq, ineq, x0, hints, settings):
+    """The equality-only cascade (module docstring): (ok, x, ints, floats), ``ok`` False
+    where the hqp's run may do otherwise (then x and the records are not to be read).
+    Arguments as :func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`'s (``x0`` its
+    start's x̂; the run from level 0 with Z = I)."""
+    A, b, e_end = eq
+    C, lo, hi, i_end = ineq
+    rank_tol, threshold, _, gram_min_ratio, tol = settings[0], settings[1], settings[2], settings[3], settings[4]
+    L = e_end.shape[0]
+    n = x0.shape[0]
+    none = np.empty(0, dtype=np.int64), np.empty(0)
+    for h in range(hints.shape[0]):              # a route hint in force: the run may route otherwise
+        if hints[h, 4] > 0:
+            return False, x0, none[0], none[1]
+    r_size = 0
+    e0 = 0
+    for k in range(L):
+        m = e_end[k] - e0
+        r_size += m * m
+        e0 = e_end[k]
+    # the wide prefix: levels with fewer rows than directions left; then at most one tall level
+    dof = n
+    wide = 0                                      # rows of the wide levels
+    tall = -1
+    e0 = 0
+    for k in range(L):
+        m = e_end[k] - e0
+        e0 = e_end[k]
+        if m == 0 or dof == 0:
+            continue
+        if m < dof:
+            dof -= m
+            wide = e_end[k]
+        else:
+            tall = k
+            break
+    ints, floats = new_outputs(L, r_size, 0, 0)
+    r_at = LEVEL_FLOATS * L
+    V = np.empty((wide, n))
+    for j in range(wide):
+        for i in range(n):
+            V[j, i] = A[j, i]
+    tau = np.empty(wide)
+    rdiag = np.empty(wide)
+    if not _householder_rows(V, tau, rdiag):
+        return False, x0, none[0], none[1]
+    rhs = b - A @ x0                              # b' of every level (their rows at x₀)
+    y = np.zeros(n)                               # Qᵀ(x − x₀), block by block
+    x = x0.copy()
+    calls = 0
+    dof = n
+    e0 = 0
+    for k in range(L):
+        m = e_end[k] - e0
+        start_level(ints, floats, k, m, dof)
+        if m and dof:
+            if k == tall:
+                break
+            for l in range(e0, e0 + m):           # R_kkᵀ y_k = b'_k − Σ_{j<k} R_jkᵀ y_j
+                s = rhs[l]
+                for i in range(l):
+                    s -= V[l, i] * y[i]
+                if not (np.isfinite(s) and rdiag[l] != 0.0):
+                    return False, x0, none[0], none[1]
+                y[l] = s / rdiag[l]
+            R = np.zeros((m, m))
+            for i in range(m):
+                R[i, i] = rdiag[e0 + i]
+                for j in range(i + 1, m):
+                    R[i, j] = V[e0 + j, e0 + i]
+            Rinv = _upper_inverse(R)
+            ub = np.sqrt(np.sum(R * R))           # ‖A_k Z_{k−1}‖_F ≥ σ_max
+            lb = 1.0 / np.sqrt(np.sum(Rinv * Rinv))   # ≤ σ_min
+            if not lb > max(rank_tol[k] * max(1.0, ub), threshold[k]):
+                return False, x0, none[0], none[1]
+            ints[LEVEL_INTS * k + CALL_FIELD] = calls
+            ints[LEVEL_INTS * k + ROUTE_FIELD] = QR
+            ints[LEVEL_INTS * k + RANK_FIELD] = m
+            floats[LEVEL_FLOATS * k + SIGMA_MIN_FIELD] = np.nan
+            floats[LEVEL_FLOATS * k + SIGMA_MAX_FIELD] = np.nan
+            floats[LEVEL_FLOATS * k + LAMBDA2_FIELD] = 0.0
+            for i in range(m):
+                for j in range(m):
+                    floats[r_at] = R[i, j]
+                    r_at += 1
+            calls += 1
+            dof -= m
+            if i_end[k] > 0:
+                u = y.copy()
+                _q_times(V, tau, e_end[k], u)
+                x = x0 + u
+        end_r_factors(ints, L, k, r_at)
+        set_calls(ints, L, calls)
+        if i_end[k] > 0 and _violated(C, lo, hi, i_end[k], x, tol):
+            return False, x0, none[0], none[1]
+        e0 = e_end[k]
+    if tall < 0:
+        u = y.copy()
+        _q_times(V, tau, wide, u)
+        return True, x0 + u, ints, floats
+    # the tall level: x̂ (after the wide levels), A Z with Z = Q[:, wide:], its Gram matrix
+    k = tall
+    u = y.copy()
+    _q_times(V, tau, wide, u)
+    xh = x0 + u
+    e0 = e_end[k - 1] if k else 0
+    m = e_end[k] - e0
+    Ak = A[e0:e_end[k]]
+    r = rhs[e0:e_end[k]] - Ak @ u
+    g = Ak.T @ r                                  # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
+    _qt_times(V, tau, wide, g)
+    gz = g[wide:].copy()
+    unit = np.full(n, -1, dtype=np.int64)         # distinct unit rows: the column of each
+    distinct = True
+    for i in range(m):
+        c = -1
+        for j in range(n):
+            a = Ak[i, j]
+            if a != 0.0:
+                if a != 1.0 or c >= 0:
+                    c = -2
+                    break
+                c = j
+        if c < 0 or unit[c] >= 0:
+            distinct = False
+            break
+        unit[c] = i
+    G = np.zeros((dof, dof))
+    if distinct:                                  # G = Σ_{i∈S} Z_iᵀ Z_i = I − Σ_{i∉S} Z_iᵀ Z_i
+        for i in range(dof):
+            G[i, i] = 1.0
+        e = np.empty(n)
+        for c in range(n):
+            if unit[c] >= 0:
+                continue
+            e[:] = 0.0
+            e[c] = 1.0
+            _qt_times(V, tau, wide, e)
+            zc = e[wide:]
+            for i in range(dof):
+                for j in range(dof):
+                    G[i, j] -= zc[i] * zc[j]
+    else:
+        a = np.empty(n)
+        for i in range(m):
+            a[:] = Ak[i]
+            _qt_times(V, tau, wide, a)
+            za = a[wide:]
+            for p in range(dof):
+                for q in range(dof):
+                    G[p, q] += za[p] * za[q]
+    ub2 = 0.0                                     # ‖A Z‖_F² = trace G ≥ σ_max²
+    for i in range(dof):
+        ub2 += G[i, i]
+    U = np.zeros((dof, dof))                      # G = UᵀU
+    for j in range(dof):
+        s = G[j, j]
+        for p in range(j):
+            s -= U[p, j] * U[p, j]
+        if not s > 0.0:
+            return False, x0, none[0], none[1]
+        d = np.sqrt(s)
+        U[j, j] = d
+        for i in range(j + 1, dof):
+            t = G[j, i]
+            for p in range(j):
+                t -= U[p, j] * U[p, i]
+            U[j, i] = t / d
+    Uinv = _upper_inverse(U)
+    lb2 = 1.0 / np.sum(Uinv * Uinv)               # ≤ σ_min²
+    if not (lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol[k] * max(1.0, np.sqrt(ub2)),
+                                                               threshold[k])):
+        return False, x0, none[0], none[1]
+    z = Uinv @ (Uinv.T @ gz)
+    ints[LEVEL_INTS * k + CALL_FIELD] = calls
+    ints[LEVEL_INTS * k + ROUTE_FIELD] = GRAM
+    ints[LEVEL_INTS * k + RANK_FIELD] = dof
+    floats[LEVEL_FLOATS * k + SIGMA_MIN_FIELD] = np.nan
+    floats[LEVEL_FLOATS * k + SIGMA_MAX_FIELD] = np.nan
+    floats[LEVEL_FLOATS * k + LAMBDA2_FIELD] = 0.0
+    for i in range(dof):
+        for j in range(dof):
+            floats[r_at] = U[i, j]
+            r_at += 1
+    calls += 1
+    w = np.zeros(n)
+    w[wide:] = z
+    _q_times(V, tau, wide, w)
+    x = xh + w
+    if not np.all(np.isfinite(x)):
+        return False, x0, none[0], none[1]
+    for kk in range(k, L):                        # the tall level and those below it (no direction left)
+        if kk > k:
+            start_level(ints, floats, kk, e_end[kk] - e_end[kk - 1], 0)
+        end_r_factors(ints, L, kk, r_at)
+        if i_end[kk] > 0 and _violated(C, lo, hi, i_end[kk], x, tol):
+            return False, x0, none[0], none[1]
+    set_calls(ints, L, calls)
+    return True, x, ints, floats
