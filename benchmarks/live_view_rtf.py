@@ -45,9 +45,10 @@ ROOT = Path(__file__).resolve().parents[1]
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
          "--no-first-run", "--disable-background-networking", "--disable-breakpad", "--disable-crash-reporter"]
 DEVTOOLS_PORT = 9290
-# the page's frames: draw calls on WebGL contexts, one frame per task that issues any (a render)
+# the page's frames: draw calls on WebGL contexts, one frame per task that issues any (a render),
+# each frame's wall time (ms since the epoch) kept
 COUNT_FRAMES = """(function () {
-  window.wbcFrames = 0; var inFrame = false;
+  window.wbcFrames = []; var inFrame = false;
   [window.WebGLRenderingContext, window.WebGL2RenderingContext].forEach(function (C) {
     if (!C) { return; }
     ["drawElements", "drawArrays", "drawElementsInstanced", "drawArraysInstanced", "drawRangeElements"].forEach(
@@ -55,7 +56,10 @@ COUNT_FRAMES = """(function () {
         var f = C.prototype[name];
         if (!f) { return; }
         C.prototype[name] = function () {
-          if (!inFrame) { inFrame = true; window.wbcFrames++; queueMicrotask(function () { inFrame = false; }); }
+          if (!inFrame) {
+            inFrame = true; window.wbcFrames.push(performance.timeOrigin + performance.now());
+            queueMicrotask(function () { inFrame = false; });
+          }
           return f.apply(this, arguments);
         };
       });
@@ -154,8 +158,8 @@ def child(probe_out: str, argv: list[str]) -> int:
             nice = os.environ.get("LIVE_VIEW_NICE_BROWSER")
             if nice and browser_pid_file.exists():      # now, once the page has loaded: it would starve loading
                 Path(f"/proc/{int(browser_pid_file.read_text())}/autogroup").write_text(nice)
-            Path(probe_out).with_suffix(".started").write_text("")
-            start.update(threads=threads(), others=others(), cpu=time.process_time(), thread_cpu=time.thread_time(),
+            start.update(epoch=time.time(), threads=threads(), others=others(), cpu=time.process_time(),
+                         thread_cpu=time.thread_time(),
                          wall=time.perf_counter(), ru=resource.getrusage(resource.RUSAGE_THREAD))
         r0 = resource.getrusage(resource.RUSAGE_THREAD)
         c0, w0 = time.thread_time_ns(), time.perf_counter_ns()
@@ -193,7 +197,8 @@ def child(probe_out: str, argv: list[str]) -> int:
                 "python_threads": [t.name for t in threading.enumerate()],
                 "threads_cpu_s": {k: round(t1[k] - t0.get(k, 0.0), 2) for k in t1},
                 "others_cpu_s": {k: o1[k] - o0[k] for k in o1 if k in o0},
-                "switchinterval_s": sys.getswitchinterval(), "main_tid": threading.get_native_id()}))
+                "switchinterval_s": sys.getswitchinterval(), "main_tid": threading.get_native_id(),
+                "loop_epoch_s": [start["epoch"], time.time()]}))
         return metrics(self)
 
     ScenarioRun.cycle = probed_cycle            # type: ignore[method-assign]
@@ -227,9 +232,10 @@ class Page:
             if r.get("id") == self.id:
                 return r.get("result", {})
 
-    def frames(self) -> int:
-        return int(self.call("Runtime.evaluate", expression="window.wbcFrames || 0", returnByValue=True)
-                   ["result"].get("value", 0))
+    def frame_times(self) -> list[float]:
+        """The wall times (s since the epoch) of the frames the page has rendered."""
+        ms = self.call("Runtime.evaluate", expression="window.wbcFrames || []", returnByValue=True)["result"]
+        return [1e-3 * t for t in ms.get("value", [])]
 
 
 # ---------------------------------------------------------------------------------------- runs
@@ -244,7 +250,7 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
     pre = ["taskset", "-c", "0"] if args.pin else []      # --pin: the control process on CPU 0, the page's on CPU 1
     proc = subprocess.Popen(pre + cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
     browser, browser_cpu, stat0, page = None, None, None, None
-    frames: dict = {}
+    frames: dict = {}       # the page's frame times
     try:
         if live:
             assert proc.stdout is not None
@@ -269,24 +275,13 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
                     page.call("Page.addScriptToEvaluateOnNewDocument", source=COUNT_FRAMES)
                     page.call("Page.navigate", url=url)
                     Path(probe).with_suffix(".browser").write_text(str(browser.pid))
-
-                    def count(page=page) -> None:      # the page's frames from the loop's first cycle
-                        while not Path(probe).with_suffix(".started").exists() and proc.poll() is None:
-                            time.sleep(0.01)
-                        frames["start"] = page.frames()
-                        frames["t0"] = time.perf_counter()
-
-                    import threading
-
-                    counter = threading.Thread(target=count, daemon=True)
-                    counter.start()
                     break
             stat0 = cpu_times()
             for line in proc.stdout:            # the run's progress; the metrics line at its end
                 if line.startswith("metrics written") and browser is not None:
                     browser_cpu = _session_cpu_s(browser.pid)
-                    if page is not None and "start" in frames:
-                        frames["end"], frames["t1"] = page.frames(), time.perf_counter()
+                    if page is not None:
+                        frames["times"] = page.frame_times()
         else:
             stat0 = cpu_times()
         proc.communicate(timeout=600)
@@ -313,8 +308,16 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
             "p99_ms": m["cycle_time"]["p99"] * 1e3, "load": load(), "view": m.get("live_view"), "probe": p,
             "busy_pct": 100.0 * (total - d[3] - d[4]) / total, "steal_pct": 100.0 * d[7] / total,
             "browser_cpu_s": browser_cpu,
-            "page_frames": frames["end"] - frames["start"] if "end" in frames else None,
-            "page_s": frames["t1"] - frames["t0"] if "end" in frames else None}
+            "page_frames": page_frames(frames.get("times"), p.get("loop_epoch_s")),
+            "page_times": [round(t - p["loop_epoch_s"][0], 3) for t in frames.get("times", [])[:3] + frames.get("times", [])[-3:]]
+            if p.get("loop_epoch_s") else None, "page_total": len(frames.get("times", []))}
+
+
+def page_frames(times: list[float] | None, loop: list[float] | None) -> int | None:
+    """The page's frames rendered during the loop (wall times between its first and last cycle)."""
+    if times is None or loop is None:
+        return None
+    return sum(loop[0] <= t <= loop[1] for t in times)
 
 
 def show(r: dict) -> str:
@@ -338,11 +341,12 @@ def show(r: dict) -> str:
         o = p.get("others_cpu_s", {}) if p else {}
         if r.get("page_frames") is not None:
             b = o.get("browser")
-            wall = p.get("loop_wall_s") or r["page_s"]
+            wall = p["loop_wall_s"]
             s += (f"\n    page: {r['page_frames']} frames rendered during the loop ({wall:.2f} s: "
                   f"{r['page_frames'] / max(wall, 1e-9):.1f}/s)"
                   + (f"; Chromium {b:.2f} s CPU in the loop, {1e3 * b / max(r['page_frames'], 1):.0f} ms per "
-                     "rendered frame" if b is not None else ""))
+                     "rendered frame" if b is not None else "")
+                  + f" [{r.get('page_total')} in all, first and last at {r.get('page_times')} s from the loop's start]")
     return s
 
 
