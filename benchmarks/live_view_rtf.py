@@ -44,6 +44,27 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
          "--no-first-run", "--disable-background-networking", "--disable-breakpad", "--disable-crash-reporter"]
+DEVTOOLS_PORT = 9290
+# the page's frames: draw calls on WebGL contexts, one frame per task that issues any (a render),
+# each frame's wall time (ms since the epoch) kept
+COUNT_FRAMES = """(function () {
+  window.wbcFrames = []; var inFrame = false;
+  [window.WebGLRenderingContext, window.WebGL2RenderingContext].forEach(function (C) {
+    if (!C) { return; }
+    ["drawElements", "drawArrays", "drawElementsInstanced", "drawArraysInstanced", "drawRangeElements"].forEach(
+      function (name) {
+        var f = C.prototype[name];
+        if (!f) { return; }
+        C.prototype[name] = function () {
+          if (!inFrame) {
+            inFrame = true; window.wbcFrames.push(performance.timeOrigin + performance.now());
+            queueMicrotask(function () { inFrame = false; });
+          }
+          return f.apply(this, arguments);
+        };
+      });
+  });
+})();"""
 SLOW_S = 2e-3           # a solve slower than this is "slow" (headless p99 on an idle machine: 0.6-0.9 ms)
 
 
@@ -137,7 +158,8 @@ def child(probe_out: str, argv: list[str]) -> int:
             nice = os.environ.get("LIVE_VIEW_NICE_BROWSER")
             if nice and browser_pid_file.exists():      # now, once the page has loaded: it would starve loading
                 Path(f"/proc/{int(browser_pid_file.read_text())}/autogroup").write_text(nice)
-            start.update(threads=threads(), others=others(), cpu=time.process_time(), thread_cpu=time.thread_time(),
+            start.update(epoch=time.time(), threads=threads(), others=others(), cpu=time.process_time(),
+                         thread_cpu=time.thread_time(),
                          wall=time.perf_counter(), ru=resource.getrusage(resource.RUSAGE_THREAD))
         r0 = resource.getrusage(resource.RUSAGE_THREAD)
         c0, w0 = time.thread_time_ns(), time.perf_counter_ns()
@@ -175,12 +197,45 @@ def child(probe_out: str, argv: list[str]) -> int:
                 "python_threads": [t.name for t in threading.enumerate()],
                 "threads_cpu_s": {k: round(t1[k] - t0.get(k, 0.0), 2) for k in t1},
                 "others_cpu_s": {k: o1[k] - o0[k] for k in o1 if k in o0},
-                "switchinterval_s": sys.getswitchinterval(), "main_tid": threading.get_native_id()}))
+                "switchinterval_s": sys.getswitchinterval(), "main_tid": threading.get_native_id(),
+                "loop_epoch_s": [start["epoch"], time.time()]}))
         return metrics(self)
 
     ScenarioRun.cycle = probed_cycle            # type: ignore[method-assign]
     ScenarioRun.metrics = probed_metrics        # type: ignore[method-assign]
     return wbc_main(argv)
+
+
+class Page:
+    """The page's tab over the DevTools protocol: the frame counter installed before the page
+    loads (:data:`COUNT_FRAMES`), then read."""
+
+    def __init__(self, port: int) -> None:
+        import urllib.request
+
+        from websockets.sync.client import connect
+
+        for _ in range(300):
+            try:
+                tabs = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json"))
+                break
+            except OSError:
+                time.sleep(0.1)
+        self.ws = connect(next(t for t in tabs if t["type"] == "page")["webSocketDebuggerUrl"], max_size=None)
+        self.id = 0
+
+    def call(self, method: str, **params):
+        self.id += 1
+        self.ws.send(json.dumps({"id": self.id, "method": method, "params": params}))
+        while True:
+            r = json.loads(self.ws.recv(timeout=120))
+            if r.get("id") == self.id:
+                return r.get("result", {})
+
+    def frame_times(self) -> list[float]:
+        """The wall times (s since the epoch) of the frames the page has rendered."""
+        ms = self.call("Runtime.evaluate", expression="window.wbcFrames || []", returnByValue=True)["result"]
+        return [1e-3 * t for t in ms.get("value", [])]
 
 
 # ---------------------------------------------------------------------------------------- runs
@@ -189,12 +244,13 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
     out, probe = work / f"m_{tag}.json", work / f"p_{tag}.json"
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(probe), "--",
            "run", scenario, "--duration", str(args.duration), "--metrics", str(out), "--fps", str(args.fps)]
-    cmd += ["--wait", "--port", "8290"] if live else ["--headless"]
+    cmd += ["--wait", "--port", "8290", *args.page] if live else ["--headless"]
     env = dict(os.environ, PYTHONPATH=str(ROOT), **({"LIVE_VIEW_SHADOWS": args.shadows} if args.shadows else {}),
                **({"LIVE_VIEW_NICE_BROWSER": "19"} if args.nice_browser else {}))
     pre = ["taskset", "-c", "0"] if args.pin else []      # --pin: the control process on CPU 0, the page's on CPU 1
     proc = subprocess.Popen(pre + cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
-    browser, browser_cpu, stat0 = None, None, None
+    browser, browser_cpu, stat0, page = None, None, None, None
+    frames: dict = {}       # the page's frame times
     try:
         if live:
             assert proc.stdout is not None
@@ -210,20 +266,29 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
                     w, h = args.window.split(",")
                     browser = subprocess.Popen([*(["taskset", "-c", "1"] if args.pin else []), args.chromium, *FLAGS,
                                                 f"--window-size={w},{h}", f"--force-device-scale-factor={args.scale}",
-                                                f"--user-data-dir={work / 'profile'}", url],
+                                                f"--user-data-dir={work / 'profile'}",
+                                                f"--remote-debugging-port={DEVTOOLS_PORT}", "about:blank"],
                                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                                start_new_session=True)
+                    page = Page(DEVTOOLS_PORT)
+                    page.call("Page.enable")
+                    page.call("Page.addScriptToEvaluateOnNewDocument", source=COUNT_FRAMES)
+                    page.call("Page.navigate", url=url)
                     Path(probe).with_suffix(".browser").write_text(str(browser.pid))
                     break
             stat0 = cpu_times()
             for line in proc.stdout:            # the run's progress; the metrics line at its end
                 if line.startswith("metrics written") and browser is not None:
                     browser_cpu = _session_cpu_s(browser.pid)
+                    if page is not None:
+                        frames["times"] = page.frame_times()
         else:
             stat0 = cpu_times()
         proc.communicate(timeout=600)
         stat1 = cpu_times()
     finally:
+        if page is not None:
+            page.ws.close()
         if browser is not None:
             if browser_cpu is None:
                 browser_cpu = _session_cpu_s(browser.pid)
@@ -242,7 +307,17 @@ def one(scenario: str, live: bool, args, work: Path) -> dict:
     return {"scenario": scenario, "live": live, "rtf": m["real_time_factor"], "median_ms": m["cycle_time"]["median"] * 1e3,
             "p99_ms": m["cycle_time"]["p99"] * 1e3, "load": load(), "view": m.get("live_view"), "probe": p,
             "busy_pct": 100.0 * (total - d[3] - d[4]) / total, "steal_pct": 100.0 * d[7] / total,
-            "browser_cpu_s": browser_cpu}
+            "browser_cpu_s": browser_cpu,
+            "page_frames": page_frames(frames.get("times"), p.get("loop_epoch_s")),
+            "page_times": [round(t - p["loop_epoch_s"][0], 3) for t in frames.get("times", [])[:3] + frames.get("times", [])[-3:]]
+            if p.get("loop_epoch_s") else None, "page_total": len(frames.get("times", []))}
+
+
+def page_frames(times: list[float] | None, loop: list[float] | None) -> int | None:
+    """The page's frames rendered during the loop (wall times between its first and last cycle)."""
+    if times is None or loop is None:
+        return None
+    return sum(loop[0] <= t <= loop[1] for t in times)
 
 
 def show(r: dict) -> str:
@@ -263,6 +338,15 @@ def show(r: dict) -> str:
         s += (f"\n    view: drawn {v['frames_drawn']} frames, {v['draw_ms_mean']:.2f} ms each; CPU s: drawing process "
               f"{v['drawing_cpu_s']:.2f}, Chromium {r['browser_cpu_s']:.2f}, control process {v['control_cpu_s']:.2f}; "
               f"publish {v['publish_ms_mean']:.3f} ms")
+        o = p.get("others_cpu_s", {}) if p else {}
+        if r.get("page_frames") is not None:
+            b = o.get("browser")
+            wall = p["loop_wall_s"]
+            s += (f"\n    page: {r['page_frames']} frames rendered during the loop ({wall:.2f} s: "
+                  f"{r['page_frames'] / max(wall, 1e-9):.1f}/s)"
+                  + (f"; Chromium {b:.2f} s CPU in the loop, {1e3 * b / max(r['page_frames'], 1):.0f} ms per "
+                     "rendered frame" if b is not None else "")
+                  + f" [{r.get('page_total')} in all, first and last at {r.get('page_times')} s from the loop's start]")
     return s
 
 
@@ -279,6 +363,8 @@ def main() -> None:
     ap.add_argument("--shadows", choices=("on", "off"), help="the page's lights cast shadows (default: the page's)")
     ap.add_argument("--drawing-nice", type=int, help="set the drawing process's (and its autogroup's) nice value "
                     "(default: its own, wbc.viz.drawing.NICE)")
+    ap.add_argument("--page", action="append", default=[], metavar="ARG", help="one more `wbc run` argument for "
+                    "the live run, e.g. --page=--mesh-cell=0 (the page's meshes; repeat it for more)")
     ap.add_argument("--scale", type=float, default=1.0, help="Chromium's device scale factor")
     ap.add_argument("--window", default="800,600", help="Chromium's window size W,H (CSS pixels)")
     args = ap.parse_args()

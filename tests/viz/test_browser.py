@@ -153,11 +153,11 @@ class DevTools:
         conn = await websocket_connect(pages[0]["webSocketDebuggerUrl"], max_message_size=256 << 20)
         return cls(conn)
 
-    async def call(self, method: str, **params):
+    async def call(self, method: str, reply_timeout: float = 30.0, **params):
         self.id += 1
         self.conn.write_message(json.dumps({"id": self.id, "method": method, "params": params}))
         while True:
-            msg = await asyncio.wait_for(self.conn.read_message(), 30)
+            msg = await asyncio.wait_for(self.conn.read_message(), reply_timeout)
             if msg is None:
                 raise ConnectionError("DevTools connection closed")
             msg = json.loads(msg)

@@ -38,6 +38,7 @@ from .test_browser import CHROMIUM, DevTools, _kill, launch_devtools
 pytestmark = pytest.mark.browser
 CAMERA_FOV = 75.0           # degrees: the viewer's default vertical field of view
 ROOT = Path(__file__).resolve().parents[2]
+INPUT_TIMEOUT = 120.0       # s: an input event's acknowledgement, an animation frame (a loaded machine)
 
 # a child text node equal to NAME: the element showing it (a folder's title, a button's label)
 FIND = """function wbcFind(name) {
@@ -97,10 +98,10 @@ def served(tmp_path_factory):
            f"&initialCameraLookAt={fmt(f'{x:.4f}' for x in target)}&initialCameraUp=0,0,1")
     proc, port = launch_devtools(CHROMIUM, url, root)
     try:
-        t_end = time.monotonic() + 60
+        t_end = time.monotonic() + 240     # a page counts once it has drawn the scene (software WebGL)
         while not view.clients() and time.monotonic() < t_end:
             time.sleep(0.1)
-        assert view.clients(), "the page never connected to the view's server"
+        assert view.clients(), "the page never connected to the view's server and drew the scene"
         yield view, sc.stack, port, root, url
     finally:
         _kill(proc)
@@ -114,6 +115,14 @@ def _send(dt: DevTools, method: str, **params) -> None:
 
     dt.id += 1
     dt.conn.write_message(json.dumps({"id": dt.id, "method": method, "params": params}))
+
+
+async def _frames(dt: DevTools, n: int) -> None:
+    """Return once the page has begun ``n`` animation frames after this call (``requestAnimationFrame``:
+    the page's rendering and its pointer handling run in these)."""
+    await dt.call("Runtime.evaluate", reply_timeout=INPUT_TIMEOUT, awaitPromise=True, returnByValue=True,
+                  expression=f"new Promise(function (done) {{ var k = 0; function f() {{ if (++k >= {n}) "
+                             "{ done(k); } else { requestAnimationFrame(f); } } requestAnimationFrame(f); })")
 
 
 def _run(coro, timeout: float = 150.0):
@@ -157,33 +166,39 @@ def test_dragging_the_hand_gizmo_moves_the_target_then_the_hand(served):
 
     async def drag():
         dt = await DevTools.attach(port)
-        view.send("gizmos", ["right_hand"])    # not the left hand's, between the camera and the right hand's
-        await asyncio.sleep(3.0)                            # meshes and gizmos drawn
+        # not the left hand's gizmo, between the camera and the right hand's; the drawing process
+        # has applied it, then the page has drawn frames since (no fixed delay: a loaded machine's
+        # software renderer may take seconds per frame)
+        sent = view.send("gizmos", ["right_hand"])
+        assert _wait(lambda: view.handled() >= sent, 60), "the drawing process did not apply the gizmos message"
+        await asyncio.sleep(0.5)                            # its websocket message on the way to the page
+        await _frames(dt, 3)
         w, h = await dt.evaluate("[window.innerWidth, window.innerHeight]")
         # the gizmo sits at the view's centre (the camera looks at the target from 1 m); its x
         # arrow, GIZMO_SCALE m long, points left: grab it three quarters along
         px_per_m = (h / 2) / np.tan(np.deg2rad(CAMERA_FOV) / 2)
         x0, y0 = w / 2 - 0.75 * GIZMO_SCALE * px_per_m, h / 2
-        # sent without waiting for each acknowledgement (headless Chromium acknowledges an input
-        # event once a frame is drawn, which a loaded machine may take long to do)
         # the pointer first rests on the arrow (the gizmo picks its axis on hover, at the page's next
-        # frame: a second on a loaded machine), then presses and moves
+        # frame), then presses and moves: each event acknowledged (headless Chromium acknowledges an
+        # input event once it has been dispatched, which a loaded machine may take long to do), then
+        # frames drawn after it, whatever time that takes
         events = [("mouseMoved", x0 + 2, 0), ("mouseMoved", x0, 0), ("mousePressed", x0, 1)]
         events += [("mouseMoved", x0 - 6 * i, 1) for i in range(1, 13)] + [("mouseReleased", x0 - 72, 0)]
         for kind, x, buttons in events:
-            _send(dt, "Input.dispatchMouseEvent", type=kind, x=x, y=y0, button="left", buttons=buttons,
-                  clickCount=1 if kind in ("mousePressed", "mouseReleased") else 0)
-            await asyncio.sleep(1.0 if kind == "mouseMoved" and buttons == 0 else 0.1)
+            await dt.call("Input.dispatchMouseEvent", reply_timeout=INPUT_TIMEOUT, type=kind, x=x, y=y0,
+                          button="left", buttons=buttons,
+                          clickCount=1 if kind in ("mousePressed", "mouseReleased") else 0)
+            await _frames(dt, 3 if kind == "mouseMoved" and buttons == 0 else 1)
         t_end = time.monotonic() + 60
         while ("target", "right_hand") not in view.from_page and time.monotonic() < t_end:
             await asyncio.sleep(0.2)
-        await asyncio.sleep(2.0)                            # the rest of the drag
+        await _frames(dt, 2)                                # the rest of the drag
         await dt.screenshot(root / "dragged.png")
         view.send("gizmos", None)
         dt.conn.close()
         return None, (x0, y0)
 
-    _, grabbed = _run(drag())
+    _, grabbed = _run(drag(), 600.0)
     assert ("target", "right_hand") in view.from_page, \
         f"the drag at {grabbed} reached no gizmo; the page sent {list(view.page_log)}"
     view.mailbox.post("step", 2)         # the posted target applies at the start of the next cycle

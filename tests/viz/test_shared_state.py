@@ -28,8 +28,8 @@ def test_latest_payload_read_once_and_never_mid_write():
         assert reader.read_new() == b"fourth" and writer.writes == 4      # the torn one counted
         with pytest.raises(WbcError, match="exceeds the shared slot's 64"):
             writer.write(b"x" * 65)
-        reader.set_stats(3, 4, 5, 1, 6)
-        assert writer.header[ss.FRAMES] == 3 and writer.header[ss.CLIENTS] == 1
+        reader.set_stats(3, 4, 5, 1, 6, 7)
+        assert writer.header[ss.FRAMES] == 3 and writer.header[ss.CLIENTS] == 1 and writer.header[ss.HANDLED] == 7
     finally:
         reader.close()
         writer.close()

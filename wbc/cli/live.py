@@ -53,7 +53,7 @@ def run_with_view(sc, options: RunOptions, view_options: ViewOptions | None = No
         if on_ready is not None:
             on_ready(view)
         if wait:
-            print("wbc: waiting for a browser to connect (--wait)", flush=True)
+            print("wbc: waiting for a browser to connect and draw the scene (--wait)", flush=True)
             view.wait_for_client()
         cpu0 = time.process_time()
         metrics = run_live(sc, options, view.publish, mailbox, fps=fps, speed=speed, extras=overlay_data)

@@ -63,7 +63,8 @@ def _cmd_run(args) -> int:
             from wbc.cli.live import run_with_view
 
             metrics = run_with_view(sc, options, host=args.host, port=args.port, fps=args.fps, speed=args.speed,
-                                    wait=args.wait, keep=args.keep)
+                                    wait=args.wait, keep=args.keep, mesh_cell=args.mesh_cell,
+                                    pixel_ratio=args.pixel_ratio)
     finally:
         if scene is not None:
             print(f"recording written to {scene.save_html(args.record)}")
@@ -261,6 +262,8 @@ class _Help(argparse.HelpFormatter):
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``wbc`` argument parser (every option with its unit and default)."""
+    from wbc.viz.live import LIVE_MESH_CELL
+
     parser = argparse.ArgumentParser(
         prog="wbc", formatter_class=_Help, epilog=EPILOG,
         description="Whole-body multi-priority control on Pinocchio: run scenario YAMLs in closed loop "
@@ -328,6 +331,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fps", type=float, default=30.0, metavar="HZ",
                    help="frames drawn per second, live (wall time, by a drawing thread) and in recordings "
                         "(simulated time) (default 30)")
+    r.add_argument("--mesh-cell", type=float, default=LIVE_MESH_CELL, metavar="M",
+                   help=f"the live page's robot meshes thinned on a grid of M metres (default {LIVE_MESH_CELL:g}; "
+                        "0: the full meshes; a browser rendering in software draws fewer triangles faster)")
+    r.add_argument("--pixel-ratio", type=float, default=None, metavar="R",
+                   help="the live page's canvas pixels per CSS pixel (default: the browser's; e.g. 0.5 for a "
+                        "browser rendering in software)")
     r.add_argument("--diagnostics-rate", type=float, default=10.0, metavar="HZ",
                    help="priority-diagnostics updates per simulated second in the view (default 10; 0: off)")
     r.add_argument("--blas-threads", type=int, default=1, metavar="N",

@@ -38,7 +38,7 @@ from .. import jsonable
 from ..sim.environment import Box, HalfSpace
 from . import shared_state as ss
 from .controls import Controls
-from .meshes import geometry_mesh, visual_model
+from .meshes import cluster, geometry_mesh, visual_model
 from .overlays import Overlays
 
 COLORS = {"target": (46, 134, 222), "com": (231, 76, 60), "support": (39, 174, 96), "force": (243, 156, 18),
@@ -48,6 +48,8 @@ PLOT_HZ = 5.0               # plot refreshes per wall second
 AXES_LENGTH = 0.1           # m: a shown frame's axes
 MIN_ARROW = 1e-3            # m: shorter arrows are hidden
 NICE = 10                   # the drawing process's niceness increment (lower priority than the loop)
+FIRST_FRAMES = 3               # render requests a page answers before it counts as drawing the scene
+FIRST_FRAME_TIMEOUT = 300.0     # s: a page's first frame (a software renderer on a loaded machine is slow)
 POSE_TOLERANCE = 1e-4       # m and quaternion units: a mesh that moved less keeps its last sent pose
 
 
@@ -108,6 +110,31 @@ class Drawer:
         self._overlay_nodes()
         self.extra = Overlays(self)
         self.controls = Controls(self, spec, poster)
+        self._drawn_ids: set = set()       # the pages that have drawn the scene once (drawn_clients)
+        self.server.on_client_connect(self._await_first_frame)
+
+    def _await_first_frame(self, client) -> None:
+        """Count ``client`` once its page has drawn a frame of the scene: viser calls a client
+        connected at its first camera message, before the page has built the meshes and compiled
+        its shaders (seconds of CPU for a browser rendering in software). A render request
+        (``get_render``, 16×16 px) returns once the page has drawn a frame; the first may come
+        before the scene's meshes are mounted (the page applies its messages in a frame, React
+        mounts their objects after it), so ``FIRST_FRAMES`` of them, one after the other: the
+        later ones draw the meshes (benchmarks/live_view.md: with one, the page then stalled
+        for the run's first 20 s)."""
+        def wait() -> None:
+            try:
+                for _ in range(FIRST_FRAMES):
+                    client.get_render(16, 16, timeout=FIRST_FRAME_TIMEOUT)
+            except Exception:       # gone, or never drew: not counted
+                return
+            self._drawn_ids.add(client.client_id)
+
+        threading.Thread(target=wait, daemon=True).start()
+
+    def drawn_clients(self) -> int:
+        """The connected pages that have drawn the scene (:meth:`_await_first_frame`)."""
+        return len(self._drawn_ids & set(self.server.get_clients()))
 
     # ------------------------------------------------------------------ setup
     def _robot_nodes(self) -> None:
@@ -116,6 +143,7 @@ class Drawer:
             mesh = geometry_mesh(go)
             if mesh is None:
                 continue
+            mesh = cluster(*mesh, float(self.spec.get("mesh_cell", 0.0)))     # PageOptions.mesh_cell
             r, g, b = (int(255 * c) for c in np.asarray(go.meshColor)[:3])
             color = (r, g, b)
             if np.allclose(go.meshColor[:3], 0.9, atol=1e-3):     # pinocchio's default grey: darker on a light page
@@ -297,13 +325,14 @@ def main(conn, slot_name: str) -> None:
         return
     slot = ss.SharedSlot(slot_name)
     jsonable.send(conn, ("ready", drawer.server.get_port()))
-    period, next_t, running = 1.0 / drawer.fps, time.perf_counter(), True
+    period, next_t, running, handled = 1.0 / drawer.fps, time.perf_counter(), True, 0
     parent = os.getppid()
     try:
         while running and os.getppid() == parent:
             try:
                 while running and conn.poll():
                     running = drawer.handle(jsonable.receive(conn))
+                    handled += 1
             except (EOFError, OSError):          # the control process closed its end
                 break
             payload = slot.read_new()
@@ -317,8 +346,8 @@ def main(conn, slot_name: str) -> None:
                 drawer.frames_drawn += 1
                 drawer.draw_ns += dt
                 drawer.draw_max_ns = max(drawer.draw_max_ns, dt)
-            slot.set_stats(drawer.frames_drawn, drawer.draw_ns, drawer.draw_max_ns, len(drawer.server.get_clients()),
-                           time.process_time_ns())
+            slot.set_stats(drawer.frames_drawn, drawer.draw_ns, drawer.draw_max_ns, drawer.drawn_clients(),
+                           time.process_time_ns(), handled)
             next_t += period
             delay = next_t - time.perf_counter()
             if delay < 0:

@@ -49,6 +49,7 @@ from .diagnostics import diagnostics_rows
 START_TIMEOUT = 300.0       # s: the drawing process loads the meshes (slow on a loaded machine)
 PAGE_LOG = 256              # commands from the page kept in LiveView.page_log (tests, logs)
 DIAG_HZ = 5.0               # snapshots per wall second that carry the diagnostics rows
+LIVE_MESH_CELL = 0.01       # m: the live page's mesh clustering grid (PageOptions.mesh_cell)
 
 
 def _check_host(host: str) -> None:
@@ -102,6 +103,13 @@ class PageOptions(Options):
     shadows: bool = False
     """the page's lights cast shadows (each shadow-casting light renders the scene once more
     per frame: a browser without a GPU, WebGL in software, spends its CPU there)"""
+    mesh_cell: float = LIVE_MESH_CELL
+    """grid cell the robot's visual meshes are thinned on for the page, m (vertex clustering,
+    :func:`wbc.viz.meshes.cluster`; 0: the full meshes). Software WebGL's cost per drawn frame
+    grows with the triangles (benchmarks/live_view.md)"""
+    pixel_ratio: float | None = None
+    """the page's canvas pixels per CSS pixel, in its URL (viser's ``fixedDpr``); None: the
+    browser's, lowered by viser when it draws slowly"""
 
 
 def surface_spec(surface) -> dict | None:
@@ -130,7 +138,21 @@ def view_spec(robot, environment=(), stack=None, options: PageOptions | None = N
             "contacts": [] if stack is None else [c.name for c in stack.contacts()], "speed": float(o.speed),
             "push_frames": tuple(o.frames), "shown_frames": tuple(o.shown_frames), "overlays": dict(o.overlays or {}),
             "force_scale": o.force_scale, "push_scale": o.push_scale, "shadows": bool(o.shadows),
+            "mesh_cell": float(o.mesh_cell),
             "camera": ((2.2, -2.2, 1.6), (0.0, 0.0, 0.8)) if o.camera is None else tuple(map(tuple, o.camera))}
+
+
+def page_url(host: str, port: int, pixel_ratio: float | None = None) -> str:
+    """The live page's address; with ``pixel_ratio`` (:attr:`PageOptions.pixel_ratio`) its
+    ``fixedDpr`` query, which viser's page reads (its canvas pixels per CSS pixel).
+
+    Args:
+        host: the address the page listens on (an IPv6 one is bracketed).
+        port: its port.
+        pixel_ratio: canvas pixels per CSS pixel (> 0), or None: the browser's.
+    """
+    shown = f"[{host}]" if ":" in host else host
+    return f"http://{shown}:{port}/" + ("" if pixel_ratio is None else f"?fixedDpr={pixel_ratio:g}")
 
 
 def page_command(msg: list) -> tuple | None:
@@ -172,7 +194,10 @@ class LiveView:
     def __init__(self, robot, environment=(), stack=None, options: PageOptions | None = None, **settings) -> None:
         o = PageOptions.of(options, settings, "LiveView")
         _check_host(o.host)
+        if o.mesh_cell < 0 or (o.pixel_ratio is not None and not o.pixel_ratio > 0):
+            raise WbcError(f"LiveView: mesh_cell must be ≥ 0 and pixel_ratio > 0 (got {o.mesh_cell}, {o.pixel_ratio})")
         self.robot, self.host, self.fps = robot, o.host, float(o.fps)
+        self.pixel_ratio = o.pixel_ratio
         spec = view_spec(robot, environment, stack, o)
         self.spec = spec
         self.slot = ss.SharedSlot()
@@ -186,6 +211,7 @@ class LiveView:
                                         pass_fds=(theirs.fileno(),), env=env, start_new_session=True)
         theirs.close()
         self._send_lock = threading.Lock()
+        self._sent = 0
         self._poller = select.poll()
         self._poller.register(self._conn.fileno(), select.POLLIN)
         self._latest = None
@@ -225,8 +251,8 @@ class LiveView:
 
     @property
     def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.port}/"
+        """The page's address (:func:`page_url`)."""
+        return page_url(self.host, self.port, self.pixel_ratio)
 
     # ------------------------------------------------------------------ control loop
     def publish(self, snap) -> None:
@@ -266,7 +292,8 @@ class LiveView:
 
     # ------------------------------------------------------------------ the drawing process's state
     def clients(self) -> int:
-        """Browsers connected now."""
+        """Browsers connected now that have drawn the scene once (a page counts from its first
+        frame, not from its connection: it builds the meshes and compiles its shaders first)."""
         return int(self.slot.header[ss.CLIENTS])
 
     def stats(self) -> dict:
@@ -280,7 +307,8 @@ class LiveView:
                 "publish_ms_max": 1e-6 * self._publish_max_ns}
 
     def wait_for_client(self, timeout: float | None = None) -> bool:
-        """Block until a browser has connected (True), or ``timeout`` s passed (False)."""
+        """Block until a browser has connected and drawn the scene (True), or ``timeout`` s
+        passed (False)."""
         t_end = None if timeout is None else time.perf_counter() + timeout
         while not self.clients():
             if t_end is not None and time.perf_counter() > t_end:
@@ -288,10 +316,18 @@ class LiveView:
             time.sleep(0.05)
         return True
 
-    def send(self, *msg) -> None:
-        """A message to the drawing process: ``("overlay", name, on)``, ``("gizmos", names or None)``."""
+    def send(self, *msg) -> int:
+        """A message to the drawing process: ``("overlay", name, on)``, ``("gizmos", names or None)``;
+        returns its number (1, 2, …): :meth:`handled` reaches it once the drawing process has
+        applied it."""
         with self._send_lock:
             jsonable.send(self._conn, msg)
+            self._sent += 1
+            return self._sent
+
+    def handled(self) -> int:
+        """How many of :meth:`send`'s messages the drawing process has applied."""
+        return int(self.slot.header[ss.HANDLED])
 
     def _end_process(self) -> None:
         try:

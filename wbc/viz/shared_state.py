@@ -8,8 +8,9 @@ them only if the number did not move meanwhile and the CRC matches (a write that
 read: it takes the next one). Older states are never queued: the reader draws the latest.
 
 The header's other words are the drawing process's own counters (it writes them, the control
-process reads them): frames drawn, wall time spent drawing (ns), browsers connected, the drawing
-process's CPU time (ns).
+process reads them): frames drawn, wall time spent drawing (ns), browsers connected (that have
+drawn the scene), the drawing process's CPU time (ns), the control process's messages it has
+applied.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from ..errors import WbcError
 
 HEADER_WORDS = 16
 HEADER_BYTES = 8 * HEADER_WORDS
-SEQ, LENGTH, CRC, FRAMES, DRAW_NS, CLIENTS, CPU_NS, DRAW_MAX_NS = range(8)
+SEQ, LENGTH, CRC, FRAMES, DRAW_NS, CLIENTS, CPU_NS, DRAW_MAX_NS, HANDLED = range(9)
 CAPACITY = 1 << 20         # bytes: one encoded snapshot (a few kB for a humanoid)
 
 
@@ -77,10 +78,12 @@ class SharedSlot:
         self._seen = seq
         return payload
 
-    def set_stats(self, frames: int, draw_ns: int, draw_max_ns: int, clients: int, cpu_ns: int) -> None:
+    def set_stats(self, frames: int, draw_ns: int, draw_max_ns: int, clients: int, cpu_ns: int,
+                  handled: int = 0) -> None:
         """The drawing process's counters (module docstring)."""
         h = self.header
         h[FRAMES], h[DRAW_NS], h[DRAW_MAX_NS], h[CLIENTS], h[CPU_NS] = frames, draw_ns, draw_max_ns, clients, cpu_ns
+        h[HANDLED] = handled
 
     @property
     def writes(self) -> int:
