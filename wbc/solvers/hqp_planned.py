@@ -1,5 +1,6 @@
 """The hierarchical QP's entry for a problem whose rows stay in the same arrays from one cycle to
-the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`):
+the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`; the torque cycle's
+stack buffer, :class:`~wbc.problem.buffer.RowBuffer`):
 :meth:`PlannedEntry.solve_planned`, a method of :class:`~wbc.solvers.hqp.HierarchicalQP`
 (kept here, with the run's records decoded when read, so that hqp.py stays one idea)."""
 
@@ -15,8 +16,8 @@ from ..problem.result import DeferredLevels, LevelInfo, SolveResult
 from ..problem.rows import Level
 from .cascade import _NO_BASIS, GRAM_MIN_RATIO
 from .kernels.cascade_run import cascade_prefix
+from .kernels.records import CALL, LAMBDA2, LEVEL_FLOATS, LEVEL_INTS, decode
 from .kernels.records import CERTIFIED as CERTIFIED_FIELD
-from .kernels.records import LEVEL_INTS, decode
 
 
 class PlannedEntry:
@@ -28,9 +29,11 @@ class PlannedEntry:
     def solve_planned(self: Any, problem: Problem) -> SolveResult:
         """:meth:`solve` (the same result, bit for bit) for a problem whose rows stay in the
         same arrays from one cycle to the next (the velocity mode's plan,
-        :mod:`wbc.controller.velocity_plan`): the compiled run's arguments are built once per
-        problem and solver setting, and when the run solves every level (no back-end QP: the
-        common case) the levels' :class:`LevelInfo` are decoded only when read
+        :mod:`wbc.controller.velocity_plan`; the torque cycle's stack buffer): the compiled
+        run's arguments are built once per rows object (``problem.rows``, the same object
+        while the stack's structure is unchanged), level list and solver setting, and when
+        the run solves every level (no back-end QP: the common case) the levels'
+        :class:`LevelInfo` are decoded only when read
         (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
         in :meth:`solve_levels` from where it stopped (nothing computed twice). A subclass
         that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
@@ -42,9 +45,9 @@ class PlannedEntry:
         key = (len(levels), margin, d.rank_tol, d.threshold, d.max_damping, self.tol, self.certify,
                self.regularization)
         got = self._planned
-        if got is None or got[0] is not problem or got[1] is not problem.rows or got[2] != key:
+        if got is None or got[0] is not levels or got[1] is not problem.rows or got[2] != key:
             rows = self._rows(levels, problem.layout.nx, {}, problem.rows, len(levels))
-            got = self._planned = (problem, problem.rows, key, (rows.A, rows.b, rows.e_end),
+            got = self._planned = (levels, problem.rows, key, (rows.A, rows.b, rows.e_end),
                                    (rows.C, rows.lo, rows.hi, rows.i_end),
                                    (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
                                     self.certify, self.regularization, margin))
@@ -55,9 +58,11 @@ class PlannedEntry:
         if out[0] != L:
             return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, margin), out)
         ints, floats = out[4], out[5]
-        item = ints.item
-        certified = sum(item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
-        infos = DeferredLevels(partial(_decoded, ints, floats, levels))
+        iv, fv = ints[:LEVEL_INTS * L].tolist(), floats[:LEVEL_FLOATS * L].tolist()
+        certified = sum(iv[LEVEL_INTS * k + CERTIFIED_FIELD] for k in range(L))
+        # the levels decode() would report damped (λ² > 0 on a level that took a step)
+        damped = [k for k in range(L) if iv[LEVEL_INTS * k + CALL] >= 0 and fv[LEVEL_FLOATS * k + LAMBDA2] > 0.0]
+        infos = DeferredLevels(partial(_decoded, ints, floats, levels), singular=damped)
         return SolveResult(out[1], infos, True, certified, "")
 
 
