@@ -46,3 +46,28 @@ def test_the_planned_cycle_equals_the_plain_one(talos, damping):
         assert a[1:] == b[1:]
     if damping is not None:                     # the singular levels were read without decoding, and right
         assert any(a[3] for a in fast)
+
+
+def test_a_replaced_solve_levels_is_what_the_cycle_calls(talos, monkeypatch):
+    """The planned entry stands for the solver's own solve_levels only: replaced on the object
+    or on the class (the tests' reference loop), the replacement is what a cycle runs."""
+    from wbc.solvers.hqp import HierarchicalQP
+
+    calls = []
+    real = HierarchicalQP.solve_levels
+
+    def counted(self, *a, **k):
+        calls.append(self)
+        return real(self, *a, **k)
+
+    ctrl = Controller(talos, stacks.talos_stack(), solver="hqp")
+    q, v = talos.q_default.copy(), np.zeros(talos.nv)
+    ctrl.solve(q, v)
+    assert calls == []                                   # the planned entry, not solve_levels
+    ctrl.solver.solve_levels = lambda *a, **k: counted(ctrl.solver, *a, **k)
+    ctrl.solve(q, v)
+    assert calls == [ctrl.solver]
+    del ctrl.solver.solve_levels
+    monkeypatch.setattr(HierarchicalQP, "solve_levels", counted)
+    ctrl.solve(q, v)
+    assert calls == [ctrl.solver] * 2

@@ -25,6 +25,13 @@ class PlannedEntry:
     methods and state it reads are the solver's own)."""
 
     _planned: tuple | None = None
+    #: (solve, solve_levels) of the class that takes this one as a base, as defined
+    _entries: tuple | None = None
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if PlannedEntry in cls.__bases__:
+            PlannedEntry._entries = (cls.__dict__["solve"], cls.__dict__["solve_levels"])
 
     def solve_planned(self: Any, problem: Problem) -> SolveResult:
         """:meth:`solve` (the same result, bit for bit) for a problem whose rows stay in the
@@ -37,7 +44,7 @@ class PlannedEntry:
         (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
         in :meth:`solve_levels` from where it stopped (nothing computed twice). A subclass
         that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
-        if not _plain(type(self)):
+        if not _plain(self):
             return self.solve(problem)
         levels = problem.levels
         d = self.damping
@@ -67,18 +74,18 @@ class PlannedEntry:
 
 
 
-_PLAIN: dict[type, bool] = {}
-
-
-def _plain(cls: type) -> bool:
-    """Whether ``cls`` solves as the class that first took :class:`PlannedEntry` as a base (the
-    hierarchical QP): a subclass with its own ``solve`` or ``solve_levels`` (the weighted QP)
-    solves otherwise."""
-    got = _PLAIN.get(cls)
-    if got is None:
-        owner = next(c for c in reversed(cls.__mro__) if PlannedEntry in c.__bases__)
-        got = _PLAIN[cls] = cls.solve is owner.solve and cls.solve_levels is owner.solve_levels  # type: ignore[attr-defined]
-    return got
+def _plain(obj: Any) -> bool:
+    """Whether ``obj`` solves as the class that took :class:`PlannedEntry` as a base (the
+    hierarchical QP) does: False for a subclass with its own ``solve`` or ``solve_levels``
+    (the weighted QP), and for a class or an object whose ``solve`` or ``solve_levels`` was
+    replaced after it was defined (the tests' reference loop): those are then called."""
+    entries = PlannedEntry._entries
+    if entries is None:
+        return False
+    cls = type(obj)
+    own = getattr(obj, "__dict__", None) or {}
+    return cls.solve is entries[0] and cls.solve_levels is entries[1] and "solve" not in own \
+        and "solve_levels" not in own
 
 
 def _decoded(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> list[LevelInfo]:
