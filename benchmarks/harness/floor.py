@@ -49,7 +49,7 @@ def floor_talos(robot: RobotModel, cycles: int, warmup: int = 20) -> dict:
     for k in range(warmup + cycles):
         set_targets(k * DT)
         t0 = clock()
-        whole_body_terms(m, d, q, v, zero)
+        whole_body_terms(m, d, q, v, zero, robot.crba_convention)
         t2 = clock()
         for f in feet:
             pin.getFrameJacobian(m, d, f, LOCAL)

@@ -23,13 +23,19 @@ def _problems(solver: str, cycles: int = 3) -> tuple[list[Problem], wbc.Controll
     robot = wbc.load_robot("talos")
     ctrl = wbc.Controller(robot, talos_stack(), solver=solver)
     seen: list[Problem] = []
-    real = ctrl.solver.solve
 
-    def spy(problem: Problem):
-        seen.append(problem)
-        return real(problem)
+    def spying(real):
+        def spy(problem: Problem):
+            seen.append(problem)
+            return real(problem)
+        return spy
 
-    ctrl.solver.solve = spy
+    # the hqp's cycle enters through solve_planned (the same problem; solve when the run stops)
+    planned = getattr(ctrl.solver, "solve_planned", None)
+    if planned is not None:
+        ctrl.solver.solve_planned = spying(planned)
+    else:
+        ctrl.solver.solve = spying(ctrl.solver.solve)
     q, v = robot.q_default.copy(), np.zeros(robot.nv)
     for _ in range(cycles):
         ctrl.solve(q, v)

@@ -101,23 +101,24 @@ def test_a_failed_first_cycle_commands_gravity_compensation_not_nan(talos, monke
     from wbc.solvers.hqp import HierarchicalQP
 
     ctrl = wbc.Controller(talos, [[Contact("left_foot"), Contact("right_foot")], [CoM()]])
-    real = HierarchicalQP.solve_levels
+    # the torque cycle enters the hqp through solve_planned: its answer is poisoned
+    real = HierarchicalQP.solve_planned
 
-    def poisoned(self, levels, nx, *a, **k):
-        res = real(self, levels, nx, *a, **k)
-        res.x = np.full(nx, np.nan)
+    def poisoned(self, problem):
+        res = real(self, problem)
+        res.x = np.full(problem.layout.nx, np.nan)
         return res
 
-    monkeypatch.setattr(HierarchicalQP, "solve_levels", poisoned)
+    monkeypatch.setattr(HierarchicalQP, "solve_planned", poisoned)
     q = talos.q_default.copy()
     sol = ctrl.solve(q, np.zeros(talos.nv))
     assert sol.status == "failed" and np.all(np.isfinite(sol.tau))
     g = pin.computeGeneralizedGravity(talos.model, talos.model.createData(), q)
     np.testing.assert_allclose(sol.tau, g[talos.actuated_idx], atol=1e-9)
     assert np.abs(sol.tau).max() > 1.0           # a real gravity torque (N·m), not zeros
-    monkeypatch.setattr(HierarchicalQP, "solve_levels", real)
+    monkeypatch.setattr(HierarchicalQP, "solve_planned", real)
     good = ctrl.solve(q, np.zeros(talos.nv))
-    monkeypatch.setattr(HierarchicalQP, "solve_levels", poisoned)
+    monkeypatch.setattr(HierarchicalQP, "solve_planned", poisoned)
     again = ctrl.solve(q, np.zeros(talos.nv))
     assert good.status == "ok" and again.status == "failed"
     np.testing.assert_array_equal(again.tau, good.tau)      # the last good torque

@@ -69,7 +69,7 @@ def test_equality_cascade_is_the_hqp(seed, monkeypatch):
         full, fast = HierarchicalQP(margin=1e-3), HierarchicalQP(margin=1e-3)
         full.equality_first = False
         a = full.solve_planned(p_full)
-        b = fast.solve_planned(p_fast)
+        b = fast.solve_planned(p_fast, equalities_first=True)
         ok = spy.answers[-1]
         # the full run needs a QP exactly where an inequality is met on the way (random rows: full rank)
         assert ok == (a.qp_count == 0 and a.ok), (case, ok, a.qp_count, a.message)
@@ -97,7 +97,7 @@ def test_talos_ik_takes_the_equality_path_and_falls_back_where_a_limit_binds(tal
         full, fast = HierarchicalQP(margin=1e-3), HierarchicalQP(margin=1e-3)
         full.equality_first = False
         a = full.solve_planned(_problem(talos, np.array(offset)))
-        b = fast.solve_planned(_problem(talos, np.array(offset)))
+        b = fast.solve_planned(_problem(talos, np.array(offset)), equalities_first=True)
         assert spy.answers[-1] == expect
         np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-12 * np.abs(a.x).max())
         assert [(la.rank, la.dof_before) for la in a.levels] == [(lb.rank, lb.dof_before) for lb in b.levels]
@@ -123,7 +123,7 @@ def test_a_bound_met_between_levels_is_the_full_runs(monkeypatch):
 
     full, fast = HierarchicalQP(margin=1e-3), HierarchicalQP(margin=1e-3)
     full.equality_first = False
-    a, b = full.solve_planned(problem()), fast.solve_planned(problem())
+    a, b = full.solve_planned(problem()), fast.solve_planned(problem(), equalities_first=True)
     assert spy.answers == [False]
     assert a.qp_count > 0 and b.qp_count == a.qp_count
     np.testing.assert_allclose(b.x, [0.0, 2.0, 0.5], atol=1e-5)    # the QP's regularisation: 6e-7 off

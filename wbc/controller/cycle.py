@@ -48,7 +48,7 @@ from wbc.controller.solver_names import SOLVERS
 from wbc.controller.torques import cycle_outputs, saturate
 from wbc.errors import ConfigError, SolverError, StackError
 from wbc.problem.problem import ROW_MARGIN, Problem
-from wbc.problem.result import SolveResult
+from wbc.problem.result import DeferredLevels, SolveResult
 from wbc.problem.rows import Layout, Level
 from wbc.robot.model import RobotModel
 from wbc.solvers import create_solver
@@ -336,7 +336,11 @@ class Controller:
         problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, contacts,
                           None if buf is None else buf.stacked, ROW_MARGIN)
         t = clock and clock.lap(None, t)
-        res = self.solver.solve(problem)
+        solver = self.solver
+        # the hqp's entry for rows kept in the same arrays (the stack's buffer): its run's
+        # arguments built once per buffer, its levels' records decoded when read (the same result)
+        planned = getattr(solver, "solve_planned", None)
+        res = solver.solve(problem) if planned is None else planned(problem)
         t = clock and clock.lap("solve", t)
         sol = self._finish(res.x, res, levels, layout, res.ok, res.message, res.qp_count)
         if clock:
@@ -383,7 +387,9 @@ class Controller:
                            (not res.enforces_inequality_rows, res.outside_cascade),
                            (self.sacrifice_tol, self.sacrifice_rel),
                            saturated_torques=at_limit, singular=(self._joint_names, self._below_threshold))
-        singular = [k for k, info in enumerate(res.levels) if info.damping > 0.0 or info.singular]
+        infos = res.levels
+        singular = infos.singular() if isinstance(infos, DeferredLevels) else \
+            [k for k, info in enumerate(infos) if info.damping > 0.0 or info.singular]
         return Solution(qdd, tau_full[robot.actuated_idx], tau_full, forces, x, status, message,
                         SolutionReport(qp_count=qp_count, relaxed=relaxed, degraded=degraded, saturated=saturated,
                                        tau_ratio=ratio, saturated_torques=at_limit, singular_levels=singular,

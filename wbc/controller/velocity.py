@@ -90,7 +90,7 @@ def _solve_planned(solver, problem):
     """The plan's problem by the solver's entry for rows that stay in the same arrays
     (:meth:`wbc.solvers.hqp.HierarchicalQP.solve_planned`: the same result), else its ``solve``."""
     planned = getattr(solver, "solve_planned", None)
-    return solver.solve(problem) if planned is None else planned(problem)
+    return solver.solve(problem) if planned is None else planned(problem, equalities_first=True)
 
 
 def _zeros(n: int) -> np.ndarray:

@@ -73,12 +73,16 @@ class DeferredLevels(Sequence):
     Args:
         decode: () -> the list of LevelInfo (called once, on first access).
         relaxed: whether a level was relaxed.
+        singular: the positions of the levels whose LevelInfo has ``damping > 0`` or ``singular``
+            (what ``Solution.singular_levels`` lists), when the solver knows them without
+            decoding; None: read from the decoded list.
     """
 
-    __slots__ = ("_decode", "_infos", "relaxed")
+    __slots__ = ("_decode", "_infos", "relaxed", "_singular")
 
-    def __init__(self, decode: Callable[[], list[LevelInfo]], relaxed: bool = False) -> None:
-        self._decode, self.relaxed = decode, relaxed
+    def __init__(self, decode: Callable[[], list[LevelInfo]], relaxed: bool = False,
+                 singular: list[int] | None = None) -> None:
+        self._decode, self.relaxed, self._singular = decode, relaxed, singular
         self._infos: list[LevelInfo] | None = None
 
     def _list(self) -> list[LevelInfo]:
@@ -89,6 +93,13 @@ class DeferredLevels(Sequence):
 
     def __getitem__(self, i):
         return self._list()[i]
+
+    def singular(self) -> list[int]:
+        """The positions of the levels damped (``damping > 0``) or flagged ``singular``."""
+        got = self._singular
+        if got is None:
+            got = self._singular = [k for k, info in enumerate(self._list()) if info.damping > 0.0 or info.singular]
+        return list(got)
 
     def __len__(self) -> int:
         return len(self._list())

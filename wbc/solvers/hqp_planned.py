@@ -1,5 +1,6 @@
 """The hierarchical QP's entry for a problem whose rows stay in the same arrays from one cycle to
-the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`):
+the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`; the torque cycle's
+stack buffer, :class:`~wbc.problem.buffer.RowBuffer`):
 :meth:`PlannedEntry.solve_planned`, a method of :class:`~wbc.solvers.hqp.HierarchicalQP`
 (kept here, with the run's records decoded when read, so that hqp.py stays one idea)."""
 
@@ -16,8 +17,8 @@ from ..problem.rows import Level
 from .cascade import _NO_BASIS, GRAM_MIN_RATIO
 from .kernels.cascade_run import cascade_prefix
 from .kernels.equality_run import equality_cascade
+from .kernels.records import CALL, LAMBDA2, LEVEL_FLOATS, LEVEL_INTS, decode
 from .kernels.records import CERTIFIED as CERTIFIED_FIELD
-from .kernels.records import LEVEL_INTS, decode
 
 
 class PlannedEntry:
@@ -25,24 +26,36 @@ class PlannedEntry:
     methods and state it reads are the solver's own)."""
 
     _planned: tuple | None = None
-    #: try the equality-only cascade first (:mod:`~wbc.solvers.kernels.equality_run`: the same
-    #: solution when no inequality is met on the way, else the full run); False: the full run only
+    #: try the equality-only cascade first where the caller allows it (the velocity mode;
+    #: :mod:`~wbc.solvers.kernels.equality_run`: the same solution to rounding when no
+    #: inequality is met on the way, else the full run); False: the full run only
     equality_first: bool = True
+    #: (solve, solve_levels) of the class that takes this one as a base, as defined
+    _entries: tuple | None = None
 
-    def solve_planned(self: Any, problem: Problem) -> SolveResult:
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if PlannedEntry in cls.__bases__:
+            PlannedEntry._entries = (cls.__dict__["solve"], cls.__dict__["solve_levels"])
+
+    def solve_planned(self: Any, problem: Problem, equalities_first: bool = False) -> SolveResult:
         """:meth:`solve` (the same result: bit for bit by the full run, to rounding by the
-        equality-only one) for a problem whose rows stay in the
-        same arrays from one cycle to the next (the velocity mode's plan,
-        :mod:`wbc.controller.velocity_plan`): the compiled run's arguments are built once per
-        problem and solver setting; the equality-only cascade is tried first
+        equality-only one) for a problem whose rows stay in the same arrays from one cycle to
+        the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`; the torque
+        cycle's stack buffer): the compiled run's arguments are built once per rows object
+        (``problem.rows``, the same object while the stack's structure is unchanged), level
+        list and solver setting. With ``equalities_first`` (the velocity mode passes it; the
+        torque cycle does not, so its τ stays bit for bit :meth:`solve`'s) and
+        :attr:`equality_first`, the equality-only cascade is tried first
         (:func:`~wbc.solvers.kernels.equality_run.equality_cascade`: one Householder QR of the
         stacked wide levels, the hqp's acceptance tests, every inequality checked on the way;
-        when any test fails, the full run below, so the result is the hqp's to rounding); and
-        when the run solves every level (no back-end QP: the common case) the levels'
-        :class:`LevelInfo` are decoded only when read (:class:`~wbc.problem.result.DeferredLevels`).
-        A run that stops at a level goes on in :meth:`solve_levels` from where it stopped
-        (nothing computed twice). A subclass that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
-        if not _plain(type(self)):
+        when any test fails, the full run below, so the result is the hqp's to rounding).
+        When the run solves every level (no back-end QP: the common case) the levels'
+        :class:`LevelInfo` are decoded only when read
+        (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
+        in :meth:`solve_levels` from where it stopped (nothing computed twice). A subclass
+        that solves otherwise (the weighted QP) is handed to its own :meth:`solve`."""
+        if not _plain(self):
             return self.solve(problem)
         levels = problem.levels
         d = self.damping
@@ -50,42 +63,49 @@ class PlannedEntry:
         key = (len(levels), margin, d.rank_tol, d.threshold, d.max_damping, self.tol, self.certify,
                self.regularization)
         got = self._planned
-        if got is None or got[0] is not problem or got[1] is not problem.rows or got[2] != key:
+        if got is None or got[0] is not levels or got[1] is not problem.rows or got[2] != key:
             rows = self._rows(levels, problem.layout.nx, {}, problem.rows, len(levels))
-            got = self._planned = (problem, problem.rows, key, (rows.A, rows.b, rows.e_end),
+            got = self._planned = (levels, problem.rows, key, (rows.A, rows.b, rows.e_end),
                                    (rows.C, rows.lo, rows.hi, rows.i_end),
                                    (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
                                     self.certify, self.regularization, margin))
         x_ref = problem.x_ref
         x0 = np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
-        if self.equality_first:
+        L = len(levels)
+        if equalities_first and self.equality_first:
             done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
             if done:
-                return SolveResult(x, DeferredLevels(partial(_decoded, ints, floats, levels)), True, 0, "")
+                return SolveResult(x, _deferred(ints, floats, levels), True, 0, "")
         out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
-        L = len(levels)
         if out[0] != L:
             return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, margin), out)
         ints, floats = out[4], out[5]
-        item = ints.item
-        certified = sum(item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
-        infos = DeferredLevels(partial(_decoded, ints, floats, levels))
-        return SolveResult(out[1], infos, True, certified, "")
+        certified = sum(ints.item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
+        return SolveResult(out[1], _deferred(ints, floats, levels), True, certified, "")
 
 
 
-_PLAIN: dict[type, bool] = {}
+def _plain(obj: Any) -> bool:
+    """Whether ``obj`` solves as the class that took :class:`PlannedEntry` as a base (the
+    hierarchical QP) does: False for a subclass with its own ``solve`` or ``solve_levels``
+    (the weighted QP), and for a class or an object whose ``solve`` or ``solve_levels`` was
+    replaced after it was defined (the tests' reference loop): those are then called."""
+    entries = PlannedEntry._entries
+    if entries is None:
+        return False
+    cls = type(obj)
+    own = getattr(obj, "__dict__", None) or {}
+    return cls.solve is entries[0] and cls.solve_levels is entries[1] and "solve" not in own \
+        and "solve_levels" not in own
 
 
-def _plain(cls: type) -> bool:
-    """Whether ``cls`` solves as the class that first took :class:`PlannedEntry` as a base (the
-    hierarchical QP): a subclass with its own ``solve`` or ``solve_levels`` (the weighted QP)
-    solves otherwise."""
-    got = _PLAIN.get(cls)
-    if got is None:
-        owner = next(c for c in reversed(cls.__mro__) if PlannedEntry in c.__bases__)
-        got = _PLAIN[cls] = cls.solve is owner.solve and cls.solve_levels is owner.solve_levels  # type: ignore[attr-defined]
-    return got
+def _deferred(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> DeferredLevels:
+    """The records of a compiled run that solved every level, decoded when read, with the
+    levels :func:`decode` would report damped (λ² > 0 on a level that took a step) read now."""
+    L = len(levels)
+    iv, fv = ints[:LEVEL_INTS * L].tolist(), floats[:LEVEL_FLOATS * L].tolist()
+    damped = [k for k in range(L) if iv[LEVEL_INTS * k + CALL] >= 0 and fv[LEVEL_FLOATS * k + LAMBDA2] > 0.0]
+    return DeferredLevels(partial(_decoded, ints, floats, levels), singular=damped)
 
 
 def _decoded(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> list[LevelInfo]:
