@@ -13,6 +13,12 @@
    difference (the default) and from the witness points' rigid motion only, how many pairs
    are within the influence distance (rows) and how many the broad phase passed to coal.
 
+``--drift analytic`` times the cycle (A) with the collision task's analytic drift (``drift: analytic``,
+:mod:`wbc.collision.feature_drift`: no coal pass for J̇_d q̇); the distance phase is timed with each
+drift (exact, analytic, rigid witness-point) whatever the flag. ``--every 1`` replays every cycle, as
+the control loop calls it (the broad phase's bound grows with the step between calls, so states 10
+cycles apart pass ~3× more pairs to coal than the 1 ms loop does).
+
 ``--geometry primitives`` runs it all with the collision task on the robot's primitives
 (``geometry: primitives``: the capsules and boxes of ``talos.collisions.yaml``); with
 ``--max-excess X`` (m) they are first refitted into a scratch copy of that file, every geometry
@@ -80,11 +86,16 @@ def main() -> None:
     ap.add_argument("--out", default=None)
     ap.add_argument("--geometry", choices=["hulls", "primitives"], default="hulls")
     ap.add_argument("--max-excess", type=float, default=None)
+    ap.add_argument("--drift", choices=["exact", "analytic"], default="exact")
     a = ap.parse_args()
     warnings.simplefilter("ignore")
     sc = load_config("talos_hands_cross")
     if a.geometry == "primitives":
         _use_primitives(sc, a.max_excess)
+    task = sc.stack["collision_avoidance"]
+    task.drift = a.drift
+    if task.model is not None:
+        task.model.analytic_drift = a.drift == "analytic"
     r = ScenarioRun(sc, duration=a.seconds)
     hands = [t for t in sc.stack if t.kind == "frame" and t.moves_position]
     states = []
@@ -132,8 +143,10 @@ def main() -> None:
     phase = {}
     near: list[int] = []
     computed: list[int] = []
-    for exact in (True, False):
+    for kind in ("exact", "analytic", "witness"):
+        exact = kind != "witness"
         model.exact_drift = exact
+        model.analytic_drift = kind == "analytic"
         times = []
         for _ in range(a.rounds):
             for q, v, _ in states:
@@ -141,15 +154,17 @@ def main() -> None:
                 t0, c0 = time.perf_counter(), time.thread_time()
                 rows = model.distance_rows(robot, coll.influence)
                 times.append((time.perf_counter() - t0, time.thread_time() - c0))
-                if exact:
+                if kind == "exact":
                     near.append(len(rows.d))
                     computed.append(getattr(model, "computed", -1))
-        phase["exact_drift" if exact else "witness_drift"] = {
+        phase[f"{kind}_drift"] = {
             "median_ms": float(np.median(times, axis=0)[0]) * 1e3, "p90_ms": float(np.percentile(times, 90, axis=0)[0]) * 1e3,
             "median_cpu_ms": float(np.median(times, axis=0)[1]) * 1e3,
             "p90_cpu_ms": float(np.percentile(times, 90, axis=0)[1]) * 1e3}
     model.exact_drift = True
-    out = {"geometry": a.geometry, "max_excess": a.max_excess, "primitives": len(getattr(model, "primitive_names", [])),
+    model.analytic_drift = a.drift == "analytic"
+    out = {"geometry": a.geometry, "drift": a.drift, "every": a.every, "max_excess": a.max_excess,
+           "primitives": len(getattr(model, "primitive_names", [])),
            "states": len(states), "pairs": len(model.pairs), "geometries": model.geometry_model.ngeoms,
            "near_pairs": {"median": float(np.median(near)), "max": int(max(near))},
            "computed_pairs": {"median": float(np.median(computed)), "max": int(max(computed))},

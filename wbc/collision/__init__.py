@@ -1,7 +1,8 @@
 """Collision geometry and distances: the robot's collision model (pinocchio GeometryModel and
 coal, meshes as cached convex hulls, :mod:`.model`; opt-in per-geometry primitives,
 :mod:`.primitives`; its broad phase's motion bound, :mod:`.motion`; the rows' drift,
-:mod:`.drift`), its self pairs (:mod:`.pairs`, :mod:`.sampling`), the environment's obstacles
+:mod:`.drift`; the opt-in analytic drift, :mod:`.feature_drift` and its compiled kernel
+:mod:`.feature_kernel`), its self pairs (:mod:`.pairs`, :mod:`.sampling`), the environment's obstacles
 (:mod:`.shapes`), the run's monitor of every pair's distance (:mod:`.monitor`) and the
 velocity command's step check (:mod:`.step`). The :class:`~wbc.tasks.CollisionAvoidance` task
 turns the distance rows into constraints.

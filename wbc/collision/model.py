@@ -157,6 +157,10 @@ class CollisionModel:
         #: J̇_d q̇ from the distance's exact second difference (:func:`wbc.collision.drift.curvature_drift`); False:
         #: the witness points' rigid-body drift only (cheaper, blind to the surfaces' curvature)
         self.exact_drift = True
+        #: J̇_d q̇ from the closest features' local models instead (:mod:`wbc.collision.feature_drift`; no coal
+        #: pass), when ``exact_drift`` is set too; opt-in (the collision task's ``drift: analytic``)
+        self.analytic_drift = False
+        self.feature_drift: Any = None
         self.drift_step = 1e-2
         self.fd_data = model.createData()
         self.fd_geometry_data = pin.GeometryData(gm)
@@ -412,7 +416,13 @@ class CollisionModel:
         m = len(ks)
         J = self._jacobians(data, ks, P1, P2, N)
         drift = np.zeros(m)
-        if m:
+        if m and self.exact_drift and self.analytic_drift:
+            if self.feature_drift is None:
+                from .feature_drift import FeatureDrift
+
+                self.feature_drift = FeatureDrift(self)
+            drift = self.feature_drift.drift(robot, ks, d, P1, P2, N)
+        elif m:
             drift = curvature_drift(self, robot, ks) if self.exact_drift else rigid_drift(self, robot, ks, P1, P2, N)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows

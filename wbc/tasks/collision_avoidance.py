@@ -71,6 +71,9 @@ class CollisionOptions(Options):
     the robot's collision file where it has one, :mod:`wbc.collision.primitives`)"""
     vertex_rows: int = 0
     """per near pair, rows for up to this many hull vertices nearest its separating plane (module docstring)"""
+    drift: str = "exact"
+    """the rows' J̇_d q̇: ``exact`` (the distance's second difference, three more coal passes) or ``analytic`` (the
+    closest features' local model, no coal pass: :mod:`wbc.collision.feature_drift`)"""
 
 
 class CollisionAvoidance(Task):
@@ -97,6 +100,9 @@ class CollisionAvoidance(Task):
             (capsules, spheres, boxes; each contains the hull it replaces) where it has one, for speed.
         vertex_rows: per near pair and robot hull, rows for up to this many vertices nearest the
             pair's separating plane (module docstring; 0: none), within the ``max_rows`` rows.
+        drift: ``exact`` (default: the distance's second difference over ±10 ms, three more coal
+            passes) or ``analytic`` (the closest features' local model, no coal pass,
+            :mod:`wbc.collision.feature_drift`).
     """
 
     kind = "collision_avoidance"
@@ -132,6 +138,7 @@ class CollisionAvoidance(Task):
         self.environment = boolean(environment, "environment", **err)
         self.geometry = text(o.geometry, "geometry", choices=["hulls", "primitives"], **err)
         self.vertex_rows = int(number(o.vertex_rows, "vertex_rows", ge=0, le=100, **err))
+        self.drift = text(o.drift, "drift", choices=["exact", "analytic"], **err)
         self._vertices: dict[int, np.ndarray | None] = {}   # robot hull -> its vertices in its joint's frame
         #: the last cycle's vertex rows, in row order after the pairs' rows: (pair, side 0/1 (the vertex on the
         #: pair's first or second geometry), geometry, vertex index, normal n, the other witness point (m, world))
@@ -153,6 +160,7 @@ class CollisionAvoidance(Task):
             self.model = CollisionModel(robot, obstacles=self.obstacles + self.environment_obstacles,
                                         obstacle_links=self.links, self_collision=self.self_collision,
                                         primitives=self.geometry == "primitives")
+            self.model.analytic_drift = self.drift == "analytic"
             if self.links is not None:
                 unknown = sorted(set(self.links) - {robot.model.frames[i].name for i in range(robot.model.nframes)})
                 if unknown:
@@ -297,6 +305,8 @@ class CollisionAvoidance(Task):
             p["geometry"] = self.geometry
         if self.vertex_rows:
             p["vertex_rows"] = self.vertex_rows
+        if self.drift != "exact":
+            p["drift"] = self.drift
         if p["name"] == "collision_avoidance":
             del p["name"]
         return p
