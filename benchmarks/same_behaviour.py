@@ -92,6 +92,10 @@ def record_velocity(path: str, simulators: list[str]) -> None:
     np.savez(path, **out)
 
 
+#: the cases record_velocity writes (q̇ commands, rad/s; the others are torques, N·m)
+VELOCITY_CASES = ("tiago_table_reach_velocity", "talos_ik")
+
+
 def compare(before: str, after: str) -> int:
     a, b = np.load(before), np.load(after)
     differ = 0
@@ -108,7 +112,8 @@ def compare(before: str, after: str) -> int:
             print(f"{key:36s} identical")
         else:
             d = float(np.max(np.abs(x - y)))
-            print(f"{key:36s} max |Δτ| {d:.3g} N·m (relative {d / max(float(np.max(np.abs(x))), 1e-300):.2g})")
+            what = "|Δq̇| {:.3g} rad/s" if key.split("/")[0] in VELOCITY_CASES else "|Δτ| {:.3g} N·m"
+            print(f"{key:36s} max {what.format(d)} (relative {d / max(float(np.max(np.abs(x))), 1e-300):.2g})")
             differ += 1
     return 1 if differ else 0
 
