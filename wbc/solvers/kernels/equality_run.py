@@ -34,7 +34,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factorizations import GRAM, QR
+from .factorizations import GRAM, QR, apply_reflectors
 from .records import CALL as CALL_FIELD
 from .records import LAMBDA2 as LAMBDA2_FIELD
 from .records import (
@@ -87,34 +87,6 @@ def _householder_rows(V, tau, rdiag):
 
 
 @nb.njit(cache=True, fastmath=True)
-def _q_times(V, tau, count, u):
-    """Q u in place for the first ``count`` reflectors of V (H_0 ⋯ H_{count−1} u)."""
-    n = u.shape[0]
-    for j in range(count - 1, -1, -1):
-        d = u[j]
-        for i in range(j + 1, n):
-            d += V[j, i] * u[i]
-        d *= tau[j]
-        u[j] -= d
-        for i in range(j + 1, n):
-            u[i] -= d * V[j, i]
-
-
-@nb.njit(cache=True, fastmath=True)
-def _qt_times(V, tau, count, u):
-    """Qᵀ u in place (H_{count−1} ⋯ H_0 u)."""
-    n = u.shape[0]
-    for j in range(count):
-        d = u[j]
-        for i in range(j + 1, n):
-            d += V[j, i] * u[i]
-        d *= tau[j]
-        u[j] -= d
-        for i in range(j + 1, n):
-            u[i] -= d * V[j, i]
-
-
-@nb.njit(cache=True, fastmath=True)
 def _upper_inverse(R):
     """R⁻¹ of an upper-triangular m × m R with nonzero diagonal (back substitution)."""
     m = R.shape[0]
@@ -127,6 +99,26 @@ def _upper_inverse(R):
                 s += R[i, p] * X[p, j]
             X[i, j] = -s / R[i, i]
     return X
+
+
+@nb.njit(cache=True, fastmath=True)
+def _record(ints, floats, level, R, r_at):
+    """Level k's record (``level`` = (k, its call number, its route)) of an undamped full-rank
+    level whose factor is the rank × rank ``R``, written as the run writes it (σ not
+    computed: NaN; λ² = 0), R's entries from ``r_at`` on; returns the next free index."""
+    k, calls, route = level
+    m = R.shape[0]
+    ints[LEVEL_INTS * k + CALL_FIELD] = calls
+    ints[LEVEL_INTS * k + ROUTE_FIELD] = route
+    ints[LEVEL_INTS * k + RANK_FIELD] = m
+    floats[LEVEL_FLOATS * k + SIGMA_MIN_FIELD] = np.nan
+    floats[LEVEL_FLOATS * k + SIGMA_MAX_FIELD] = np.nan
+    floats[LEVEL_FLOATS * k + LAMBDA2_FIELD] = 0.0
+    for i in range(m):
+        for j in range(m):
+            floats[r_at] = R[i, j]
+            r_at += 1
+    return r_at
 
 
 @nb.njit(cache=True, fastmath=True)
@@ -218,21 +210,12 @@ def equality_cascade(eq, ineq, x0, hints, settings):
             lb = 1.0 / np.sqrt(np.sum(Rinv * Rinv))   # ≤ σ_min
             if not lb > max(rank_tol[k] * max(1.0, ub), threshold[k]):
                 return False, x0, none[0], none[1]
-            ints[LEVEL_INTS * k + CALL_FIELD] = calls
-            ints[LEVEL_INTS * k + ROUTE_FIELD] = QR
-            ints[LEVEL_INTS * k + RANK_FIELD] = m
-            floats[LEVEL_FLOATS * k + SIGMA_MIN_FIELD] = np.nan
-            floats[LEVEL_FLOATS * k + SIGMA_MAX_FIELD] = np.nan
-            floats[LEVEL_FLOATS * k + LAMBDA2_FIELD] = 0.0
-            for i in range(m):
-                for j in range(m):
-                    floats[r_at] = R[i, j]
-                    r_at += 1
+            r_at = _record(ints, floats, (k, calls, QR), R, r_at)
             calls += 1
             dof -= m
             if i_end[k] > 0:
                 u = y.copy()
-                _q_times(V, tau, e_end[k], u)
+                apply_reflectors(V.T, tau, e_end[k], u, False)
                 x = x0 + u
         end_r_factors(ints, L, k, r_at)
         set_calls(ints, L, calls)
@@ -241,19 +224,19 @@ def equality_cascade(eq, ineq, x0, hints, settings):
         e0 = e_end[k]
     if tall < 0:
         u = y.copy()
-        _q_times(V, tau, wide, u)
+        apply_reflectors(V.T, tau, wide, u, False)
         return True, x0 + u, ints, floats
     # the tall level: x̂ (after the wide levels), A Z with Z = Q[:, wide:], its Gram matrix
     k = tall
     u = y.copy()
-    _q_times(V, tau, wide, u)
+    apply_reflectors(V.T, tau, wide, u, False)
     xh = x0 + u
     e0 = e_end[k - 1] if k else 0
     m = e_end[k] - e0
     Ak = A[e0:e_end[k]]
     r = rhs[e0:e_end[k]] - Ak @ u
     g = Ak.T @ r                                  # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
-    _qt_times(V, tau, wide, g)
+    apply_reflectors(V.T, tau, wide, g, True)
     gz = g[wide:].copy()
     unit = np.full(n, -1, dtype=np.int64)         # distinct unit rows: the column of each
     distinct = True
@@ -280,7 +263,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                 continue
             e[:] = 0.0
             e[c] = 1.0
-            _qt_times(V, tau, wide, e)
+            apply_reflectors(V.T, tau, wide, e, True)
             zc = e[wide:]
             for i in range(dof):
                 for j in range(dof):
@@ -289,7 +272,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
         a = np.empty(n)
         for i in range(m):
             a[:] = Ak[i]
-            _qt_times(V, tau, wide, a)
+            apply_reflectors(V.T, tau, wide, a, True)
             za = a[wide:]
             for p in range(dof):
                 for q in range(dof):
@@ -317,20 +300,11 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                                                                threshold[k])):
         return False, x0, none[0], none[1]
     z = Uinv @ (Uinv.T @ gz)
-    ints[LEVEL_INTS * k + CALL_FIELD] = calls
-    ints[LEVEL_INTS * k + ROUTE_FIELD] = GRAM
-    ints[LEVEL_INTS * k + RANK_FIELD] = dof
-    floats[LEVEL_FLOATS * k + SIGMA_MIN_FIELD] = np.nan
-    floats[LEVEL_FLOATS * k + SIGMA_MAX_FIELD] = np.nan
-    floats[LEVEL_FLOATS * k + LAMBDA2_FIELD] = 0.0
-    for i in range(dof):
-        for j in range(dof):
-            floats[r_at] = U[i, j]
-            r_at += 1
+    r_at = _record(ints, floats, (k, calls, GRAM), U, r_at)
     calls += 1
     w = np.zeros(n)
     w[wide:] = z
-    _q_times(V, tau, wide, w)
+    apply_reflectors(V.T, tau, wide, w, False)
     x = xh + w
     if not np.all(np.isfinite(x)):
         return False, x0, none[0], none[1]
