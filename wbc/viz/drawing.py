@@ -40,6 +40,7 @@ from . import shared_state as ss
 from .controls import Controls
 from .meshes import cluster, geometry_mesh, visual_model
 from .overlays import Overlays
+from .viser_quiet import quiet_closed_handshakes
 
 COLORS = {"target": (46, 134, 222), "com": (231, 76, 60), "support": (39, 174, 96), "force": (243, 156, 18),
           "push": (142, 68, 173)}
@@ -86,6 +87,8 @@ class Drawer:
         self.model.loadFromString(spec["model"])       # the controller's model (Model.saveToString)
         self.fps = float(spec["fps"])
         self.force_scale, self.push_scale = spec["force_scale"], spec["push_scale"]
+        # a browser's spare connection closed unused: no traceback (wbc.viz.viser_quiet)
+        self.closed_handshakes = quiet_closed_handshakes()
         self.server = viser.ViserServer(host=spec["host"], port=spec["port"], label="wbc", verbose=False)
         self.server.scene.set_up_direction("+z")
         self.server.scene.configure_default_lights(cast_shadow=bool(spec.get("shadows", False)))
