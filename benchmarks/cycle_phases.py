@@ -17,7 +17,6 @@ import time
 import warnings
 
 import numpy as np
-import pinocchio as pin
 
 import wbc
 from benchmarks.harness import stacks, trajectory
@@ -49,20 +48,13 @@ def main() -> None:
         robot = wbc.load_robot(args.robot)
         stack = make()
         ctrl = wbc.Controller(robot, stack, solver=solver, backend="daqp")
-        q, v = robot.q_default.copy(), np.zeros(robot.nv)
-        robot.update(q, v)
         targets = trajectory.moving_targets(robot, stack, circles)
-        clock, total = ThreadClock(), []
-        for k in range(args.cycles + 200):
-            targets(k * trajectory.DT)
-            if k == 200:
-                ctrl.phase_clock = clock
-            t0 = time.thread_time_ns()
-            sol = ctrl.solve(q, v)
-            if k >= 200:
-                total.append(time.thread_time_ns() - t0)
-            v = v + sol.qdd * trajectory.DT
-            q = pin.integrate(robot.model, q, v * trajectory.DT)
+        clock = ThreadClock()
+
+        def attach(ctrl=ctrl, clock=clock) -> None:
+            ctrl.phase_clock = clock
+
+        total = trajectory.timed_cycles(ctrl, robot, targets, args.cycles, 200, attach)
         res = {name: round(float(np.median(x)) / 1e3, 1) for name, x in clock.laps.items()}
         res["total"] = round(float(np.median(total)) / 1e3, 1)
         out[solver] = res

@@ -11,6 +11,7 @@ follow it, and so do the tests that check the solvers along it (``tests/bench/te
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -81,3 +82,25 @@ def moving_targets(robot: RobotModel, stack: Stack, circles: tuple[str, ...] = (
                                np.concatenate([a, zero3]))
 
     return set_targets
+
+
+def timed_cycles(ctrl, robot: RobotModel, targets: Callable[[float], None], cycles: int, warmup: int = 200,
+                 on_warm: Callable[[], None] | None = None) -> list[int]:
+    """Run ``ctrl`` in closed loop on its own q̈ (semi-implicit Euler at :data:`DT`) along
+    ``targets`` from the robot's default posture at rest, for ``warmup`` then ``cycles``
+    cycles; ``on_warm`` is called once the warm-up is over. Returns each measured cycle's
+    ``Controller.solve`` thread time (ns)."""
+    q, v = robot.q_default.copy(), np.zeros(robot.nv)
+    robot.update(q, v)
+    total = []
+    for k in range(warmup + cycles):
+        targets(k * DT)
+        if k == warmup and on_warm is not None:
+            on_warm()
+        t0 = time.thread_time_ns()
+        sol = ctrl.solve(q, v)
+        if k >= warmup:
+            total.append(time.thread_time_ns() - t0)
+        v = v + sol.qdd * DT
+        q = pin.integrate(robot.model, q, v * DT)
+    return total
