@@ -34,7 +34,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factorizations import GRAM, QR, apply_reflectors
+from .factorizations import GRAM, QR, apply_reflectors, unit_columns
 from .records import CALL as CALL_FIELD
 from .records import LAMBDA2 as LAMBDA2_FIELD
 from .records import (
@@ -238,21 +238,15 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     g = Ak.T @ r                                  # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
     apply_reflectors(V.T, tau, wide, g, True)
     gz = g[wide:].copy()
-    unit = np.full(n, -1, dtype=np.int64)         # distinct unit rows: the column of each
-    distinct = True
-    for i in range(m):
-        c = -1
-        for j in range(n):
-            a = Ak[i, j]
-            if a != 0.0:
-                if a != 1.0 or c >= 0:
-                    c = -2
-                    break
-                c = j
-        if c < 0 or unit[c] >= 0:
-            distinct = False
-            break
-        unit[c] = i
+    unit = np.full(n, -1, dtype=np.int64)         # distinct unit rows: the row of each column
+    cols = unit_columns(Ak)
+    distinct = cols.shape[0] == m
+    if distinct:
+        for i in range(m):
+            if unit[cols[i]] >= 0:
+                distinct = False
+                break
+            unit[cols[i]] = i
     G = np.zeros((dof, dof))
     if distinct:                                  # G = Σ_{i∈S} Z_iᵀ Z_i = I − Σ_{i∉S} Z_iᵀ Z_i
         for i in range(dof):
