@@ -43,7 +43,7 @@ lint: $(TESTING)
 test: $(TESTING)
 	$(VENV)/bin/ruff check .
 	$(PY) -m mypy wbc
-	$(PY) -m pytest -q $(PYTEST_ARGS)
+	$(PY) -m pytest -q --durations=15 $(PYTEST_ARGS)
 
 test-slow: $(TESTING)
 	$(PY) -m pytest -q -m slow

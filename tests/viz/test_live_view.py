@@ -447,6 +447,7 @@ def test_two_tabs_sending_at_once_the_last_command_wins(served):
     assert _wait(lambda: view.latest().t > t0 + 0.1 and view.stats()["frames_drawn"] > frames + 3, 60)
 
 
+@pytest.mark.slow      # ~1-2 min; test_tab_closed.py covers a tab leaving mid-run by default
 def test_a_browser_killed_mid_run_leaves_the_run_and_its_metrics(tmp_path):
     if CHROMIUM is None:
         pytest.skip("headless Chromium not installed (apt-get install chromium)")
