@@ -149,6 +149,24 @@ def _upper_inverse(R):
 
 
 @nb.njit(cache=True, fastmath=True)
+def _gram_solve(U, g):
+    """z = (UᵀU)⁻¹ g (U upper triangular, nonzero diagonal): Uᵀ w = g forward, U z = w back."""
+    m = U.shape[0]
+    z = np.empty(m)
+    for i in range(m):
+        s = g[i]
+        for p in range(i):
+            s -= U[p, i] * z[p]
+        z[i] = s / U[i, i]
+    for i in range(m - 1, -1, -1):
+        s = z[i]
+        for p in range(i + 1, m):
+            s -= U[i, p] * z[p]
+        z[i] = s / U[i, i]
+    return z
+
+
+@nb.njit(cache=True, fastmath=True)
 def _record(ints, floats, level, R, r_at):
     """Level k's record (``level`` = (k, its call number, its route)) of an undamped full-rank
     level whose factor is the rank × rank ``R``, written as the run writes it (σ not
@@ -305,10 +323,6 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     e0 = e_end[k - 1] if k else 0
     m = e_end[k] - e0
     Ak = A[e0:e_end[k]]
-    r = rhs[e0:e_end[k]] - Ak @ u
-    g = Ak.T @ r                                  # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
-    _reflect(V, tau, end, wide, g, True)
-    gz = g[wide:].copy()
     unit = np.full(n, -1, dtype=np.int64)         # distinct unit rows: the row of each column
     cols = unit_columns(Ak)
     distinct = cols.shape[0] == m
@@ -318,6 +332,17 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                 distinct = False
                 break
             unit[cols[i]] = i
+    if distinct:                                  # r = b' − A u and Aᵀ r read off the unit rows
+        r = np.empty(m)
+        g = np.zeros(n)
+        for i in range(m):
+            r[i] = rhs[e0 + i] - u[cols[i]]
+            g[cols[i]] = r[i]
+    else:
+        r = rhs[e0:e_end[k]] - Ak @ u
+        g = Ak.T @ r                              # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
+    _reflect(V, tau, end, wide, g, True)
+    gz = g[wide:].copy()
     G = np.zeros((dof, dof))
     if distinct:                                  # G = Σ_{i∈S} Z_iᵀ Z_i = I − Σ_{i∉S} Z_iᵀ Z_i
         for i in range(dof):
@@ -364,7 +389,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     if not (lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol[k] * max(1.0, np.sqrt(ub2)),
                                                                threshold[k])):
         return False, x0, none[0], none[1]
-    z = Uinv @ (Uinv.T @ gz)
+    z = _gram_solve(U, gz)
     r_at = _record(ints, floats, (k, calls, GRAM), U, r_at)
     calls += 1
     w = np.zeros(n)
