@@ -92,3 +92,24 @@ def test_sparse_check_is_the_dense_one(seed):
             hi[i] = y[i] - 1e-6                       # row i violated by 1e-6 > tol
             assert _violated(rows, lo, hi, end, x, 1e-9) == (i < end)
             assert not _violated(rows, lo, hi, end, x, 1e-5)
+
+
+def test_an_equality_run_reports_the_singular_levels_its_records_give(monkeypatch):
+    """The equality path's result says "no level damped or singular" without decoding its records
+    (HierarchicalQP.solve_planned): the decoded LevelInfo agree, on random hierarchies it accepts."""
+    from tests.solvers.test_equality_run import _random_problem, _Spy
+    from wbc.solvers.hqp import HierarchicalQP
+
+    spy = _Spy(monkeypatch)
+    rng = np.random.default_rng(7)
+    taken = 0
+    for _ in range(60):
+        res = HierarchicalQP(margin=1e-3).solve_planned(_random_problem(rng, int(rng.integers(8, 14))),
+                                                         equalities_first=True)
+        if not spy.answers[-1]:
+            continue
+        taken += 1
+        told = res.levels.singular()
+        decoded = [k for k, info in enumerate(list(res.levels)) if info.damping > 0.0 or info.singular]
+        assert told == decoded
+    assert taken >= 10
