@@ -113,3 +113,15 @@ def test_an_equality_run_reports_the_singular_levels_its_records_give(monkeypatc
         decoded = [k for k, info in enumerate(list(res.levels)) if info.damping > 0.0 or info.singular]
         assert told == decoded
     assert taken >= 10
+
+
+@pytest.mark.parametrize("m", [1, 3, 12, 20])
+def test_upper_inverse_row_by_row_is_the_inverse(m):
+    """R⁻¹ (the acceptance tests' 1/‖R⁻¹‖_F ≤ σ_min) as numpy's, upper triangular."""
+    from wbc.solvers.kernels.equality_run import _upper_inverse
+
+    rng = np.random.default_rng(m)
+    R = np.triu(rng.standard_normal((m, m))) + np.diag(2.0 + rng.random(m))
+    X = _upper_inverse(R)
+    np.testing.assert_allclose(X, np.linalg.inv(R), rtol=0, atol=1e-12 * np.abs(np.linalg.inv(R)).max())
+    assert not np.tril(X, -1).any()

@@ -135,16 +135,22 @@ def _reflect(V, tau, end, k, v, transpose):
 
 @nb.njit(cache=True, fastmath=True)
 def _upper_inverse(R):
-    """R⁻¹ of an upper-triangular m × m R with nonzero diagonal (back substitution)."""
+    """R⁻¹ of an upper-triangular m × m R with nonzero diagonal, row by row from the last
+    (X[i] = (e_i − Σ_{p>i} R[i, p] X[p]) / R[i, i]: contiguous rows)."""
     m = R.shape[0]
     X = np.zeros((m, m))
-    for j in range(m):
-        X[j, j] = 1.0 / R[j, j]
-        for i in range(j - 1, -1, -1):
-            s = 0.0
-            for p in range(i + 1, j + 1):
-                s += R[i, p] * X[p, j]
-            X[i, j] = -s / R[i, i]
+    for i in range(m - 1, -1, -1):
+        xi = X[i]
+        xi[i] = 1.0
+        ri = R[i]
+        for p in range(i + 1, m):
+            f = ri[p]
+            xp = X[p]
+            for c in range(p, m):
+                xi[c] -= f * xp[c]
+        d = 1.0 / ri[i]
+        for c in range(i, m):
+            xi[c] *= d
     return X
 
 
@@ -370,20 +376,23 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     ub2 = 0.0                                     # ‖A Z‖_F² = trace G ≥ σ_max²
     for i in range(dof):
         ub2 += G[i, i]
-    U = np.zeros((dof, dof))                      # G = UᵀU
+    U = G                                         # G = UᵀU, in place, row by row (right-looking)
     for j in range(dof):
-        s = G[j, j]
-        for p in range(j):
-            s -= U[p, j] * U[p, j]
+        s = U[j, j]
         if not s > 0.0:
             return False, x0, none[0], none[1]
         d = np.sqrt(s)
-        U[j, j] = d
+        rj = U[j]
+        rj[j] = d
         for i in range(j + 1, dof):
-            t = G[j, i]
-            for p in range(j):
-                t -= U[p, j] * U[p, i]
-            U[j, i] = t / d
+            rj[i] /= d
+        for i in range(j + 1, dof):               # the trailing block minus u_jᵀ u_j (upper part)
+            ri = U[i]
+            f = rj[i]
+            for c in range(i, dof):
+                ri[c] -= f * rj[c]
+        for i in range(j + 1, dof):
+            U[i, j] = 0.0
     Uinv = _upper_inverse(U)
     lb2 = 1.0 / np.sum(Uinv * Uinv)               # ≤ σ_min²
     if not (lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol[k] * max(1.0, np.sqrt(ub2)),
