@@ -74,8 +74,9 @@ class PlannedEntry:
         L = len(levels)
         if equalities_first and self.equality_first:
             done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
-            if done:
-                return SolveResult(x, _deferred(ints, floats, levels), True, 0, "")
+            if done:        # every level full rank and undamped (its acceptance tests): none singular
+                return SolveResult(x, DeferredLevels(partial(_decoded, ints, floats, levels), singular=_NONE), True,
+                                   0, "")
         out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
         if out[0] != L:
             return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, margin), out)
@@ -83,6 +84,10 @@ class PlannedEntry:
         certified = sum(ints.item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
         return SolveResult(out[1], _deferred(ints, floats, levels), True, certified, "")
 
+
+
+#: the levels an equality-only run reports damped or singular: none (it accepts no other)
+_NONE: list[int] = []
 
 
 def _plain(obj: Any) -> bool:

@@ -25,7 +25,9 @@ only on the Cholesky branch's bounds; the inequalities are checked at every x̂_
 the rows of levels 0..k to ``tol``, as the run does. Any test that fails, a route hint in
 force, or a non-finite number: ``ok`` False and the caller runs the full hqp, so the
 result is always the hqp's (to rounding: the same factorisations by another order of
-operations, ~1e-15 relative on the Talos IK problem). Records in the format of
+operations, ~1e-15 relative on the Talos IK problem). Sparse where the rows are: the QR works
+within each row's profile (its last nonzero column: a contact's rows end at its leg's), the
+inequality rows are checked on their nonzeros (joint limits: unit rows). Records in the format of
 :mod:`.records` (:func:`~.records.decode`), as the run writes them.
 """
 
@@ -34,7 +36,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factorizations import GRAM, QR, apply_reflectors, unit_columns
+from .factorizations import GRAM, QR, unit_columns
 from .records import CALL as CALL_FIELD
 from .records import LAMBDA2 as LAMBDA2_FIELD
 from .records import (
@@ -51,54 +53,123 @@ from .records import SIGMA_MAX as SIGMA_MAX_FIELD
 from .records import SIGMA_MIN as SIGMA_MIN_FIELD
 
 
+@nb.njit(cache=True)
+def _row_ends(V):
+    """For each row j of V, one past its last nonzero entry (at least j + 1): the row's
+    profile, within which :func:`_householder_rows` works."""
+    M, n = V.shape
+    end = np.empty(M, dtype=np.int64)
+    for j in range(M):
+        e = j + 1
+        for i in range(n - 1, j, -1):
+            if V[j, i] != 0.0:
+                e = i + 1
+                break
+        end[j] = e
+    return end
+
+
 @nb.njit(cache=True, fastmath=True)
-def _householder_rows(V, tau, rdiag):
+def _householder_rows(V, tau, rdiag, end, w):
     """In place, the Householder QR of Vᵀ (V: M × n, C order, M ≤ n): row j of V ends as
     (R[0..j, j], v_j[j+1:]) with v_j the j-th reflector (v_j[j] = 1, H_j = I − τ_j v_j v_jᵀ,
-    LAPACK's convention) and R[j, j] in ``rdiag``. False if a column is zero."""
+    LAPACK's convention) and R[j, j] in ``rdiag``. False if a column is zero.
+
+    Sparse in the rows' profiles: ``end[j]`` (from :func:`_row_ends`) is one past the last
+    nonzero of row j; v_j is zero beyond ``end[j]``, so H_j touches a row r only on
+    [j, end[j]) and leaves end[r] ≥ end[j] (updated here, ends as v_j's support bound). A
+    contact's rows end at its leg's last column: the feet's reflectors work on 12-18 of
+    Talos's 38 columns. The same numbers as the dense loops (only exact zeros skipped).
+    ``w``: scratch of n."""
     M, n = V.shape
     for j in range(M):
-        vj = V[j]
-        alpha = vj[j]
+        e = end[j]
+        alpha = V[j, j]
         s = 0.0
-        for i in range(j + 1, n):
-            s += vj[i] * vj[i]
+        for i in range(j + 1, e):
+            s += V[j, i] * V[j, i]
         norm = np.sqrt(alpha * alpha + s)
         if not norm > 0.0:
             return False
         beta = -norm if alpha >= 0.0 else norm
         t = (beta - alpha) / beta
         scale = 1.0 / (alpha - beta)
-        for i in range(j + 1, n):
-            vj[i] *= scale
-        vj[j] = beta
+        for i in range(j + 1, e):
+            V[j, i] *= scale
+            w[i] = V[j, i]
+        V[j, j] = beta
         tau[j] = t
         rdiag[j] = beta
         for r in range(j + 1, M):               # H_j applied to the columns still to factor
             vr = V[r]
             d = vr[j]
-            for i in range(j + 1, n):
-                d += vj[i] * vr[i]
+            for i in range(j + 1, e):
+                d += w[i] * vr[i]
+            if d == 0.0:
+                continue
             d *= t
             vr[j] -= d
-            for i in range(j + 1, n):
-                vr[i] -= d * vj[i]
+            for i in range(j + 1, e):
+                vr[i] -= d * w[i]
+            if end[r] < e:
+                end[r] = e
     return True
 
 
 @nb.njit(cache=True, fastmath=True)
+def _reflect(V, tau, end, k, v, transpose):
+    """v ← Qᵀv (``transpose``) or Qv in place, Q = H₀⋯H_{k−1} the reflectors
+    :func:`_householder_rows` left in V's rows (v_j on [j, end[j]))."""
+    for step in range(k):
+        c = step if transpose else k - 1 - step
+        vc = V[c]
+        e = end[c]
+        t = v[c]
+        for i in range(c + 1, e):
+            t += vc[i] * v[i]
+        t *= tau[c]
+        v[c] -= t
+        for i in range(c + 1, e):
+            v[i] -= t * vc[i]
+
+
+@nb.njit(cache=True, fastmath=True)
 def _upper_inverse(R):
-    """R⁻¹ of an upper-triangular m × m R with nonzero diagonal (back substitution)."""
+    """R⁻¹ of an upper-triangular m × m R with nonzero diagonal, row by row from the last
+    (X[i] = (e_i − Σ_{p>i} R[i, p] X[p]) / R[i, i]: contiguous rows)."""
     m = R.shape[0]
     X = np.zeros((m, m))
-    for j in range(m):
-        X[j, j] = 1.0 / R[j, j]
-        for i in range(j - 1, -1, -1):
-            s = 0.0
-            for p in range(i + 1, j + 1):
-                s += R[i, p] * X[p, j]
-            X[i, j] = -s / R[i, i]
+    for i in range(m - 1, -1, -1):
+        xi = X[i]
+        xi[i] = 1.0
+        ri = R[i]
+        for p in range(i + 1, m):
+            f = ri[p]
+            xp = X[p]
+            for c in range(p, m):
+                xi[c] -= f * xp[c]
+        d = 1.0 / ri[i]
+        for c in range(i, m):
+            xi[c] *= d
     return X
+
+
+@nb.njit(cache=True, fastmath=True)
+def _gram_solve(U, g):
+    """z = (UᵀU)⁻¹ g (U upper triangular, nonzero diagonal): Uᵀ w = g forward, U z = w back."""
+    m = U.shape[0]
+    z = np.empty(m)
+    for i in range(m):
+        s = g[i]
+        for p in range(i):
+            s -= U[p, i] * z[p]
+        z[i] = s / U[i, i]
+    for i in range(m - 1, -1, -1):
+        s = z[i]
+        for p in range(i + 1, m):
+            s -= U[i, p] * z[p]
+        z[i] = s / U[i, i]
+    return z
 
 
 @nb.njit(cache=True, fastmath=True)
@@ -121,14 +192,36 @@ def _record(ints, floats, level, R, r_at):
     return r_at
 
 
+@nb.njit(cache=True)
+def _sparse_rows(C, end):
+    """C[:end]'s nonzeros row by row (CSR: row starts, columns, values): the inequality
+    rows of a velocity stack are mostly unit rows (joint limits), checked at every level."""
+    n = C.shape[1]
+    start = np.empty(end + 1, dtype=np.int64)
+    cols = np.empty(end * n, dtype=np.int64)
+    vals = np.empty(end * n)
+    p = 0
+    for i in range(end):
+        start[i] = p
+        for j in range(n):
+            c = C[i, j]
+            if c != 0.0:
+                cols[p] = j
+                vals[p] = c
+                p += 1
+    start[end] = p
+    return start, cols, vals
+
+
 @nb.njit(cache=True, fastmath=True)
-def _violated(C, lo, hi, end, x, tol):
-    """Whether a row of C[:end] x within [lo, hi] is violated by more than ``tol``."""
-    n = x.shape[0]
+def _violated(rows, lo, hi, end, x, tol):
+    """Whether a row of C[:end] x within [lo, hi] is violated by more than ``tol`` (C's rows
+    as :func:`_sparse_rows` gives them)."""
+    start, cols, vals = rows
     for i in range(end):
         y = 0.0
-        for j in range(n):
-            y += C[i, j] * x[j]
+        for p in range(start[i], start[i + 1]):
+            y += vals[p] * x[cols[p]]
         if lo[i] - y > tol or y - hi[i] > tol:
             return True
     return False
@@ -179,8 +272,10 @@ def equality_cascade(eq, ineq, x0, hints, settings):
             V[j, i] = A[j, i]
     tau = np.empty(wide)
     rdiag = np.empty(wide)
-    if not _householder_rows(V, tau, rdiag):
+    end = _row_ends(V)
+    if not _householder_rows(V, tau, rdiag, end, np.empty(n)):
         return False, x0, none[0], none[1]
+    crow = _sparse_rows(C, i_end[L - 1] if L else 0)
     rhs = b - A @ x0                              # b' of every level (their rows at x₀)
     y = np.zeros(n)                               # Qᵀ(x − x₀), block by block
     x = x0.copy()
@@ -215,29 +310,25 @@ def equality_cascade(eq, ineq, x0, hints, settings):
             dof -= m
             if i_end[k] > 0:
                 u = y.copy()
-                apply_reflectors(V.T, tau, e_end[k], u, False)
+                _reflect(V, tau, end, e_end[k], u, False)
                 x = x0 + u
         end_r_factors(ints, L, k, r_at)
         set_calls(ints, L, calls)
-        if i_end[k] > 0 and _violated(C, lo, hi, i_end[k], x, tol):
+        if i_end[k] > 0 and _violated(crow, lo, hi, i_end[k], x, tol):
             return False, x0, none[0], none[1]
         e0 = e_end[k]
     if tall < 0:
         u = y.copy()
-        apply_reflectors(V.T, tau, wide, u, False)
+        _reflect(V, tau, end, wide, u, False)
         return True, x0 + u, ints, floats
     # the tall level: x̂ (after the wide levels), A Z with Z = Q[:, wide:], its Gram matrix
     k = tall
     u = y.copy()
-    apply_reflectors(V.T, tau, wide, u, False)
+    _reflect(V, tau, end, wide, u, False)
     xh = x0 + u
     e0 = e_end[k - 1] if k else 0
     m = e_end[k] - e0
     Ak = A[e0:e_end[k]]
-    r = rhs[e0:e_end[k]] - Ak @ u
-    g = Ak.T @ r                                  # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
-    apply_reflectors(V.T, tau, wide, g, True)
-    gz = g[wide:].copy()
     unit = np.full(n, -1, dtype=np.int64)         # distinct unit rows: the row of each column
     cols = unit_columns(Ak)
     distinct = cols.shape[0] == m
@@ -247,6 +338,17 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                 distinct = False
                 break
             unit[cols[i]] = i
+    if distinct:                                  # r = b' − A u and Aᵀ r read off the unit rows
+        r = np.empty(m)
+        g = np.zeros(n)
+        for i in range(m):
+            r[i] = rhs[e0 + i] - u[cols[i]]
+            g[cols[i]] = r[i]
+    else:
+        r = rhs[e0:e_end[k]] - Ak @ u
+        g = Ak.T @ r                              # Aᵀ r, then (A Z)ᵀ r = (Qᵀ Aᵀ r)[wide:]
+    _reflect(V, tau, end, wide, g, True)
+    gz = g[wide:].copy()
     G = np.zeros((dof, dof))
     if distinct:                                  # G = Σ_{i∈S} Z_iᵀ Z_i = I − Σ_{i∉S} Z_iᵀ Z_i
         for i in range(dof):
@@ -257,7 +359,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                 continue
             e[:] = 0.0
             e[c] = 1.0
-            apply_reflectors(V.T, tau, wide, e, True)
+            _reflect(V, tau, end, wide, e, True)
             zc = e[wide:]
             for i in range(dof):
                 for j in range(dof):
@@ -266,7 +368,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
         a = np.empty(n)
         for i in range(m):
             a[:] = Ak[i]
-            apply_reflectors(V.T, tau, wide, a, True)
+            _reflect(V, tau, end, wide, a, True)
             za = a[wide:]
             for p in range(dof):
                 for q in range(dof):
@@ -274,31 +376,34 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     ub2 = 0.0                                     # ‖A Z‖_F² = trace G ≥ σ_max²
     for i in range(dof):
         ub2 += G[i, i]
-    U = np.zeros((dof, dof))                      # G = UᵀU
+    U = G                                         # G = UᵀU, in place, row by row (right-looking)
     for j in range(dof):
-        s = G[j, j]
-        for p in range(j):
-            s -= U[p, j] * U[p, j]
+        s = U[j, j]
         if not s > 0.0:
             return False, x0, none[0], none[1]
         d = np.sqrt(s)
-        U[j, j] = d
+        rj = U[j]
+        rj[j] = d
         for i in range(j + 1, dof):
-            t = G[j, i]
-            for p in range(j):
-                t -= U[p, j] * U[p, i]
-            U[j, i] = t / d
+            rj[i] /= d
+        for i in range(j + 1, dof):               # the trailing block minus u_jᵀ u_j (upper part)
+            ri = U[i]
+            f = rj[i]
+            for c in range(i, dof):
+                ri[c] -= f * rj[c]
+        for i in range(j + 1, dof):
+            U[i, j] = 0.0
     Uinv = _upper_inverse(U)
     lb2 = 1.0 / np.sum(Uinv * Uinv)               # ≤ σ_min²
     if not (lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol[k] * max(1.0, np.sqrt(ub2)),
                                                                threshold[k])):
         return False, x0, none[0], none[1]
-    z = Uinv @ (Uinv.T @ gz)
+    z = _gram_solve(U, gz)
     r_at = _record(ints, floats, (k, calls, GRAM), U, r_at)
     calls += 1
     w = np.zeros(n)
     w[wide:] = z
-    apply_reflectors(V.T, tau, wide, w, False)
+    _reflect(V, tau, end, wide, w, False)
     x = xh + w
     if not np.all(np.isfinite(x)):
         return False, x0, none[0], none[1]
@@ -306,7 +411,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
         if kk > k:
             start_level(ints, floats, kk, e_end[kk] - e_end[kk - 1], 0)
         end_r_factors(ints, L, kk, r_at)
-        if i_end[kk] > 0 and _violated(C, lo, hi, i_end[kk], x, tol):
+        if i_end[kk] > 0 and _violated(crow, lo, hi, i_end[kk], x, tol):
             return False, x0, none[0], none[1]
     set_calls(ints, L, calls)
     return True, x, ints, floats
