@@ -82,3 +82,15 @@ def test_the_run_is_bit_for_bit_the_one_that_reads_the_placements_anew(talos):
         assert np.array_equal(cached.q, fresh.q) and np.array_equal(cached.v, fresh.v), k
         assert np.array_equal(cached.point_forces, fresh.point_forces), k
     assert np.count_nonzero(cached.point_forces[:, 2] > 0.0) >= 4, "the feet are in contact"
+
+
+def test_the_kept_jacobian_view_follows_the_data(talos):
+    """The simulator keeps ``data.J`` as one view taken at construction: after steps it holds
+    what a fresh read of ``data.J`` holds (a copy would hold the first state's)."""
+    sim = _sim(talos)
+    tau = _torque(sim)
+    first = sim._Jw.copy()
+    for _ in range(3):
+        sim.step(tau * 0.9)
+        assert np.array_equal(sim._Jw, sim.data.J)
+    assert not np.array_equal(sim._Jw, first)

@@ -154,6 +154,10 @@ class Simulator:
         # the contact joints' entries of data.oMi, taken once: boost.python's element proxies read
         # the live placement (indexing data.oMi anew costs a proxy and its registration each time)
         self._oMi = [self.data.oMi[j] for j in self._joints]
+        # data.J as a view on the data's memory, taken once (each read of the attribute is a binding
+        # crossing): allocated with the data, never resized, it lives as long as the simulator's data
+        Jw = self.data.J
+        self._Jw = Jw.reshape(6, 1) if Jw.ndim == 1 else Jw     # (eigenpy hands 6 × 1 over as a vector)
         self._P = np.zeros((len(self.points), 3))
         npts = len(self.points)
         self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
@@ -411,9 +415,7 @@ class Simulator:
         (the deepest; the first listed of equally deep ones): the rows of their velocity
         Jacobians in the contact frames (t1, t2, n) (3k × nv), the frames (k × 3 × 3), the
         depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills."""
-        Jw = self.data.J
-        if Jw.ndim == 1:            # eigenpy hands a 6 × 1 matrix (nv = 1) over as a vector
-            Jw = Jw.reshape(6, 1)
+        Jw = self._Jw
         if self._shapes is not None:
             self._placements()
             shape_mu = self._shapes[5]
