@@ -1,5 +1,8 @@
 """Where a talos_balance closed-loop cycle (hqp, 2 s) goes: thread CPU time medians (µs) of the
-controller, the simulator's step and measure, the runner's metrics and the whole cycle (#26).
+controller, the simulator's step and measure (MuJoCo: its state and contact read-outs inside the
+step), the runner's metrics, references and checks, and the whole cycle; ``rest`` is the cycle
+less the pieces timed directly in it (the loop's own Python, the trajectory samples, the timers'
+own cost, about 2 µs a timed call) (#26).
 
     PYTHONPATH=. python benchmarks/closed_loop_split.py [pinocchio|mujoco]
 """
@@ -18,6 +21,7 @@ from wbc.scenario.examples import SCENARIOS_DIR
 from wbc.scenario.loader import load_config
 from wbc.sim.mujoco_sim import MujocoSimulator
 from wbc.sim.simulator import Simulator
+from wbc.tasks.com import CoM
 
 TIMES: dict[str, list[int]] = {}
 
@@ -39,11 +43,18 @@ def main(simulator: str = "pinocchio") -> None:
     for cls, name, key in ((metrics.RunMetrics, "record_state", "metrics.record_state"),
                            (metrics.RunMetrics, "record_command", "metrics.record_command"),
                            (Controller, "solve", "controller.solve"), (Simulator, "step", "sim.step"),
-                           (MujocoSimulator, "step", "mujoco.step"), (loop.ScenarioRun, "cycle", "cycle")):
+                           (MujocoSimulator, "step", "mujoco.step"), (Simulator, "measure", "sim.measure"),
+                           (MujocoSimulator, "measure", "sim.measure"), (MujocoSimulator, "_read_state", "(mujoco._read_state)"),
+                           (MujocoSimulator, "_read_contacts", "(mujoco._read_contacts)"),
+                           (metrics.RunMetrics, "record_singular", "metrics.record_singular"),
+                           (CoM, "set_reference", "com.set_reference"), (loop, "simulation_diverged", "simulation_diverged"),
+                           (loop, "fallen", "fallen"), (loop.ScenarioRun, "cycle", "cycle")):
         timed(cls, name, key)
     loop.run(load_config(SCENARIOS_DIR / "talos_balance.yaml"), solver="hqp", duration=2.0, simulator=simulator)
-    for k, x in TIMES.items():
-        print(f"{k:24s} {np.median(x[50:]) / 1e3:7.1f} µs")
+    med = {k: np.median(x[50:]) / 1e3 for k, x in TIMES.items()}
+    for k, m in med.items():
+        print(f"{k:24s} {m:7.1f} µs")
+    print(f"{'rest':24s} {med['cycle'] - sum(m for k, m in med.items() if k != 'cycle' and k[0] != '('):7.1f} µs")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from wbc.runner.state_kernel import VIOLATIONS, numpy_sum, polygon_margin, python_hypot, state_metrics
+from wbc.runner.state_kernel import VIOLATIONS, numpy_sum, polygon_margin, python_hypot, ratio_max, state_metrics
 
 
 def test_hypot_is_cpythons():
@@ -191,3 +191,21 @@ def test_a_cycle_gives_the_reference_figures():
     # the random states reach every branch: each violation, lifts, loaded and unloaded soles, the pair
     assert viol.min() > 0 and viol.max() < 1000 and lifted.any() and (loaded > 0).all() and internals > 100
     assert 0 < inside.min() and (inside < loaded).all()
+
+
+def test_ratio_max_is_numpys():
+    """The worst |τ_i|/τ_max,i of record_command: the numpy expression it replaced, bit for bit,
+    on random torques (zeros, a zero limit's inf, a NaN)."""
+    rng = np.random.default_rng(5)
+    for k in range(3000):
+        n = int(rng.integers(0, 40))
+        tau = rng.standard_normal(n) * 10.0 ** rng.uniform(-3, 3, n)
+        inv = 1.0 / np.abs(rng.standard_normal(n) * 100.0)
+        if n and k % 7 == 0:
+            tau[rng.integers(n)] = 0.0
+            inv[rng.integers(n)] = np.inf
+        if n and k % 11 == 0:
+            tau[rng.integers(n)] = np.nan
+        want = float((np.abs(tau) * inv).max(initial=0.0))
+        got = ratio_max(tau, inv)
+        assert (math.isnan(want) and math.isnan(got)) or got == want, (k, got, want)

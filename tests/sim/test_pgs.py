@@ -119,6 +119,7 @@ def test_one_call_contact_step_equals_the_step_piece_by_piece():
         q[2] -= 0.001
         q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(*(0.01 * rng.standard_normal(3)))).coeffs()
         v = 0.05 * rng.standard_normal(m.nv)
+        sim.q = q                   # the simulator's contract: its data's kinematics are at its q
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
         J, frames, depths, mus, ids = (a.copy() for a in sim._contact_rows())

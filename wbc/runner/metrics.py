@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
-from wbc.runner.state_kernel import VIOLATIONS, state_metrics
+from wbc.runner.state_kernel import VIOLATIONS, ratio_max, state_metrics
 from wbc.runner.stats import Running
 from wbc.tasks.contact import Contact
 
@@ -378,7 +378,7 @@ class RunMetrics:
         self.relaxed_cycles += sol.relaxed
         self.saturated_cycles += sol.saturated
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
-        self.tau_ratio_max = max(self.tau_ratio_max, float((np.abs(sol.tau) * self.inv_tau_max).max(initial=0.0)))
+        self.tau_ratio_max = max(self.tau_ratio_max, ratio_max(sol.tau, self.inv_tau_max))
         errs, robot = self.errs, self.robot
         split, parts = self.err_split, self.err_parts
         for name, task, live in self.err_live:

@@ -112,6 +112,21 @@ def numpy_sum(a):
 
 
 @nb.njit(cache=True)
+def ratio_max(tau, inv_limit):
+    """max(0, max_i |τ_i| · inv_limit_i) (unitless: the worst |τ_i|/τ_max,i with inv_limit = 1/τ_max),
+    NaN when a product is: ``float((np.abs(tau) * inv_limit).max(initial=0.0))`` in one pass, without
+    its two temporary arrays (the same products, and a maximum does not depend on the order)."""
+    out = 0.0
+    for i in range(tau.shape[0]):
+        r = abs(tau[i]) * inv_limit[i]
+        if r != r:
+            return r
+        if r > out:
+            out = r
+    return out
+
+
+@nb.njit(cache=True)
 def polygon_margin(P, vertices, px, py):
     """Signed distance (m) of (px, py) to the boundary of the convex polygon whose vertices
     are the points ``P[vertices]`` (xy, counter-clockwise; > 0 inside): min over edges of

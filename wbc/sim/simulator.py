@@ -150,6 +150,14 @@ class Simulator:
         self._offsets = np.array([r for _, r in self.points], dtype=float).reshape(-1, 3)
         self._support = cr.supports(model, self._joints)
         self._Hj = np.zeros((len(self._joints), 4, 4))      # the joints' placements [R t; 0 1]
+        self._Hj_q: np.ndarray | None = None        # the q array _Hj was read at (_placements)
+        # the contact joints' entries of data.oMi, taken once: boost.python's element proxies read
+        # the live placement (indexing data.oMi anew costs a proxy and its registration each time)
+        self._oMi = [self.data.oMi[j] for j in self._joints]
+        # data.J as a view on the data's memory, taken once (each read of the attribute is a binding
+        # crossing): allocated with the data, never resized, it lives as long as the simulator's data
+        Jw = self.data.J
+        self._Jw = Jw.reshape(6, 1) if Jw.ndim == 1 else Jw     # (eigenpy hands 6 × 1 over as a vector)
         self._P = np.zeros((len(self.points), 3))
         npts = len(self.points)
         self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
@@ -389,19 +397,25 @@ class Simulator:
 
     def _placements(self) -> None:
         """The contact joints' placements from ``data.oMi`` into ``_Hj`` (one homogeneous
-        matrix per joint: one binding crossing, where rotation and translation are two)."""
-        oMi, Hj = self.data.oMi, self._Hj
-        for s, jid in enumerate(self._joints):
-            Hj[s] = oMi[jid].homogeneous
+        matrix per joint: one binding crossing, where rotation and translation are two), once
+        per state: ``data.oMi`` must be at ``q`` (a kinematics pass ran at it), and the matrices
+        are kept for that ``q`` array (each substep makes a new one). The runner's metrics read
+        the points after a step (:meth:`point_positions`) at the state the next step's contact
+        search starts from: the second read is skipped (the same kinematics, the same numbers)."""
+        q = self.q
+        if self._Hj_q is q:
+            return
+        Hj = self._Hj
+        for s, M in enumerate(self._oMi):
+            Hj[s] = M.homogeneous
+        self._Hj_q = q
 
     def _contact_rows(self):
         """Points in (or within ``margin`` of) contact, each with the surface it touches
         (the deepest; the first listed of equally deep ones): the rows of their velocity
         Jacobians in the contact frames (t1, t2, n) (3k × nv), the frames (k × 3 × 3), the
         depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills."""
-        Jw = self.data.J
-        if Jw.ndim == 1:            # eigenpy hands a 6 × 1 matrix (nv = 1) over as a vector
-            Jw = Jw.reshape(6, 1)
+        Jw = self._Jw
         if self._shapes is not None:
             self._placements()
             shape_mu = self._shapes[5]
