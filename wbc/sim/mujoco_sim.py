@@ -77,11 +77,11 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import WbcError
+from .bodies import Push, contact_points
 from .environment import Box, HalfSpace
 from .mujoco_contacts import GeomPoints, read_contacts
 from .mujoco_model import build_model
 from .options import SimOptions
-from .simulator import Push, contact_points
 
 if TYPE_CHECKING:
     from wbc.robot.model import RobotModel

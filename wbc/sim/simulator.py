@@ -42,37 +42,16 @@ noise and latency) and :meth:`contact_wrench` (what a foot force sensor reads).
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import WbcError
 from . import contact_rows as cr
+from .bodies import Push, contact_points
 from .contact_solver import ContactSolver, solver_class
 from .joint_dynamics import JointDynamics, eliminate_lateral
 from .options import SimOptions
-
-
-def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:
-    """The points where ``robot`` (a :class:`~wbc.robot.model.RobotModel`) touches the environment,
-    for every simulator: the four corners of each contact surface (± half_length, ± half_width
-    in the sole frame, m), the origin of each point contact, and ``extra_points`` (frame name,
-    offset in the frame, m). Each as (joint name, offset in the joint frame (m), kind
-    ("surface" or "point"), rotation of the point's frame in the joint frame, contact name)."""
-    m = robot.model
-    pts = []
-    for c in robot.contacts.values():
-        f = m.frames[m.getFrameId(c.frame)]
-        offs = ([np.array([sx * c.half_length, sy * c.half_width, 0.0]) for sx in (-1, 1) for sy in (-1, 1)]
-                if c.kind == "surface" else [np.zeros(3)])
-        pts += [(m.names[f.parentJoint], f.placement.act(o), c.kind, f.placement.rotation, c.name) for o in offs]
-    for fname, off in extra_points:
-        f = m.frames[robot.frame_id(fname)]
-        pts.append((m.names[f.parentJoint], f.placement.act(np.asarray(off, float)), "point",
-                    f.placement.rotation, fname))
-    return pts
-
 
 #: the contact step's PGS: at most this many sweeps per step ...
 PGS_MAX_ITERATIONS = 300
@@ -84,19 +63,6 @@ PGS_RELATIVE_PRECISION = 1e-12
 BAUMGARTE = 0.2
 #: default contact detection margin, m
 CONTACT_MARGIN = 2e-3
-
-
-@dataclass
-class Push:
-    """A constant external force (N, world frame) at a frame's origin during [start, start + duration)."""
-
-    frame: str
-    force: np.ndarray
-    start: float
-    duration: float
-
-    def active(self, t: float) -> bool:
-        return self.start <= t < self.start + self.duration
 
 
 class Simulator:
@@ -150,7 +116,6 @@ class Simulator:
         self._offsets = np.array([r for _, r in self.points], dtype=float).reshape(-1, 3)
         self._support = cr.supports(model, self._joints)
         self._Hj = np.zeros((len(self._joints), 4, 4))      # the joints' placements [R t; 0 1]
-        self._Hj_q: np.ndarray | None = None        # the q array _Hj was read at (_placements)
         # the contact joints' entries of data.oMi, taken once: boost.python's element proxies read
         # the live placement (indexing data.oMi anew costs a proxy and its registration each time)
         self._oMi = [self.data.oMi[j] for j in self._joints]
@@ -397,18 +362,11 @@ class Simulator:
 
     def _placements(self) -> None:
         """The contact joints' placements from ``data.oMi`` into ``_Hj`` (one homogeneous
-        matrix per joint: one binding crossing, where rotation and translation are two), once
-        per state: ``data.oMi`` must be at ``q`` (a kinematics pass ran at it), and the matrices
-        are kept for that ``q`` array (each substep makes a new one). The runner's metrics read
-        the points after a step (:meth:`point_positions`) at the state the next step's contact
-        search starts from: the second read is skipped (the same kinematics, the same numbers)."""
-        q = self.q
-        if self._Hj_q is q:
-            return
+        matrix per joint: one binding crossing, where rotation and translation are two), read
+        through the element handles taken at construction (they read the live placement)."""
         Hj = self._Hj
         for s, M in enumerate(self._oMi):
             Hj[s] = M.homogeneous
-        self._Hj_q = q
 
     def _contact_rows(self):
         """Points in (or within ``margin`` of) contact, each with the surface it touches
