@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -74,6 +75,46 @@ class ContactSurface:
     @property
     def force_dim(self) -> int:
         return 6 if self.kind == "surface" else 3
+
+
+def frame_support(model: pin.Model, frame_id: int) -> np.ndarray:
+    """Whether each velocity coordinate moves the frame (nv bools): the coordinates of the
+    joints from the root to the frame's parent joint (``model.supports``).
+
+    Args:
+        model: the pinocchio model.
+        frame_id: pinocchio frame index.
+    """
+    out = np.zeros(model.nv, dtype=np.bool_)
+    for j in model.supports[model.frames[frame_id].parentJoint]:
+        if j:
+            jm = model.joints[j]
+            out[jm.idx_v:jm.idx_v + jm.nv] = True
+    return out
+
+
+class FrameArrays(NamedTuple):
+    """One frame's pinocchio arrays, as views pinocchio refreshes in place (each read through
+    the bindings costs ~1 µs; :meth:`RobotModel.frame_arrays` holds them): ``views`` = (the
+    velocity coordinates that move the frame (nv bools), its placement's R (3 × 3) and p (3,
+    m), its parent joint's rotation Rᵢ, the joint-to-frame placement's jRf and jpf (constant
+    copies), the joint's spatial velocity v and acceleration a of the a = 0 forward pass (6,
+    its own frame, linear first), a scratch 6-vector), what
+    :func:`wbc.tasks.velocity_frames.frame_motion_rows` reads."""
+
+    views: tuple
+
+    @staticmethod
+    def of(model: pin.Model, data: pin.Data, fid: int) -> FrameArrays:
+        """The arrays of frame ``fid`` (model and data of one robot)."""
+        frame = model.frames[fid]
+        j = frame.parentJoint
+        support = frame_support(model, fid)
+        oMf = data.oMf[fid]
+        jMf = frame.placement
+        return FrameArrays((support, oMf.rotation, oMf.translation, data.oMi[j].rotation,
+                            np.asfortranarray(jMf.rotation.copy()), jMf.translation.copy(), data.v[j].vector,
+                            data.a[j].vector, np.zeros(6)))
 
 
 #: the number of joints on the deepest chain from the root above which ``crba`` runs in
@@ -185,6 +226,8 @@ class RobotModel:
         self._frame_ids: dict[str, int] = {}
         self._cache: dict[tuple, np.ndarray] = {}
         self._velocity_units: tuple[str, ...] | None = None
+        self._com_held: tuple = (None,)          # _com_views
+        self._views: tuple = (None, None, {})     # (data, data.J, {fid: FrameArrays}) of frame_arrays
         self.q = self.q_default.copy()
         self.v = np.zeros(self.nv)
         self._zero_v = np.zeros(self.nv)
@@ -197,6 +240,13 @@ class RobotModel:
         self._external = False      # whether the last update had one (external_torque ≠ 0 then)
         self.cycle = 0
         self.update(self.q, self.v)
+
+    def __getstate__(self) -> dict:
+        """Pickled or deep-copied without the held views of pinocchio's arrays (a copy of a
+        view would no longer follow ``data``); they are taken again from the new ``data``."""
+        state = self.__dict__.copy()
+        state["_com_held"], state["_views"] = (None,), (None, None, {})
+        return state
 
     # ------------------------------------------------------------------ frames
     def frame_id(self, name: str) -> int:
@@ -320,25 +370,34 @@ class RobotModel:
         (:mod:`wbc.robot.joint_compensation`); nv, N·m."""
         return self.data.nle if self.compensation is None else self._h_eff  # type: ignore[return-value]  # update() sets it
 
+    def _com_views(self) -> tuple:
+        """(data, com, vcom, acom, Jcom): pinocchio's CoM arrays as views held per ``data`` object
+        (each read through the bindings costs ~1 µs; :meth:`update` refreshes them in place)."""
+        held = self._com_held
+        if held[0] is not self.data:
+            d = self.data
+            held = self._com_held = (d, d.com[0], d.vcom[0], d.acom[0], d.Jcom)
+        return held
+
     @property
     def com(self) -> np.ndarray:
         """Centre of mass in the world frame (3, m)."""
-        return self.data.com[0]
+        return self._com_views()[1]
 
     @property
     def com_velocity(self) -> np.ndarray:
         """Centre-of-mass velocity in the world frame (3, m/s)."""
-        return self.data.vcom[0]
+        return self._com_views()[2]
 
     @property
     def com_jacobian(self) -> np.ndarray:
         """CoM Jacobian J_com (3 × nv): ṗ_com = J_com q̇."""
-        return self.data.Jcom
+        return self._com_views()[4]
 
     @property
     def com_drift(self) -> np.ndarray:
         """J̇_com q̇ in m/s²."""
-        return self.data.acom[0]
+        return self._com_views()[3]
 
     @property
     def mass(self) -> float:
@@ -362,6 +421,30 @@ class RobotModel:
             fid: pinocchio frame index (:meth:`frame_id`).
         """
         return self.data.oMf[fid]
+
+    def frame_arrays(self, fid: int) -> FrameArrays:
+        """Pinocchio's arrays a compiled frame row reads (:class:`FrameArrays`): views, held per
+        frame (and per ``data`` object), that :meth:`update` refreshes in place.
+
+        Args:
+            fid: pinocchio frame index (:meth:`frame_id`).
+        """
+        held = self._views
+        if held[0] is not self.data:
+            held = self._views = (self.data, self.data.J, {})
+        got = held[2].get(fid)
+        if got is None:
+            got = held[2][fid] = FrameArrays.of(self.model, self.data, fid)
+        return got
+
+    @property
+    def joint_jacobians(self) -> np.ndarray:
+        """Pinocchio's ``data.J`` (6 × nv): every joint's Jacobian, world frame at the world
+        origin (linear rows first), as :meth:`update` leaves it; a view held once."""
+        held = self._views
+        if held[0] is not self.data:
+            held = self._views = (self.data, self.data.J, {})
+        return held[1]
 
     def frame_jacobian(self, fid: int, ref: pin.ReferenceFrame = WORLD_ALIGNED) -> np.ndarray:
         """6 × nv frame Jacobian (linear rows first) in ``ref``; extracted once per cycle.
