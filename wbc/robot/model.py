@@ -103,6 +103,8 @@ class FrameArrays(NamedTuple):
     :func:`wbc.tasks.velocity_frames.frame_motion_rows` reads."""
 
     views: tuple
+    #: the frame's placement (pinocchio's ``data.oMf[fid]``, refreshed in place)
+    placement: pin.SE3
 
     @staticmethod
     def of(model: pin.Model, data: pin.Data, fid: int) -> FrameArrays:
@@ -114,7 +116,7 @@ class FrameArrays(NamedTuple):
         jMf = frame.placement
         return FrameArrays((support, oMf.rotation, oMf.translation, data.oMi[j].rotation,
                             np.asfortranarray(jMf.rotation.copy()), jMf.translation.copy(), data.v[j].vector,
-                            data.a[j].vector, np.zeros(6)))
+                            data.a[j].vector, np.zeros(6)), oMf)
 
 
 #: the number of joints on the deepest chain from the root above which ``crba`` runs in

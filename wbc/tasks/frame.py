@@ -4,17 +4,15 @@ from __future__ import annotations
 
 from typing import Any
 
-import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.robot.model import WORLD_ALIGNED
 from wbc.validation.inputs import se3_from
 from wbc.validation.schema import found, is_number, matrix, show, suggest, text
 
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
-from .base import MotionTask, as_vector, eq_rows, motion_rows
+from .base import MotionTask, as_vector, eq_rows
 from .velocity_frames import frame_motion_rows
 
 _MASKS = {
@@ -122,7 +120,8 @@ class Frame(MotionTask):
         self.target_velocity = np.zeros(6)
         self.target_acceleration = np.zeros(6)
         self._fid: int | None = None
-        self._held: tuple = (None, None, None)     # (target, its rotation, its translation) of rows
+        self._held: tuple = (None, None)     # (target, its translation) of rows
+        self._error = np.zeros(6)
 
     @property
     def target(self) -> pin.SE3 | None:
@@ -184,8 +183,8 @@ class Frame(MotionTask):
     def rows(self, robot, layout: Layout, out: RowSlot | None = None) -> Rows:
         """J q̈ = ẍ_d + K_d (ẋ_d − ẋ) + K_p e − J̇q̇ on the axes of ``mask`` (5.16; J, ẋ, J̇q̇
         world-aligned at the frame's origin, e as the class docstring), in one compiled call
-        from pinocchio's arrays (:func:`~wbc.tasks.velocity_frames.frame_motion_rows`); an
-        orientation error within 1e-3 rad of π takes pinocchio's getters and ``log3``."""
+        from pinocchio's arrays (:func:`~wbc.tasks.velocity_frames.frame_motion_rows`; the
+        orientation error pinocchio's ``log3``, only when ``mask`` has an angular axis)."""
         fid = self._fid
         if fid is None:
             fid = self._frame(robot)
@@ -196,15 +195,14 @@ class Frame(MotionTask):
         A, b = slot.A, slot.b
         kp, kd = self.gain_vectors(6)
         held = self._held
-        if held[0] is not T:                        # the target's arrays, read once per target
-            held = self._held = (T, T.rotation, T.translation)
-        if not frame_motion_rows(A, b, robot.joint_jacobians, robot.frame_arrays(fid).views, held[1], held[2],
-                                 self._sel, self.target_acceleration, kp, kd, self.target_velocity, False):
-            oMf = robot.frame_placement(fid)
-            _frame_rows(A, b, robot.frame_jacobian(fid, WORLD_ALIGNED), self._sel, self.target_acceleration, kp,
-                        kd, self.target_velocity, robot.frame_velocity(fid, WORLD_ALIGNED),
-                        robot.frame_drift(fid, WORLD_ALIGNED), T.translation, oMf.translation,
-                        rotation_error(T, oMf))
+        if held[0] is not T:                        # the target's translation, read once per target
+            held = self._held = (T, T.translation)
+        frame = robot.frame_arrays(fid)
+        e = self._error
+        if self._sel[-1] > 2:
+            e[3:] = rotation_error(T, frame.placement)
+        frame_motion_rows(A, b, robot.joint_jacobians, frame.views, held[1], e, self._sel, self.target_acceleration,
+                          kp, kd, self.target_velocity, False)
         return Rows(A=A, b=b)
 
     def params(self) -> dict:
@@ -225,13 +223,3 @@ def rotation_error(T: pin.SE3, oMf: pin.SE3) -> np.ndarray:
     the target's R_d, as a rotation vector; R_d Rᵀ formed by pinocchio's SE3 product
     (T·oMf⁻¹), 1.2 µs against 3.4 for two rotation matrices handed to numpy and back."""
     return pin.log3((T * oMf.inverse()).rotation)
-
-
-@nb.njit(cache=True)
-def _frame_rows(out_A, out_b, J, sel, acc_d, kp, kd, vel_d, vel, drift, p_d, p, rot_err):
-    """:func:`~wbc.tasks.base.motion_rows` with the pose error e = (p_d − p, log₃(R_d Rᵀ))
-    (``rot_err`` the latter) formed in the same compiled call."""
-    err = np.empty(6)
-    err[:3] = p_d - p
-    err[3:] = rot_err
-    motion_rows(out_A, out_b, J, sel, acc_d, kp, err, kd, vel_d, vel, drift)

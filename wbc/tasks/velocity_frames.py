@@ -1,7 +1,7 @@
 """A frame task's or a contact's rows from pinocchio's arrays, compiled: one call, no binding
 crossing: the velocity rows of :mod:`wbc.tasks.velocity`'s writers (:func:`frame_rows`) and the
 acceleration rows of :class:`~wbc.tasks.Frame` and :class:`~wbc.tasks.Contact` in the torque
-cycle (:func:`frame_motion_rows`), on one Jacobian, one log₃ and one log₆.
+cycle (:func:`frame_motion_rows`), on one frame Jacobian.
 
 After ``computeJointJacobians`` and ``updateFramePlacements`` (``RobotModel.update_kinematics``),
 pinocchio's ``data.J`` holds every joint's Jacobian as spatial velocities in world
@@ -23,7 +23,8 @@ frame (m, rad), the SE(3) logarithm (Murray–Li–Sastry, as ``pin.log6``):
 β = (1 − α)/θ², below θ = 0.1 by their series β = 1/12 + θ²/720 + θ⁴/30240 + θ⁶/1209600,
 α = 1 − θ² β (the closed form of β cancels there). Near θ = π the axis of log₃ is
 ill-conditioned from the antisymmetric part: the kernel then says so and the writer takes
-pinocchio's ``log6``. A frame task's orientation error log₃(R_t Rᵀ) (world) is the same log₃.
+pinocchio's ``log6``. (The torque cycle's rows take their logarithms from pinocchio: the same
+bits as before, where a closed loop under a push amplifies any rounding.)
 
 The acceleration rows also need the frame's velocity and its drift J̇q̇ (its acceleration at
 q̈ = 0). ``RobotModel.update``'s forward pass with a = 0 leaves each joint's spatial velocity
@@ -58,22 +59,6 @@ _NEAR_PI = 1e-3
 
 
 @nb.njit(cache=True)
-def _log3(Re, w):
-    """w ← log₃(Re) (rad); returns θ = ‖w‖, or −1 (w not written) within :data:`_NEAR_PI` of π."""
-    s0 = 0.5 * (Re[2, 1] - Re[1, 2])
-    s1 = 0.5 * (Re[0, 2] - Re[2, 0])
-    s2 = 0.5 * (Re[1, 0] - Re[0, 1])
-    sn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
-    c = 0.5 * (Re[0, 0] + Re[1, 1] + Re[2, 2] - 1.0)
-    t = math.atan2(sn, c)
-    if t > math.pi - _NEAR_PI:
-        return -1.0
-    f = 1.0 + t * t / 6.0 if t < _TAYLOR else t / sn        # θ / sin θ
-    w[0], w[1], w[2] = f * s0, f * s1, f * s2
-    return t
-
-
-@nb.njit(cache=True)
 def _log6(R, p, Rr, pr, e):
     """e ← log₆(M⁻¹ M_r) (M = (R, p), M_r = (Rr, pr); module docstring); False near θ = π."""
     Re = np.empty((3, 3))
@@ -85,12 +70,17 @@ def _log6(R, p, Rr, pr, e):
         pe[i] = R[0, i] * d[0] + R[1, i] * d[1] + R[2, i] * d[2]
         for j in range(3):
             Re[i, j] = R[0, i] * Rr[0, j] + R[1, i] * Rr[1, j] + R[2, i] * Rr[2, j]
-    w = np.empty(3)
-    t = _log3(Re, w)
-    if t < 0.0:
+    s0 = 0.5 * (Re[2, 1] - Re[1, 2])
+    s1 = 0.5 * (Re[0, 2] - Re[2, 0])
+    s2 = 0.5 * (Re[1, 0] - Re[0, 1])
+    sn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    c = 0.5 * (Re[0, 0] + Re[1, 1] + Re[2, 2] - 1.0)
+    t = math.atan2(sn, c)
+    if t > math.pi - _NEAR_PI:
         return False
     t2 = t * t
-    w0, w1, w2 = w[0], w[1], w[2]
+    f = 1.0 + t2 / 6.0 if t < _TAYLOR else t / sn        # θ / sin θ
+    w0, w1, w2 = f * s0, f * s1, f * s2
     if t < _SERIES:
         t4 = t2 * t2
         beta = 1.0 / 12.0 + t2 / 720.0 + t4 / 30240.0 + t4 * t2 / 1209600.0
@@ -166,40 +156,31 @@ def _joint_to_frame(m, Ri, jRf, jpf, local, out):
             out[i] = jRf[0, i] * x0 + jRf[1, i] * x1 + jRf[2, i] * x2
             out[3 + i] = jRf[0, i] * m[3] + jRf[1, i] * m[4] + jRf[2, i] * m[5]
     else:
-        for i in range(3):
-            out[i] = Ri[i, 0] * x0 + Ri[i, 1] * x1 + Ri[i, 2] * x2
-            out[3 + i] = Ri[i, 0] * m[3] + Ri[i, 1] * m[4] + Ri[i, 2] * m[5]
+        for i in range(2):                 # the sums in Eigen's order (rows 0, 1 and 2): the same bits
+            out[i] = (Ri[i, 0] * x0 + Ri[i, 1] * x1) + Ri[i, 2] * x2
+            out[3 + i] = (Ri[i, 0] * m[3] + Ri[i, 1] * m[4]) + Ri[i, 2] * m[5]
+        out[2] = Ri[2, 0] * x0 + (Ri[2, 1] * x1 + Ri[2, 2] * x2)
+        out[5] = Ri[2, 0] * m[3] + (Ri[2, 1] * m[4] + Ri[2, 2] * m[5])
 
 
 @nb.njit(cache=True)
-def frame_motion_rows(A, b, J, f, Rt, pt, sel, acc_d, kp, kd, vel_d, contact):
+def frame_motion_rows(A, b, J, f, pt, e, sel, acc_d, kp, kd, vel_d, contact):
     """A frame's or a contact's acceleration rows J[sel] q̈ = (ẍ_d + K_d (ẋ_d − ẋ) + K_p e − J̇q̇)[sel]
     (5.16 minus the drift, :func:`~wbc.tasks.base.motion_rows`) into the q̈ columns of (A, b),
     one pass, from pinocchio's arrays (``f`` a :class:`~wbc.robot.model.FrameArrays`' ``views``:
-    support, R, p, Rᵢ, jRf, jpf, the joint's v and a of the a = 0 forward pass, the scratch).
+    support, R, p, Rᵢ, jRf, jpf, the joint's v and a of the a = 0 forward pass, a scratch).
 
-    ``contact`` False (a :class:`~wbc.tasks.Frame`, a point contact): e = (p_t − p,
-    log₃(R_t Rᵀ)) (the angular part only when ``sel`` has an angular axis), the world-aligned
+    ``contact`` False (a :class:`~wbc.tasks.Frame`, a point contact): the world-aligned
     Jacobian, velocity and classical drift (the joint's a = 0 acceleration at the frame plus
-    ω × v); True (a 6-D contact): e = log₆((R, p)⁻¹ (R_t, p_t)), the local Jacobian, velocity
-    and spatial drift. Returns False (nothing written) when a logarithm is within
-    :data:`_NEAR_PI` of π: the task then takes pinocchio's."""
-    support, R, p, Ri, jRf, jpf, vj, aj, e = f
-    if contact:
-        if not _log6(R, p, Rt, pt, e):
-            return False
-    else:
+    ω × v), and e's position part p_t − p written here (its angular part, log₃(R_t Rᵀ), is the
+    caller's, pinocchio's); True (a 6-D contact): the local Jacobian, velocity and spatial
+    drift, e (log₆, pinocchio's) the caller's."""
+    support, R, p, Ri, jRf, jpf, vj, aj, scratch = f
+    if not contact:
         for i in range(3):
             e[i] = pt[i] - p[i]
-        if sel[sel.shape[0] - 1] > 2:
-            Re = np.empty((3, 3))
-            for i in range(3):
-                for j in range(3):
-                    Re[i, j] = Rt[i, 0] * R[j, 0] + Rt[i, 1] * R[j, 1] + Rt[i, 2] * R[j, 2]
-            if _log3(Re, e[3:]) < 0.0:
-                return False
     vel = np.empty(6)
-    drift = np.empty(6)
+    drift = scratch
     _joint_to_frame(vj, Ri, jRf, jpf, contact, vel)
     _joint_to_frame(aj, Ri, jRf, jpf, contact, drift)
     if not contact:                        # classical: + ω × v at the frame's origin
@@ -210,4 +191,3 @@ def frame_motion_rows(A, b, J, f, Rt, pt, sel, acc_d, kp, kd, vel_d, contact):
     for i in range(sel.shape[0]):
         j = sel[i]
         b[i] = acc_d[j] + kd[j] * (vel_d[j] - vel[j]) + kp[j] * e[j] - drift[j]
-    return True
