@@ -13,7 +13,7 @@ from wbc.validation.schema import found, is_number, matrix, show, suggest, text
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
 from .base import MotionTask, as_vector, eq_rows
-from .velocity_frames import frame_motion_rows
+from .velocity_frames import frame_motion_rows, relative_rotation
 
 _MASKS = {
     "pose": (1, 1, 1, 1, 1, 1),
@@ -120,8 +120,9 @@ class Frame(MotionTask):
         self.target_velocity = np.zeros(6)
         self.target_acceleration = np.zeros(6)
         self._fid: int | None = None
-        self._held: tuple = (None, None)     # (target, its translation) of rows
+        self._held: tuple = (None, None, None)     # (target, its translation, its rotation) of rows
         self._error = np.zeros(6)
+        self._relative = np.zeros((3, 3))            # R_d Rᵀ of rows
 
     @property
     def target(self) -> pin.SE3 | None:
@@ -195,12 +196,14 @@ class Frame(MotionTask):
         A, b = slot.A, slot.b
         kp, kd = self.gain_vectors(6)
         held = self._held
-        if held[0] is not T:                        # the target's translation, read once per target
-            held = self._held = (T, T.translation)
+        if held[0] is not T:                        # the target's arrays, read once per target
+            held = self._held = (T, T.translation, T.rotation)
         frame = robot.frame_arrays(fid)
         e = self._error
-        if self._sel[-1] > 2:
-            e[3:] = rotation_error(T, frame.placement)
+        if self._sel[-1] > 2:                       # log₃(R_d Rᵀ), pinocchio's (rotation_error's bits)
+            Re = self._relative
+            relative_rotation(Re, held[2], frame.views[1])
+            e[3:] = pin.log3(Re)
         frame_motion_rows(A, b, robot.joint_jacobians, frame.views, held[1], e, self._sel, self.target_acceleration,
                           kp, kd, self.target_velocity, False)
         return Rows(A=A, b=b)

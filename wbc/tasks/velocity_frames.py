@@ -48,7 +48,7 @@ import numpy as np
 
 from wbc.robot.model import frame_support
 
-__all__ = ["frame_motion_rows", "frame_rows", "frame_support"]
+__all__ = ["frame_motion_rows", "frame_rows", "frame_support", "relative_rotation"]
 
 #: θ (rad) below which log₃'s θ / sin θ is its Taylor series
 _TAYLOR = 1e-4
@@ -119,6 +119,16 @@ def _jacobian_rows(A, J, support, R, p, sel, local):
             row[3], row[4], row[5] = J[3, c], J[4, c], J[5, c]
         for i in range(sel.shape[0]):
             A[i, c] = row[sel[i]]
+
+
+@nb.njit(cache=True)
+def relative_rotation(out, Rt, R):
+    """out ← R_t Rᵀ, the rotation of pinocchio's ``T * oMf.inverse()``, its sums in Eigen's
+    order (rows 0, 1 and 2): the same bits, without three crossings of the bindings."""
+    for j in range(3):
+        for i in range(2):
+            out[i, j] = (Rt[i, 0] * R[j, 0] + Rt[i, 1] * R[j, 1]) + Rt[i, 2] * R[j, 2]
+        out[2, j] = Rt[2, 0] * R[j, 0] + (Rt[2, 1] * R[j, 1] + Rt[2, 2] * R[j, 2])
 
 
 @nb.njit(cache=True)
