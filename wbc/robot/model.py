@@ -25,7 +25,10 @@ on Talos.
 
 Tasks read the cache (``M``, ``h``, ``frame_jacobian`` ...) and never call
 pinocchio's whole-body routines themselves. Frame Jacobians and drifts are
-extracted lazily, once per frame and reference per cycle.
+extracted lazily, once per frame and reference per cycle; or, for a compiled task row
+(:class:`~wbc.tasks.Frame`, :class:`~wbc.tasks.Contact`), read from pinocchio's arrays as views
+held once (:meth:`RobotModel.frame_arrays`, :attr:`RobotModel.joint_jacobians`, the CoM's),
+which every ``update`` refreshes in place: no crossing of the bindings per cycle.
 
 Units: q in m and rad (quaternion for a free-flyer, (cos, sin) for a planar joint),
 v in m/s and rad/s, torques in N and N·m.
