@@ -25,10 +25,8 @@ on Talos.
 
 Tasks read the cache (``M``, ``h``, ``frame_jacobian`` ...) and never call
 pinocchio's whole-body routines themselves. Frame Jacobians and drifts are
-extracted lazily, once per frame and reference per cycle; or, for a compiled task row
-(:class:`~wbc.tasks.Frame`, :class:`~wbc.tasks.Contact`), read from pinocchio's arrays as views
-held once (:meth:`RobotModel.frame_arrays`, :attr:`RobotModel.joint_jacobians`, the CoM's),
-which every ``update`` refreshes in place: no crossing of the bindings per cycle.
+extracted lazily, once per frame and reference per cycle, or read by compiled rows from views
+held once (:meth:`RobotModel.frame_arrays`, :mod:`wbc.robot.held_views`).
 
 Units: q in m and rad (quaternion for a free-flyer, (cos, sin) for a planar joint),
 v in m/s and rad/s, torques in N and N·m.
@@ -39,12 +37,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
 
 from wbc.errors import FrameNotFound, TargetError
+from wbc.robot.held_views import FrameArrays, HeldViews
 from wbc.robot.joint_compensation import JointCompensation
 
 LOCAL = pin.ReferenceFrame.LOCAL
@@ -78,48 +76,6 @@ class ContactSurface:
     @property
     def force_dim(self) -> int:
         return 6 if self.kind == "surface" else 3
-
-
-def frame_support(model: pin.Model, frame_id: int) -> np.ndarray:
-    """Whether each velocity coordinate moves the frame (nv bools): the coordinates of the
-    joints from the root to the frame's parent joint (``model.supports``).
-
-    Args:
-        model: the pinocchio model.
-        frame_id: pinocchio frame index.
-    """
-    out = np.zeros(model.nv, dtype=np.bool_)
-    for j in model.supports[model.frames[frame_id].parentJoint]:
-        if j:
-            jm = model.joints[j]
-            out[jm.idx_v:jm.idx_v + jm.nv] = True
-    return out
-
-
-class FrameArrays(NamedTuple):
-    """One frame's pinocchio arrays, as views pinocchio refreshes in place (each read through
-    the bindings costs ~1 µs; :meth:`RobotModel.frame_arrays` holds them): ``views`` = (the
-    velocity coordinates that move the frame (nv bools), its placement's R (3 × 3) and p (3,
-    m), its parent joint's rotation Rᵢ, the joint-to-frame placement's jRf and jpf (constant
-    copies), the joint's spatial velocity v and acceleration a of the a = 0 forward pass (6,
-    its own frame, linear first), a scratch 6-vector), what
-    :func:`wbc.tasks.velocity_frames.frame_motion_rows` reads."""
-
-    views: tuple
-    #: the frame's placement (pinocchio's ``data.oMf[fid]``, refreshed in place)
-    placement: pin.SE3
-
-    @staticmethod
-    def of(model: pin.Model, data: pin.Data, fid: int) -> FrameArrays:
-        """The arrays of frame ``fid`` (model and data of one robot)."""
-        frame = model.frames[fid]
-        j = frame.parentJoint
-        support = frame_support(model, fid)
-        oMf = data.oMf[fid]
-        jMf = frame.placement
-        return FrameArrays((support, oMf.rotation, oMf.translation, data.oMi[j].rotation,
-                            np.asfortranarray(jMf.rotation.copy()), jMf.translation.copy(), data.v[j].vector,
-                            data.a[j].vector, np.zeros(6)), oMf)
 
 
 #: the number of joints on the deepest chain from the root above which ``crba`` runs in
@@ -231,8 +187,7 @@ class RobotModel:
         self._frame_ids: dict[str, int] = {}
         self._cache: dict[tuple, np.ndarray] = {}
         self._velocity_units: tuple[str, ...] | None = None
-        self._com_held: tuple = (None,)          # _com_views
-        self._views: tuple = (None, None, {})     # (data, data.J, {fid: FrameArrays}) of frame_arrays
+        self._views = HeldViews(None)             # pinocchio's arrays as held views (frame_arrays, com ...)
         self.q = self.q_default.copy()
         self.v = np.zeros(self.nv)
         self._zero_v = np.zeros(self.nv)
@@ -247,10 +202,9 @@ class RobotModel:
         self.update(self.q, self.v)
 
     def __getstate__(self) -> dict:
-        """Pickled or deep-copied without the held views of pinocchio's arrays (a copy of a
-        view would no longer follow ``data``); they are taken again from the new ``data``."""
+        """Pickled or copied without the held views (:mod:`wbc.robot.held_views`)."""
         state = self.__dict__.copy()
-        state["_com_held"], state["_views"] = (None,), (None, None, {})
+        state["_views"] = HeldViews(None)
         return state
 
     # ------------------------------------------------------------------ frames
@@ -375,34 +329,31 @@ class RobotModel:
         (:mod:`wbc.robot.joint_compensation`); nv, N·m."""
         return self.data.nle if self.compensation is None else self._h_eff  # type: ignore[return-value]  # update() sets it
 
-    def _com_views(self) -> tuple:
-        """(data, com, vcom, acom, Jcom): pinocchio's CoM arrays as views held per ``data`` object
-        (each read through the bindings costs ~1 µs; :meth:`update` refreshes them in place)."""
-        held = self._com_held
-        if held[0] is not self.data:
-            d = self.data
-            held = self._com_held = (d, d.com[0], d.vcom[0], d.acom[0], d.Jcom)
-        return held
+    def _held(self) -> HeldViews:
+        views = self._views
+        if views.data is not self.data:
+            views = self._views = HeldViews(self.data)
+        return views
 
     @property
     def com(self) -> np.ndarray:
         """Centre of mass in the world frame (3, m)."""
-        return self._com_views()[1]
+        return self._held().com
 
     @property
     def com_velocity(self) -> np.ndarray:
         """Centre-of-mass velocity in the world frame (3, m/s)."""
-        return self._com_views()[2]
+        return self._held().vcom
 
     @property
     def com_jacobian(self) -> np.ndarray:
         """CoM Jacobian J_com (3 × nv): ṗ_com = J_com q̇."""
-        return self._com_views()[4]
+        return self._held().Jcom
 
     @property
     def com_drift(self) -> np.ndarray:
         """J̇_com q̇ in m/s²."""
-        return self._com_views()[3]
+        return self._held().acom
 
     @property
     def mass(self) -> float:
@@ -434,22 +385,13 @@ class RobotModel:
         Args:
             fid: pinocchio frame index (:meth:`frame_id`).
         """
-        held = self._views
-        if held[0] is not self.data:
-            held = self._views = (self.data, self.data.J, {})
-        got = held[2].get(fid)
-        if got is None:
-            got = held[2][fid] = FrameArrays.of(self.model, self.data, fid)
-        return got
+        return self._held().frame(self.model, fid)
 
     @property
     def joint_jacobians(self) -> np.ndarray:
         """Pinocchio's ``data.J`` (6 × nv): every joint's Jacobian, world frame at the world
         origin (linear rows first), as :meth:`update` leaves it; a view held once."""
-        held = self._views
-        if held[0] is not self.data:
-            held = self._views = (self.data, self.data.J, {})
-        return held[1]
+        return self._held().J
 
     def frame_jacobian(self, fid: int, ref: pin.ReferenceFrame = WORLD_ALIGNED) -> np.ndarray:
         """6 × nv frame Jacobian (linear rows first) in ``ref``; extracted once per cycle.

@@ -46,7 +46,7 @@ import math
 import numba as nb
 import numpy as np
 
-from wbc.robot.model import frame_support
+from wbc.robot.held_views import frame_support
 
 __all__ = ["frame_motion_rows", "frame_rows", "frame_support", "relative_rotation"]
 
