@@ -25,7 +25,8 @@ on Talos.
 
 Tasks read the cache (``M``, ``h``, ``frame_jacobian`` ...) and never call
 pinocchio's whole-body routines themselves. Frame Jacobians and drifts are
-extracted lazily, once per frame and reference per cycle.
+extracted lazily, once per frame and reference per cycle, or read by compiled rows from views
+held once (:meth:`RobotModel.frame_arrays`, :mod:`wbc.robot.held_views`).
 
 Units: q in m and rad (quaternion for a free-flyer, (cos, sin) for a planar joint),
 v in m/s and rad/s, torques in N and N·m.
@@ -41,6 +42,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.errors import FrameNotFound, TargetError
+from wbc.robot.held_views import FrameArrays, HeldViews
 from wbc.robot.joint_compensation import JointCompensation
 
 LOCAL = pin.ReferenceFrame.LOCAL
@@ -185,6 +187,7 @@ class RobotModel:
         self._frame_ids: dict[str, int] = {}
         self._cache: dict[tuple, np.ndarray] = {}
         self._velocity_units: tuple[str, ...] | None = None
+        self._views = HeldViews(None)             # pinocchio's arrays as held views (frame_arrays, com ...)
         self.q = self.q_default.copy()
         self.v = np.zeros(self.nv)
         self._zero_v = np.zeros(self.nv)
@@ -197,6 +200,12 @@ class RobotModel:
         self._external = False      # whether the last update had one (external_torque ≠ 0 then)
         self.cycle = 0
         self.update(self.q, self.v)
+
+    def __getstate__(self) -> dict:
+        """Pickled or copied without the held views (:mod:`wbc.robot.held_views`)."""
+        state = self.__dict__.copy()
+        state["_views"] = HeldViews(None)
+        return state
 
     # ------------------------------------------------------------------ frames
     def frame_id(self, name: str) -> int:
@@ -320,25 +329,31 @@ class RobotModel:
         (:mod:`wbc.robot.joint_compensation`); nv, N·m."""
         return self.data.nle if self.compensation is None else self._h_eff  # type: ignore[return-value]  # update() sets it
 
+    def _held(self) -> HeldViews:
+        views = self._views
+        if views.data is not self.data:
+            views = self._views = HeldViews(self.data)
+        return views
+
     @property
     def com(self) -> np.ndarray:
         """Centre of mass in the world frame (3, m)."""
-        return self.data.com[0]
+        return self._held().com
 
     @property
     def com_velocity(self) -> np.ndarray:
         """Centre-of-mass velocity in the world frame (3, m/s)."""
-        return self.data.vcom[0]
+        return self._held().vcom
 
     @property
     def com_jacobian(self) -> np.ndarray:
         """CoM Jacobian J_com (3 × nv): ṗ_com = J_com q̇."""
-        return self.data.Jcom
+        return self._held().Jcom
 
     @property
     def com_drift(self) -> np.ndarray:
         """J̇_com q̇ in m/s²."""
-        return self.data.acom[0]
+        return self._held().acom
 
     @property
     def mass(self) -> float:
@@ -362,6 +377,21 @@ class RobotModel:
             fid: pinocchio frame index (:meth:`frame_id`).
         """
         return self.data.oMf[fid]
+
+    def frame_arrays(self, fid: int) -> FrameArrays:
+        """Pinocchio's arrays a compiled frame row reads (:class:`FrameArrays`): views, held per
+        frame (and per ``data`` object), that :meth:`update` refreshes in place.
+
+        Args:
+            fid: pinocchio frame index (:meth:`frame_id`).
+        """
+        return self._held().frame(self.model, fid)
+
+    @property
+    def joint_jacobians(self) -> np.ndarray:
+        """Pinocchio's ``data.J`` (6 × nv): every joint's Jacobian, world frame at the world
+        origin (linear rows first), as :meth:`update` leaves it; a view held once."""
+        return self._held().J
 
     def frame_jacobian(self, fid: int, ref: pin.ReferenceFrame = WORLD_ALIGNED) -> np.ndarray:
         """6 × nv frame Jacobian (linear rows first) in ``ref``; extracted once per cycle.

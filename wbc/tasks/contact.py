@@ -14,7 +14,8 @@ from wbc.validation.schema import boolean, number, text
 from ..errors import TaskDefinitionError
 from ..options import Options
 from ..problem.rows import ContactData, Layout, Rows, RowSlot
-from .base import MotionTask, eq_rows, motion_rows
+from .base import MotionTask, eq_rows
+from .velocity_frames import frame_motion_rows
 
 
 def wrench_cone(mu: float, X: float, Y: float) -> np.ndarray:
@@ -187,6 +188,8 @@ class Contact(MotionTask):
         self._fid = None
         self._ineq: tuple | None = None       # (key, C) of the friction rows
         self._gen: tuple | None = None        # (key, f0, V) of the generators
+        self._held: tuple = (None, None)  # (reference, its translation) of rows
+        self._error = np.zeros(6)
 
     def bind(self, robot) -> None:
         self.surface(robot)
@@ -252,10 +255,19 @@ class Contact(MotionTask):
         zero, axes = self._zero_axes(m)
         slot = eq_rows(out, len(axes), layout.nx)
         A, b = slot.A, slot.b
-        e, vel, drift = self._errors(robot)
         kp, kd = self.gain_vectors(m)
-        # J_c q̈ = K_p e − K_d v_c − J̇_c q̇
-        motion_rows(A, b, self.force_jacobian(robot), axes, zero, kp, e, kd, zero, vel, drift)
+        ref = self.reference
+        if ref is None:
+            ref = self.reference = robot.frame_placement(self._fid).copy()
+        held = self._held
+        if held[0] is not ref:                      # the reference's translation, read once per reference
+            held = self._held = (ref, ref.translation)
+        frame = robot.frame_arrays(self._fid)
+        e = self._error
+        if m == 6:
+            e[:] = pin.log6(frame.placement.actInv(ref)).vector
+        # J_c q̈ = K_p e − K_d v_c − J̇_c q̇, in one compiled call from pinocchio's arrays
+        frame_motion_rows(A, b, robot.joint_jacobians, frame.views, held[1], e, axes, zero, kp, kd, zero, m == 6)
         if self.bilateral:
             return Rows(A=A, b=b)
         C = self._friction_rows(layout)
