@@ -40,7 +40,7 @@ class FrameArrays(NamedTuple):
     velocity coordinates that move the frame (nv bools), its placement's R (3 × 3) and p (3,
     m), its parent joint's rotation Rᵢ, the joint-to-frame placement's jRf and jpf (constant
     copies), the joint's spatial velocity v and acceleration a of the a = 0 forward pass (6,
-    its own frame, linear first), a scratch 6-vector), what
+    its own frame, linear first), a scratch 12-vector (the frame's velocity and drift)), what
     :func:`wbc.tasks.velocity_frames.frame_motion_rows` reads."""
 
     views: tuple
@@ -57,7 +57,7 @@ class FrameArrays(NamedTuple):
         jMf = frame.placement
         return FrameArrays((support, oMf.rotation, oMf.translation, data.oMi[j].rotation,
                             np.asfortranarray(jMf.rotation.copy()), jMf.translation.copy(), data.v[j].vector,
-                            data.a[j].vector, np.zeros(6)), oMf)
+                            data.a[j].vector, np.zeros(12)), oMf)
 
 
 class HeldViews:

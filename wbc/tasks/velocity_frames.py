@@ -189,8 +189,8 @@ def frame_motion_rows(A, b, J, f, pt, e, sel, acc_d, kp, kd, vel_d, contact):
     if not contact:
         for i in range(3):
             e[i] = pt[i] - p[i]
-    vel = np.empty(6)
-    drift = scratch
+    vel = scratch[:6]                      # views on the held scratch: no allocation per call
+    drift = scratch[6:]
     _joint_to_frame(vj, Ri, jRf, jpf, contact, vel)
     _joint_to_frame(aj, Ri, jRf, jpf, contact, drift)
     if not contact:                        # classical: + ω × v at the frame's origin
