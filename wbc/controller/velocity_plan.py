@@ -6,8 +6,10 @@ holds (its version, the levels solved, each task's weight and row count): a
 then, per task, a writer (:func:`wbc.tasks.velocity.velocity_writer`) bound to that task's
 blocks of the buffer, and the :class:`~wbc.problem.problem.Problem` the solver is handed
 every cycle (the same object: its levels and stacked rows are views of the buffer). A cycle
-is then: each writer writes its rows in place (a compiled pass each; rows constant in the
-state were written at planning), the rows of a task of weight w ≠ 1 scaled by √w into its
+is then: the writers' rows in place, those of the point frames, contacts, CoM, posture and
+joint limits in one compiled call (:mod:`wbc.tasks.velocity_stack`), the others a compiled
+pass each (rows constant in the state were written at planning), the rows of a task of
+weight w ≠ 1 scaled by √w into its
 block, nothing allocated, no list or dict built. A writer that finds its task's rows
 changed shape (a contact made sliding) says so and the plan is rebuilt.
 """
@@ -21,6 +23,7 @@ from wbc.problem.problem import Problem
 from wbc.problem.rows import Layout, Rows
 from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.velocity import velocity_writer
+from wbc.tasks.velocity_stack import stack_writer
 
 _NO_INDEX = np.zeros(0, dtype=np.int64)
 
@@ -71,6 +74,9 @@ class VelocityPlan:
                     self.collision_rows.append((t, out))
                 if slot is not None and eqv[2] != 1.0:
                     self.scaled.append((slot.A, slot.b, eqv[0], eqv[1], eqv[2]))
+        #: the covered tasks' rows in one compiled call (wbc.tasks.velocity_stack), and the writers
+        #: it does not cover; None: every writer, one call each
+        self.stack_write, self.rest = stack_writer(self.writers, [t for tasks in groups for t in tasks], buf, robot)
         self.levels = buf.levels
         self.problem = Problem(buf.levels, Layout(nv=nv), np.eye(nv), np.zeros(nv), _NO_INDEX, margin=margin,
                                rows=buf.stacked)
@@ -91,8 +97,14 @@ class VelocityPlan:
 
     def fill(self) -> bool:
         """Write this cycle's rows into the buffer (the robot updated to this cycle's q);
-        False (nothing written to trust) when a task's rows changed shape: plan again."""
-        for write in self.writers:
+        False (nothing written to trust) when a task's rows changed shape: plan again. The
+        covered tasks in one call, the others by their writers; every writer when the call
+        leaves the cycle to them (a target not set yet, a logarithm near a half turn)."""
+        fused = self.stack_write
+        written = None if fused is None else fused()
+        if written is False:
+            return False
+        for write in self.writers if written is None else self.rest:
             if not write():
                 return False
         for sA, sb, A, b, w in self.scaled:

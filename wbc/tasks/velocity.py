@@ -235,7 +235,22 @@ def _motion_writer(task, robot, nv: int, gain: float | None, out: Rows | None) -
         _motion_rows(A, b, jacobian(model, data, fid, frame), sel, zero, K.get(), err)
         return True
 
-    return {"frame": write_frame, "com": write_com, "contact": write_contact}[kind], Rows(A=A, b=b)
+    if kind == "frame":
+        if linear:                   # while the target is set: the frame's rows in one call (velocity_stack)
+            _spec(write_frame, ("frame", task, A, b, support, R, p, sel, K, False))
+        return write_frame, Rows(A=A, b=b)
+    if kind == "com":
+        return _spec(write_com, ("com", task, A, b, sel, K, com, Jcom, m)), Rows(A=A, b=b)
+    return _spec(write_contact, ("contact", task, A, b, support, R, p, sel, K, dim == 6, m < dim, zero)), \
+        Rows(A=A, b=b)
+
+
+def _spec(write: Writer, spec: tuple) -> Writer:
+    """``write`` with ``spec``: what :mod:`wbc.tasks.velocity_stack` needs to write the same rows
+    in one compiled call with the stack's other tasks (the kind, the task, the arrays the
+    writer holds: its blocks, pinocchio's views, its selection and gain)."""
+    write.__dict__["spec"] = spec
+    return write
 
 
 @nb.njit(cache=True)
@@ -265,7 +280,7 @@ def _posture_writer(task, robot, nv: int, gain: float | None, out: Rows | None) 
         np.multiply(K.get(), e, out=b)
         return True
 
-    return write, Rows(A=A, b=b)
+    return _spec(write, ("posture", task, A, b, K, m)), Rows(A=A, b=b)
 
 
 def _joint_limit_writer(task, robot, dt: float, out: Rows | None) -> tuple[Writer, Rows]:
@@ -293,7 +308,7 @@ def _joint_limit_writer(task, robot, dt: float, out: Rows | None) -> tuple[Write
                 lo[crossed] = hi[crossed] = 0.5 * (lo[crossed] + hi[crossed])
         return True
 
-    return write, Rows(box=(idx, lo, hi))
+    return _spec(write, ("limits", task, lo, hi, qi, qmax, qmin, vmax, dt)), Rows(box=(idx, lo, hi))
 
 
 @nb.njit(cache=True)
