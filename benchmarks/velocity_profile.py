@@ -53,12 +53,9 @@ def split(ctrl, q) -> dict[str, int]:
     assert plan.matches(groups, key)
     t3 = ns()
     t["plan check"] = t3 - t2
-    for write, task in zip(plan.writers, (x for g in groups for x in g)):
-        a = ns()
-        write()
-        k = f"rows: {task.kind}"
-        t[k] = t.get(k, 0) + ns() - a
+    assert plan.fill()              # the frames', contacts', CoM's, posture's, limits' rows in one call, the others'
     t4 = ns()
+    t["rows (VelocityPlan.fill: wbc.tasks.velocity_stack's call, the other writers)"] = t4 - t3
     res = _solve_planned(ctrl.solver, plan.problem)     # as the controller calls it (equality-only first)
     t5 = ns()
     t["solver (hqp: equality-only cascade, else the full run)"] = t5 - t4
