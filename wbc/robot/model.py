@@ -47,8 +47,6 @@ from wbc.robot.joint_compensation import JointCompensation
 
 LOCAL = pin.ReferenceFrame.LOCAL
 WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-#: the dtype check_state passes through unconverted
-_FLOAT = np.dtype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -256,11 +254,8 @@ class RobotModel:
             finite: True (default): a NaN or inf is a TargetError too; the controller passes
                 False (its fault monitor has checked that already, :mod:`wbc.controller.faults`).
         """
-        # already flat float64 arrays of the right sizes (a controller's every cycle): as they are
-        if not (type(q) is np.ndarray and type(v) is np.ndarray and q.dtype == _FLOAT and v.dtype == _FLOAT
-                and q.shape == (self.nq,) and v.shape == (self.nv,)):
-            q = np.asarray(q, dtype=float).reshape(-1)
-            v = np.asarray(v, dtype=float).reshape(-1)
+        if not (type(q) is np.ndarray is type(v) and q.dtype == v.dtype == float and q.ndim == v.ndim == 1):
+            q, v = np.asarray(q, dtype=float).reshape(-1), np.asarray(v, dtype=float).reshape(-1)
         if q.shape != (self.nq,) or v.shape != (self.nv,):
             raise TargetError(
                 f"robot '{self.name}': expected q of shape ({self.nq},) and v of shape ({self.nv},), "
