@@ -79,13 +79,13 @@ def _path(x, vx, ax, tau, unit, out):
 
 
 @nb.njit(cache=True)
-def feature_drift(ks, geoms, d, P, D, R, J, dJ, support, jid, v, kind, radius, ends, vertices, neighbours,
+def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, ends, vertices, neighbours,
                   offset, count, hints, feature_tol, min_distance, h):
     """d̈ (m,) at q̈ = 0 of the m pairs ``ks`` and a flag (m,) where the closest-feature model does not apply.
 
     Per side (first sides 0..m−1, then second sides m..2m−1): ``geoms`` its geometry, ``P`` its witness point,
-    ``D`` its outward direction (n for the first side, −n for the second), ``R`` its joint's rotation (3 × 3,
-    world), ``jid`` its joint; ``J``, ``dJ`` the world-frame joint Jacobians and their time variation (6 × nv),
+    ``NN`` its side's normal (−n for the first side, n for the second: its outward direction is −``NN``), ``jid``
+    its joint; ``R`` (njoints × 3 × 3) every joint's world rotation; ``J``, ``dJ`` the world-frame joint Jacobians and their time variation (6 × nv),
     ``support`` (njoints × nv) each joint's supporting chain, ``v`` q̇. ``hints`` (pairs × 2): each pair's last
     extremal vertex per side (local index), the hill climb's start, updated in place.
     """
@@ -103,9 +103,9 @@ def feature_drift(ks, geoms, d, P, D, R, J, dJ, support, jid, v, kind, radius, e
     for s in range(2 * m):
         i = s % m
         g = geoms[s]
-        Rs = R[s]
+        Rs = R[jid[s]]
         p = P[s]
-        dv = D[s]
+        dv = -NN[s]
         k = kind[g]
         r = radius[g]
         for c in range(3):
