@@ -5,11 +5,12 @@ the numpy code computed, operation for operation (the same products and sums in 
 multiply-add), so the rows are the same bits (``tests/collision/test_row_kernels.py`` compares them):
 
 - :func:`moved_bound`: the broad phase's bound d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ| and the pairs it keeps
-  (:meth:`CollisionModel._moved_bound`; the sum over j in a loop, not BLAS's order: a bound, the rows do not
-  depend on its last bits);
+  (:meth:`CollisionModel._moved_bound`; summed joint by joint into the accumulated motion, not in BLAS's order: a
+  bound, the rows do not depend on its last bits);
 - :func:`near_rows`: from coal's results of the computed pairs ([d, n, p₁] per pair, :mod:`.result_table`), the
   bound's new references d₀, the pairs within the influence distance, their witness points p₁, p₂ = p₁ + d n,
   normals, and each side's coefficients [n_s; p_s × n_s] (n₁ = −n, n₂ = n) of J_d = Σ_s [n_s; p_s × n_s]ᵀ J_j(s);
+- :func:`toggles`: which pairs a pass must activate and deactivate (most are the last pass's);
 - :func:`masked_pair_sum`: each side's (coefficients @ ``data.J``) row masked by its joint's supporting chain, the
   two sides summed (the product itself stays one BLAS call: its bits are numpy's).
 
@@ -25,18 +26,19 @@ import numpy as np
 
 
 @nb.njit(cache=True)
-def moved_bound(weights, step, moved, d0, influence, add, near):
+def moved_bound(weights_t, step, moved, d0, influence, add, near):
     """Accumulate the joints' motion ``step`` (nv, |pin.difference|) into ``moved`` (pairs,) as
-    ``moved += weights @ step`` when ``add``, and write into ``near`` the pairs whose bound d₀ − moved is below
+    ``moved += weightsᵀ step`` when ``add`` (``weights_t``: the (nv × pairs) transpose of the weights, so that the
+    inner loop runs over the pairs, contiguous), and write into ``near`` the pairs whose bound d₀ − moved is below
     ``influence`` (m; a NaN bound, an infinite weight times a zero step, counts as −∞); returns how many."""
-    npairs, nv = weights.shape
+    nv, npairs = weights_t.shape
+    if add:
+        for j in range(nv):
+            sj = step[j]
+            for k in range(npairs):
+                moved[k] += weights_t[j, k] * sj
     n = 0
     for k in range(npairs):
-        if add:
-            s = 0.0
-            for j in range(nv):
-                s += weights[k, j] * step[j]
-            moved[k] += s
         b = d0[k] - moved[k]
         if math.isnan(b) or b < influence:
             near[n] = k
@@ -109,3 +111,24 @@ def masked_pair_sum(both, support, jid):
         for c in range(nv):
             out[i, c] = both[i, c] * support[j1, c] + both[m + i, c] * support[j2, c]
     return out
+
+
+@nb.njit(cache=True)
+def toggles(active, ks, on, off):
+    """The pairs to switch so that exactly ``ks`` are active: those of ``ks`` not ``active`` into ``on``, the
+    ``active`` ones not in ``ks`` into ``off``; ``active`` becomes that set. Returns (how many on, how many off)."""
+    n = len(active)
+    want = np.zeros(n, dtype=np.bool_)
+    for i in range(len(ks)):
+        want[ks[i]] = True
+    n_on = 0
+    n_off = 0
+    for k in range(n):
+        if want[k] and not active[k]:
+            on[n_on] = k
+            n_on += 1
+        elif active[k] and not want[k]:
+            off[n_off] = k
+            n_off += 1
+        active[k] = want[k]
+    return n_on, n_off
