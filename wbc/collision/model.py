@@ -19,7 +19,8 @@ Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that
    :meth:`CollisionModel.smallest_distances` orders pairs by their bounding spheres instead (centre c, radius ρ in the
    joint's frame: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d; a plane: its signed distance to c minus ρ);
 2. exact phase: coal's distance on the near pairs only: d, witness points p₁ (on the first geometry) and p₂, normal n
-   = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays defined in penetration, d < 0);
+   = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays defined in penetration, d < 0), read as one held table
+   (:mod:`wbc.collision.result_table`), the pairs that changed activated one by one;
 3. the distance Jacobian J_d = nᵀ (J_p₂ − J_p₁) (1 × nv), J_p the world-aligned Jacobian of the point of the
    geometry's joint at the witness point, J_p = J_v − [p − o]× J_ω; and the drift J̇_d q̇ ≈ nᵀ (a_p₂ − a_p₁) with a_p
    = a_o + α × r + ω × (ω × r) the point's classical acceleration at q̈ = 0 (the normal's and the witness points' own
@@ -198,9 +199,9 @@ class CollisionModel:
         self._off = np.zeros(len(self.pairs), dtype=np.int64)
         self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         self._check_map = np.zeros_like(self._map)        # rows_at's active pairs (its own, reused)
-        #: per GeometryData (by id): it and its distance results as Python proxies, made once (indexing
-        #: ``distanceResults`` costs ~3 µs a pair a call; a proxy stays bound to its C++ result)
-        self._proxies: dict[int, tuple[pin.GeometryData, list]] = {}
+        #: per GeometryData (by id): it, its distance results as Python proxies (indexing ``distanceResults`` costs
+        #: ~3 µs a pair a call; a proxy stays bound to its C++ result), their held table and its active pairs (_entry)
+        self._proxies: dict[int, tuple[pin.GeometryData, list, ResultTable, np.ndarray]] = {}
         #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
         self.computed = 0
 
