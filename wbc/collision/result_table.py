@@ -24,10 +24,9 @@ import numpy as np
 
 __all__ = ["ResultTable", "result_table"]
 
-#: the row's columns: d, then n, then p₁
-D, N, P1 = 0, slice(1, 4), slice(4, 7)
-#: where d and p₁ sit in a DistanceResult relative to its normal (bytes; confirmed on a real pass)
-_D_OFFSET, _P1_OFFSET = -8, 24
+#: where d sits in a DistanceResult relative to its normal (bytes), the row being the 7 doubles from there: d, n, p₁
+#: (confirmed on a real pass, :meth:`ResultTable.confirm`)
+_D_OFFSET = -8
 
 
 class ResultTable:
