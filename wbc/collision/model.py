@@ -120,7 +120,10 @@ class CollisionModel:
         robot_names = [g.name for g in gm.geometryObjects]
         self.primitive_names: list[str] = []
         if primitives:
-            self._use_primitives(gm, robot_names)
+            from .primitives import use_primitives
+
+            #: the geometries replaced by a primitive
+            self.primitive_names = use_primitives(robot, gm, robot_names)
         for ob in obstacles:
             gm.addGeometryObject(pin.GeometryObject(ob.name, 0, 0, ob.placement, ob.geometry))
         self.geometry_model = gm
@@ -204,27 +207,6 @@ class CollisionModel:
         self._proxies: dict[int, tuple[pin.GeometryData, list, ResultTable, np.ndarray]] = {}
         #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
         self.computed = 0
-
-    def _use_primitives(self, gm: pin.GeometryModel, names: list[str]) -> None:
-        """Each robot geometry named in the collision file's ``primitives:`` becomes that primitive, placed in its
-        link's frame (:mod:`wbc.collision.primitives`)."""
-        from .pairs import pair_file
-        from .primitives import read_primitives
-
-        path = pair_file(self.robot)
-        prims = read_primitives(path, names) if path is not None and path.exists() else {}
-        if not prims:
-            raise RobotDefinitionError(f"robot '{self.robot.name}' has no collision primitives (expected a "
-                                       f"'primitives:' mapping in {path}; `wbc robot collisions "
-                                       f"{self.robot.name} --primitives` fits them)", key="primitives", file=path)
-        frames = self.robot.model.frames
-        for g in gm.geometryObjects:
-            p = prims.get(g.name)
-            if p is not None:
-                g.geometry = p.shape()
-                g.placement = frames[g.parentFrame].placement * p.placement
-        #: the geometries replaced by a primitive
-        self.primitive_names = sorted(prims)
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
