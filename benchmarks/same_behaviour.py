@@ -2,6 +2,7 @@
 
     python benchmarks/same_behaviour.py record OUT.npz [pinocchio,mujoco]
     python benchmarks/same_behaviour.py record-velocity OUT.npz [pinocchio,mujoco]
+    python benchmarks/same_behaviour.py record-collision OUT.npz [SECONDS]
     python benchmarks/same_behaviour.py compare BEFORE.npz AFTER.npz
 
 ``record`` runs, on the tree it is run from (PYTHONPATH), the bench trajectory (1,500 cycles
@@ -13,6 +14,11 @@ per case, ``identical`` (bit for bit) or the largest |Δτ| and its relative siz
 tiago_table_reach_velocity (the whole 9 s, each simulator) and of the Talos IK problem of
 ``ik_peers.py`` (its Gauss–Newton iterations from q0, each solver); compared the same way
 (the Δ then in rad/s and m/s).
+``record-collision`` runs the collision scenarios on the own simulator for SECONDS (default 2):
+talos_hands_cross (its default exact drift, and with ``drift: analytic``), tiago_table_reach,
+panda_obstacle and tiago_table_reach_velocity; it stores every cycle's τ (q̇ for the velocity one) and the run's
+``collision_distance_min`` (m, as a 1-vector ``…/collision_distance_min``). It can be run on an older tree
+by giving this file's path with that tree on PYTHONPATH.
 """
 
 from __future__ import annotations
@@ -92,6 +98,32 @@ def record_velocity(path: str, simulators: list[str]) -> None:
     np.savez(path, **out)
 
 
+def record_collision(path: str, seconds: float) -> None:
+    from wbc.runner.loop import run
+    from wbc.scenario.loader import load_config
+
+    warnings.simplefilter("ignore")
+    out = {}
+    for name, drift in (("talos_hands_cross", None), ("talos_hands_cross", "analytic"), ("tiago_table_reach", None),
+                        ("panda_obstacle", None), ("tiago_table_reach_velocity", None)):
+        sc = load_config(name)
+        if drift is not None:
+            task = sc.stack["collision_avoidance"]
+            task.drift = drift
+            if task.model is not None:
+                task.model.analytic_drift = drift == "analytic"
+        got: list = []
+        velocity = name.endswith("_velocity")
+        metrics = run(sc, simulator="pinocchio", duration=seconds,
+                      callback=lambda t, s, sol, got=got, velocity=velocity: got.append(
+                          (sol.qd if velocity else sol.tau).copy()))
+        key = f"{name}{'/' + drift if drift else ''}"
+        out[key] = np.array(got)
+        out[f"{key}/collision_distance_min"] = np.array([metrics["collision_distance_min"]])
+        print(f"{key:40s} collision_distance_min {metrics['collision_distance_min']!r} m", flush=True)
+    np.savez(path, **out)
+
+
 #: the cases record_velocity writes (q̇ commands, rad/s; the others are torques, N·m)
 VELOCITY_CASES = ("tiago_table_reach_velocity", "talos_ik")
 
@@ -123,6 +155,8 @@ if __name__ == "__main__":
         record(sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["pinocchio", "mujoco"])
     elif len(sys.argv) >= 3 and sys.argv[1] == "record-velocity":
         record_velocity(sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["pinocchio", "mujoco"])
+    elif len(sys.argv) >= 3 and sys.argv[1] == "record-collision":
+        record_collision(sys.argv[2], float(sys.argv[3]) if len(sys.argv) > 3 else 2.0)
     elif len(sys.argv) == 4 and sys.argv[1] == "compare":
         sys.exit(compare(sys.argv[2], sys.argv[3]))
     else:

@@ -108,14 +108,14 @@ def test_analytic_drift_matches_the_exact_one_against_obstacles(shape):
 
 
 def test_the_joint_rotations_follow_forward_kinematics(talos):
-    """The rotations read once (views on pinocchio's storage) are the joints' rotations after a later
-    forward kinematics."""
+    """The rotations read once (one view on pinocchio's storage, :func:`wbc.robot.held_views.joint_rotations`) are
+    the joints' rotations after a later forward kinematics."""
     cm = CollisionModel(talos)
     cm.analytic_drift = True
     talos.update(talos.q_default, np.ones(talos.nv))
     cm.distance_rows(talos, 0.05)
     fd = cm.feature_drift
-    assert fd._rotations
+    assert fd._rotations is not None and fd._rotations.shape == (talos.model.njoints, 3, 3)
     q = pin.randomConfiguration(talos.model)
     pin.forwardKinematics(talos.model, cm.fd_data, q)
     for j in range(1, talos.model.njoints):

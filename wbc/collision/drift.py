@@ -48,7 +48,7 @@ def curvature_drift(cm, robot, ks: np.ndarray) -> np.ndarray:
         q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
-        out += w * np.array([r.min_distance for r in cm.pair_results(ks, gd)])
+        out += w * cm.pair_distances(ks, gd)
     return out / (eps * eps)
 
 

@@ -36,6 +36,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from ..robot.held_views import joint_rotations
 from .drift import curvature_drift
 from .feature_kernel import CAPSULE, HALFSPACE, HULL, SPHERE, UNSUPPORTED, feature_drift
 
@@ -106,38 +107,37 @@ class FeatureDrift:
         self.hints = np.zeros((len(cm.pairs), 2), dtype=np.int64)
         #: how many of the last call's pairs took the exact drift
         self.fallback = 0
-        # the joints' world rotations: pinocchio's ``SE3.rotation`` is a view on the data's own storage, so the
-        # arrays taken once here follow every later forward kinematics of ``cm.fd_data`` (checked in the tests);
-        # the translation is a copy and is not needed (the cores are found from the witness points)
-        self._rotations = [cm.fd_data.oMi[j].rotation for j in range(cm.robot.model.njoints)]
-        if any(r.flags.owndata for r in self._rotations):
-            self._rotations = []
+        # the joints' world rotations, one (njoints × 3 × 3) view on ``cm.fd_data``'s own storage that follows every
+        # later forward kinematics of it (:func:`wbc.robot.held_views.joint_rotations`; checked in the tests); None
+        # where pinocchio's storage is not laid out as one (then stacked per call). The translations are not needed
+        # (the cores are found from the witness points).
+        self._rotations = joint_rotations(cm.fd_data)
 
-    def drift(self, robot, ks: np.ndarray, d: np.ndarray, P1: np.ndarray, P2: np.ndarray,
-              N: np.ndarray) -> np.ndarray:
-        """J̇_d q̇ (k,; m/s²) of the pairs ``ks`` at the robot's state, from their witness points and normals.
+    def drift(self, robot, ks: np.ndarray, d: np.ndarray, P: np.ndarray, NN: np.ndarray, jid: np.ndarray,
+              geoms: np.ndarray) -> np.ndarray:
+        """J̇_d q̇ (k,; m/s²) of the pairs ``ks`` at the robot's state, from their witness points and normals, each side
+        first sides then second (:func:`wbc.collision.row_kernels.near_rows`).
 
         Args:
             robot: the robot at the cycle's state (q, q̇).
             ks: the pairs (k,; indices into ``cm.pairs``).
             d: their distances (k,; m).
-            P1: first witness points (k × 3, m, world).
-            P2: second witness points (k × 3).
-            N: unit normals from the first geometry to the second (k × 3).
+            P: the witness points (2k × 3, m, world): [p₁; p₂].
+            NN: each side's normal (2k × 3): [−n; n], n the unit normal from the first geometry to the second.
+            jid: each side's joint (2k,).
+            geoms: each side's geometry (2k,).
         """
         cm = self.cm
         if not len(ks):
             return np.zeros(0)
         data, v = cm.fd_data, robot.v
         pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, v)
-        g = cm.pairs[ks].T.ravel()                      # (2k,): first sides, then second
-        jid = cm.joint_of[g]
-        rot = self._rotations
-        R = np.array([rot[j] for j in jid] if rot else [data.oMi[int(j)].rotation for j in jid])
-        out, bad = feature_drift(ks, g, d, np.concatenate([P1, P2]), np.concatenate([N, -N]), R, data.J, data.dJ,
-                                 cm.support, jid, v, self.kind, self.radius, self.ends, self.vertices,
-                                 self.neighbours, self.offset, self.count, self.hints, FEATURE_TOL, MIN_DISTANCE,
-                                 STEP)
+        R = self._rotations
+        if R is None:
+            R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
+        out, bad = feature_drift(ks, geoms, d, P, NN, R, data.J, data.dJ, cm.support, jid, v, self.kind, self.radius,
+                                 self.ends, self.vertices, self.neighbours, self.offset, self.count, self.hints,
+                                 FEATURE_TOL, MIN_DISTANCE, STEP)
         self.fallback = int(bad.sum())
         if self.fallback:
             out[bad] = curvature_drift(cm, robot, ks[bad])

@@ -79,15 +79,15 @@ def _path(x, vx, ax, tau, unit, out):
 
 
 @nb.njit(cache=True)
-def feature_drift(ks, geoms, d, P, D, R, J, dJ, support, jid, v, kind, radius, ends, vertices, neighbours,
+def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, ends, vertices, neighbours,
                   offset, count, hints, feature_tol, min_distance, h):
     """d̈ (m,) at q̈ = 0 of the m pairs ``ks`` and a flag (m,) where the closest-feature model does not apply.
 
     Per side (first sides 0..m−1, then second sides m..2m−1): ``geoms`` its geometry, ``P`` its witness point,
-    ``D`` its outward direction (n for the first side, −n for the second), ``R`` its joint's rotation (3 × 3,
-    world), ``jid`` its joint; ``J``, ``dJ`` the world-frame joint Jacobians and their time variation (6 × nv),
-    ``support`` (njoints × nv) each joint's supporting chain, ``v`` q̇. ``hints`` (pairs × 2): each pair's last
-    extremal vertex per side (local index), the hill climb's start, updated in place.
+    ``NN`` its side's normal (−n for the first side, n for the second: its outward direction is −``NN``), ``jid``
+    its joint; ``R`` (njoints × 3 × 3) every joint's world rotation; ``J``, ``dJ`` the world-frame joint
+    Jacobians and their time variation (6 × nv), ``support`` (njoints × nv) each joint's supporting chain, ``v``
+    q̇. ``hints`` (pairs × 2): each pair's last extremal vertex per side (local index), the hill climb's start, updated in place.
     """
     m = len(ks)
     out = np.zeros(m)
@@ -103,9 +103,9 @@ def feature_drift(ks, geoms, d, P, D, R, J, dJ, support, jid, v, kind, radius, e
     for s in range(2 * m):
         i = s % m
         g = geoms[s]
-        Rs = R[s]
+        Rs = R[jid[s]]
         p = P[s]
-        dv = D[s]
+        dv = -NN[s]
         k = kind[g]
         r = radius[g]
         for c in range(3):
@@ -183,18 +183,20 @@ def feature_drift(ks, geoms, d, P, D, R, J, dJ, support, jid, v, kind, radius, e
             c = _cross(E[s1], E[s2])
             if _dot(c, c) < 1e-6:
                 typ[s1] = POINT
-    tw = np.zeros(6)
-    ac = np.zeros(6)
+    twists = np.zeros((support.shape[0], 12))   # per joint: J_j q̇, J̇_j q̇, once for all its sides
+    done = np.zeros(support.shape[0], dtype=np.bool_)
     for s in range(2 * m):                    # each core's motion at q̈ = 0
         j = jid[s]
-        tw[:] = 0.0
-        ac[:] = 0.0
-        for c in range(nv):
-            if support[j, c] != 0.0:
-                vc = v[c]
-                for r in range(6):
-                    tw[r] += J[r, c] * vc
-                    ac[r] += dJ[r, c] * vc
+        tw = twists[j, :6]
+        ac = twists[j, 6:]
+        if not done[j]:
+            done[j] = True
+            for c in range(nv):
+                if support[j, c] != 0.0:
+                    vc = v[c]
+                    for r in range(6):
+                        tw[r] += J[r, c] * vc
+                        ac[r] += dJ[r, c] * vc
         y, e = Y[s], E[s]
         w0, w1, w2 = tw[3], tw[4], tw[5]
         a0, a1, a2 = ac[3], ac[4], ac[5]

@@ -19,7 +19,8 @@ Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that
    :meth:`CollisionModel.smallest_distances` orders pairs by their bounding spheres instead (centre c, radius ρ in the
    joint's frame: ‖c₁ − c₂‖ − ρ₁ − ρ₂ ≤ d; a plane: its signed distance to c minus ρ);
 2. exact phase: coal's distance on the near pairs only: d, witness points p₁ (on the first geometry) and p₂, normal n
-   = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays defined in penetration, d < 0);
+   = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays defined in penetration, d < 0), read as one held table
+   (:mod:`wbc.collision.result_table`), the pairs that changed activated one by one;
 3. the distance Jacobian J_d = nᵀ (J_p₂ − J_p₁) (1 × nv), J_p the world-aligned Jacobian of the point of the
    geometry's joint at the witness point, J_p = J_v − [p − o]× J_ω; and the drift J̇_d q̇ ≈ nᵀ (a_p₂ − a_p₁) with a_p
    = a_o + α × r + ω × (ω × r) the point's classical acceleration at q̈ = 0 (the normal's and the witness points' own
@@ -41,9 +42,11 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RobotDefinitionError
-from .drift import cross_rows, curvature_drift, rigid_drift
+from .drift import curvature_drift, rigid_drift
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
+from .result_table import ResultTable
+from .row_kernels import masked_pair_sum, moved_bound, near_rows, toggles
 from .shapes import Obstacle
 from .step import step_scale
 
@@ -65,6 +68,10 @@ class DistanceRows:
     normal: np.ndarray
     p1: np.ndarray
     p2: np.ndarray
+
+
+#: at most this many pairs switched one by one between two passes (:meth:`CollisionModel._compute`); more: one map
+TOGGLES = 12
 
 
 def _pair_line(path, j: int) -> int | None:
@@ -113,7 +120,10 @@ class CollisionModel:
         robot_names = [g.name for g in gm.geometryObjects]
         self.primitive_names: list[str] = []
         if primitives:
-            self._use_primitives(gm, robot_names)
+            from .primitives import use_primitives
+
+            #: the geometries replaced by a primitive
+            self.primitive_names = use_primitives(robot, gm, robot_names)
         for ob in obstacles:
             gm.addGeometryObject(pin.GeometryObject(ob.name, 0, 0, ob.placement, ob.geometry))
         self.geometry_model = gm
@@ -181,38 +191,22 @@ class CollisionModel:
         self._rsum = self.radii[self._pa] + self.radii[self._pb]
         self._plane_pairs = np.flatnonzero(~np.isfinite(self._rsum))
         # the pairs' bound from their last exact distance and the joints' motion since (_moved_bound)
-        self._weights = motion_weights(model, gm, self.pairs, spheres)
+        self._weights_t = np.ascontiguousarray(motion_weights(model, gm, self.pairs, spheres).T)   # (nv × pairs)
         self._d0 = np.full(len(self.pairs), -np.inf)
         self._moved = np.zeros(len(self.pairs))
         self._q_last: np.ndarray | None = None
+        self._near_buf = np.zeros(len(self.pairs), dtype=np.int64)
+        self._no_step = np.zeros(model.nv)
+        self._rows_at_scratch = np.zeros((2, len(self.pairs)))
+        self._on = np.zeros(len(self.pairs), dtype=np.int64)      # _compute's pairs to activate / deactivate
+        self._off = np.zeros(len(self.pairs), dtype=np.int64)
         self._map = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         self._check_map = np.zeros_like(self._map)        # rows_at's active pairs (its own, reused)
-        #: per GeometryData (by id): it and its distance results as Python proxies, made once (indexing
-        #: ``distanceResults`` costs ~3 µs a pair a call; a proxy stays bound to its C++ result)
-        self._proxies: dict[int, tuple[pin.GeometryData, list]] = {}
+        #: per GeometryData (by id): it, its distance results as Python proxies (indexing ``distanceResults`` costs
+        #: ~3 µs a pair a call; a proxy stays bound to its C++ result), their held table and its active pairs (_entry)
+        self._proxies: dict[int, tuple[pin.GeometryData, list, ResultTable, np.ndarray]] = {}
         #: how many pairs the last :meth:`distance_rows` computed exactly (the broad phase's output)
         self.computed = 0
-
-    def _use_primitives(self, gm: pin.GeometryModel, names: list[str]) -> None:
-        """Each robot geometry named in the collision file's ``primitives:`` becomes that primitive, placed in its
-        link's frame (:mod:`wbc.collision.primitives`)."""
-        from .pairs import pair_file
-        from .primitives import read_primitives
-
-        path = pair_file(self.robot)
-        prims = read_primitives(path, names) if path is not None and path.exists() else {}
-        if not prims:
-            raise RobotDefinitionError(f"robot '{self.robot.name}' has no collision primitives (expected a "
-                                       f"'primitives:' mapping in {path}; `wbc robot collisions "
-                                       f"{self.robot.name} --primitives` fits them)", key="primitives", file=path)
-        frames = self.robot.model.frames
-        for g in gm.geometryObjects:
-            p = prims.get(g.name)
-            if p is not None:
-                g.geometry = p.shape()
-                g.placement = frames[g.parentFrame].placement * p.placement
-        #: the geometries replaced by a primitive
-        self.primitive_names = sorted(prims)
 
     # ------------------------------------------------------------ queries
     def link_geometries(self, links: list[str] | None = None) -> list[tuple[str, str, pin.SE3, np.ndarray]]:
@@ -234,12 +228,20 @@ class CollisionModel:
     def results(self, gd: pin.GeometryData) -> list:
         """The distance results of ``gd`` (one per pair, coal ``DistanceResult``), live: each reads the last
         :func:`pin.computeDistances` on ``gd``. Made once per GeometryData."""
+        return self._entry(gd)[1]
+
+    def _entry(self, gd: pin.GeometryData) -> tuple[pin.GeometryData, list, ResultTable, np.ndarray]:
+        """``gd``'s held proxies, its :class:`~wbc.collision.result_table.ResultTable` and which of its pairs are active
+        (pairs,; as :meth:`_compute` last set them, all at first: a GeometryData starts with every pair active), made
+        once."""
         entry = self._proxies.get(id(gd))
         if entry is None or entry[0] is not gd:
             res = gd.distanceResults
-            entry = (gd, [res[k] for k in range(len(self.pairs))])
+            proxies = [res[k] for k in range(len(self.pairs))]
+            active = np.array([bool(a) for a in gd.activeCollisionPairs], dtype=np.bool_)
+            entry = (gd, proxies, ResultTable(proxies), active)
             self._proxies[id(gd)] = entry
-        return entry[1]
+        return entry
 
     def pair_name(self, k: int) -> str:
         a, b = self.pairs[k]
@@ -257,30 +259,74 @@ class CollisionModel:
         return gaps
 
 
+    def _compute(self, ks: np.ndarray | None, gd: pin.GeometryData, cmap: np.ndarray | None) -> None:
+        """Activate the pairs ``ks`` (None: all) of ``gd`` and run coal on them (pinocchio's ``computeDistances``)."""
+        gm = self.geometry_model
+        active = self._entry(gd)[3]
+        if ks is None:
+            gd.setActiveCollisionPairs(gm, self._all_map)
+            active[:] = True
+        else:
+            n_on, n_off = toggles(active, ks, self._on, self._off)
+            if n_on + n_off <= TOGGLES:             # the few pairs that changed, one binding call each (~0.4 µs)
+                for k in self._on[:n_on].tolist():
+                    gd.activateCollisionPair(k)
+                for k in self._off[:n_off].tolist():
+                    gd.deactivateCollisionPair(k)
+            else:
+                cmap = self._map if cmap is None else cmap
+                cmap[:] = False
+                cmap[self._pa[ks], self._pb[ks]] = True
+                gd.setActiveCollisionPairs(gm, cmap)
+        pin.computeDistances(gm, gd)
+
     def pair_results(self, ks: np.ndarray | None, gd: pin.GeometryData | None = None,
                      cmap: np.ndarray | None = None) -> list:
         """coal's distances (pinocchio's ``computeDistances``, in C++) of the pairs ``ks`` (indices into :attr:`pairs`;
         None: all) on the placements already updated in ``gd`` (default :attr:`geometry_data`), and their results
-        (coal ``DistanceResult``, in the order of ``ks``): the one place pairs are activated, computed and read.
+        (coal ``DistanceResult``, in the order of ``ks``): the one place pairs are activated and computed
+        (:meth:`pair_table` reads the same pass as one array).
 
         Args:
             ks: pair indices (k,), or None for every pair.
             gd: the geometry data (placements in, results out).
             cmap: the (ngeoms × ngeoms) bool map of active pairs to fill (reused across calls); None: the model's own.
         """
-        gm = self.geometry_model
         gd = self.geometry_data if gd is None else gd
-        if ks is None:
-            gd.setActiveCollisionPairs(gm, self._all_map)
-            pin.computeDistances(gm, gd)
-            return self.results(gd)
-        cmap = self._map if cmap is None else cmap
-        cmap[:] = False
-        cmap[self._pa[ks], self._pb[ks]] = True
-        gd.setActiveCollisionPairs(gm, cmap)
-        pin.computeDistances(gm, gd)
+        self._compute(ks, gd, cmap)
         res = self.results(gd)
-        return [res[k] for k in ks.tolist()]
+        return res if ks is None else [res[k] for k in ks.tolist()]
+
+    def pair_table(self, ks: np.ndarray, gd: pin.GeometryData | None = None,
+                   cmap: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`pair_results`' pass, read as one (k × 7) array: per pair of ``ks``, [d, n, p₁] (m; coal's
+        ``min_distance``, ``normal``, ``getNearestPoint1()``), from the held :class:`~wbc.collision.result_table.ResultTable`
+        (one indexing), or through the proxies where the table is not confirmed (the same values).
+
+        Args:
+            ks: pair indices (k,).
+            gd: the geometry data (placements in, results out).
+            cmap: the active-pair map to fill (:meth:`pair_results`).
+        """
+        gd = self.geometry_data if gd is None else gd
+        self._compute(ks, gd, cmap)
+        _, res, table, _ = self._entry(gd)
+        if table.rows is None and not table.failed and len(ks):
+            table.confirm(ks)
+        if table.rows is not None:
+            return table.rows[ks]
+        out = np.empty((len(ks), 7))
+        for i, k in enumerate(ks.tolist()):
+            r = res[k]
+            out[i, 0] = r.min_distance
+            out[i, 1:4] = r.normal
+            out[i, 4:7] = r.getNearestPoint1()
+        return out
+
+    def pair_distances(self, ks: np.ndarray, gd: pin.GeometryData | None = None,
+                       cmap: np.ndarray | None = None) -> np.ndarray:
+        """coal's distances (k,; m) of the pairs ``ks`` (:meth:`pair_table`'s first column)."""
+        return self.pair_table(ks, gd, cmap)[:, 0]
 
     def all_distances(self, q: np.ndarray, data: pin.Data | None = None,
                       geometry_data: pin.GeometryData | None = None) -> np.ndarray:
@@ -361,40 +407,30 @@ class CollisionModel:
                                                                  np.ndarray]:
         """Broad then exact phase on the placements already updated for ``q``: (pair indices, d, p1, p2, n) of the pairs closer
         than ``influence`` (m); arrays (k,), (k,), (k × 3) × 3."""
-        near = np.flatnonzero(self._moved_bound(q) < influence)
+        ks, d, P, NN, _, _, _ = self._near(influence, q)
+        m = len(ks)
+        return ks, d, P[:m], P[m:], NN[m:]
+
+    def _near(self, influence: float, q: np.ndarray) -> tuple:
+        """The broad phase (:meth:`_moved_bound`), coal on the pairs it keeps, and the rows of those within
+        ``influence`` (m): :func:`wbc.collision.row_kernels.near_rows`' (ks, d, P, NN, coef, jid, geoms)."""
+        near = self._moved_bound(q, influence)
         self.computed = len(near)
-        results = self.pair_results(near)
-        dist = np.array([r.min_distance for r in results])
-        self._d0[near] = dist                       # the bound's new references
-        self._moved[near] = 0.0
-        inside = np.flatnonzero(dist < influence)
-        P1, N = self._witness_points([results[i] for i in inside.tolist()])
-        d = dist[inside]
-        return near[inside].astype(np.int64), d, P1, P1 + d[:, None] * N, N
+        return near_rows(self.pair_table(near), near, influence, self._d0, self._moved, self.pairs, self.joint_of)
 
-    @staticmethod
-    def _witness_points(results: list) -> tuple[np.ndarray, np.ndarray]:
-        """(p1 (k × 3), n (k × 3)) of coal's results; the second witness point is p1 + d n (coal's convention p2 − p1 = d n, also
-        in penetration), so it is not read."""
-        m = len(results)
-        P1 = np.array([r.getNearestPoint1() for r in results], dtype=float).reshape(m, 3)
-        N = np.array([r.normal for r in results], dtype=float).reshape(m, 3)
-        return P1, N
-
-    def _moved_bound(self, q: np.ndarray) -> np.ndarray:
-        """Each pair's lower bound (m) from its last exact distance d₀ and the joints' motion since: along the geodesic from the
-        last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ| (:func:`wbc.collision.motion.motion_weights`), so d(q) ≥ d₀ −
-        Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one cycle to the next (one ``pin.difference`` and one (pairs × nv)
-        product). −∞ for a pair never computed. Exact: a pair it leaves out is farther than ``influence``, whatever the
-        order or size of the steps between calls (an infinite weight times a zero step gives NaN: that pair's bound is
-        −∞ until it is computed again)."""
-        if self._q_last is not None:
-            step = np.abs(pin.difference(self.robot.model, self._q_last, q))
-            self._moved += self._weights @ step
+    def _moved_bound(self, q: np.ndarray, influence: float) -> np.ndarray:
+        """The pairs whose lower bound (m) from their last exact distance d₀ and the joints' motion since is below
+        ``influence``: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
+        (:func:`wbc.collision.motion.motion_weights`), so d(q) ≥ d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one cycle
+        to the next (one ``pin.difference`` and :func:`wbc.collision.row_kernels.moved_bound`). −∞ for a pair never
+        computed. Exact: a pair it leaves out is farther than ``influence``, whatever the order or size of the steps
+        between calls (an infinite weight times a zero step gives NaN: that pair's bound is −∞ until it is computed
+        again)."""
+        add = self._q_last is not None
+        step = np.abs(pin.difference(self.robot.model, self._q_last, q)) if add else self._no_step
         self._q_last = q.copy()
-        bound = self._d0 - self._moved
-        bound[np.isnan(bound)] = -np.inf
-        return bound
+        n = moved_bound(self._weights_t, step, self._moved, self._d0, influence, add, self._near_buf)
+        return self._near_buf[:n].copy()
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
         """The pairs closer than ``influence`` (m) at the robot's current cached state, with their distances, Jacobians and drifts
@@ -412,34 +448,31 @@ class CollisionModel:
             return self._rows
         model, data = robot.model, robot.data
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
-        ks, d, P1, P2, N = self.witness(influence, robot.q)
+        ks, d, P, NN, coef, jid, geoms = self._near(influence, robot.q)
         m = len(ks)
-        J = self._jacobians(data, ks, P1, P2, N)
+        P1, P2, N = P[:m], P[m:], NN[m:]
+        J = self._jacobians(data, coef, jid)
         drift = np.zeros(m)
         if m and self.exact_drift and self.analytic_drift:
             if self.feature_drift is None:
                 from .feature_drift import FeatureDrift
 
                 self.feature_drift = FeatureDrift(self)
-            drift = self.feature_drift.drift(robot, ks, d, P1, P2, N)
+            drift = self.feature_drift.drift(robot, ks, d, P, NN, jid, geoms)
         elif m:
             drift = curvature_drift(self, robot, ks) if self.exact_drift else rigid_drift(self, robot, ks, P1, P2, N)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
 
-    def _jacobians(self, data: pin.Data, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray) -> np.ndarray:
-        """J_d (k × nv) of the pairs ``ks`` from their witness points and normals and the world-frame joint Jacobians in
-        ``data.J`` (:meth:`distance_rows`' docstring)."""
-        m, nv = len(ks), self.robot.model.nv
-        if not m:
-            return np.zeros((m, nv))
-        jid = self.joint_of[self.pairs[ks].T.ravel()]                     # (2k,): first sides, then second
-        P = np.concatenate([P1, P2])
-        NN = np.concatenate([-N, N])                                       # the first side with sign −1
-        coef = np.concatenate([NN, cross_rows(P, NN)], axis=1)             # (2k × 6)
-        both = (coef @ data.J) * self.support[jid]
-        return both[:m] + both[m:]
+    def _jacobians(self, data: pin.Data, coef: np.ndarray, jid: np.ndarray) -> np.ndarray:
+        """J_d (k × nv) from each side's coefficients [n_s; p_s × n_s] (2k × 6, first sides then second,
+        :func:`wbc.collision.row_kernels.near_rows`), their joints ``jid`` (2k,) and the world-frame joint Jacobians in
+        ``data.J`` (:meth:`distance_rows`' docstring): one (2k × 6)(6 × nv) product, each row masked by its joint's
+        supporting chain, the two sides summed."""
+        if not len(jid):
+            return np.zeros((0, self.robot.model.nv))
+        return masked_pair_sum(coef @ data.J, self.support, jid)
 
     def rows_at(self, q: np.ndarray, ks: np.ndarray, data: pin.Data,
                 geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
@@ -456,7 +489,7 @@ class CollisionModel:
         model = self.robot.model
         pin.computeJointJacobians(model, data, q)
         pin.updateGeometryPlacements(model, data, self.geometry_model, geometry_data)
-        res = self.pair_results(ks, geometry_data, self._check_map)
-        d = np.array([r.min_distance for r in res], dtype=float)
-        P1, N = self._witness_points(res)
-        return d, self._jacobians(data, ks, P1, P1 + d[:, None] * N, N)
+        table = self.pair_table(ks, geometry_data, self._check_map)
+        scratch = self._rows_at_scratch            # near_rows' broad-phase references: not the cycle's
+        _, d, _, _, coef, jid, _ = near_rows(table, ks, np.inf, scratch[0], scratch[1], self.pairs, self.joint_of)
+        return d, self._jacobians(data, coef, jid)

@@ -304,3 +304,30 @@ def fit_primitives(cm, max_excess: float) -> tuple[dict[str, Primitive], list[tu
             in_link = frames[g.parentFrame].placement.inverse() * g.placement * M
             kept[g.name] = Primitive(kind, dims, in_link, excess)
     return kept, report
+
+
+def use_primitives(robot, gm: pin.GeometryModel, names: list[str]) -> list[str]:
+    """Each robot geometry of ``gm`` named in the robot's collision file's ``primitives:`` becomes that primitive,
+    placed in its link's frame (:class:`~wbc.collision.model.CollisionModel` with ``primitives=True``); returns
+    the names replaced, sorted. An error if the file has none.
+
+    Args:
+        robot: the :class:`~wbc.robot.model.RobotModel`.
+        gm: its collision GeometryModel (changed in place).
+        names: the robot geometries' names.
+    """
+    from .pairs import pair_file
+
+    path = pair_file(robot)
+    prims = read_primitives(path, names) if path is not None and path.exists() else {}
+    if not prims:
+        raise RobotDefinitionError(f"robot '{robot.name}' has no collision primitives (expected a "
+                                   f"'primitives:' mapping in {path}; `wbc robot collisions "
+                                   f"{robot.name} --primitives` fits them)", key="primitives", file=path)
+    frames = robot.model.frames
+    for g in gm.geometryObjects:
+        p = prims.get(g.name)
+        if p is not None:
+            g.geometry = p.shape()
+            g.placement = frames[g.parentFrame].placement * p.placement
+    return sorted(prims)

@@ -65,7 +65,7 @@ def distances_below(model, q: np.ndarray, floor: float, data: pin.Data,
     if cmap is None:
         n = model.geometry_model.ngeoms
         cmap = np.zeros((n, n), dtype=bool)
-    return ks, np.array([r.min_distance for r in model.pair_results(ks, geometry_data, cmap)], dtype=float)
+    return ks, model.pair_distances(ks, geometry_data, cmap)
 
 
 def step_scale(model, q: np.ndarray, step: np.ndarray, safety: float, data: pin.Data, geometry_data,

@@ -37,6 +37,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numba as nb
 import numpy as np
 
 from wbc.validation.schema import boolean, number, sequence, text
@@ -74,6 +75,25 @@ class CollisionOptions(Options):
     drift: str = "exact"
     """the rows' J̇_d q̇: ``exact`` (the distance's second difference, three more coal passes) or ``analytic`` (the
     closest features' local model, no coal pass: :mod:`wbc.collision.feature_drift`)"""
+
+
+@nb.njit(cache=True)
+def damper_rows(C, lo, hi, J, d, d_dot, drift, order, omega, safety, free):
+    """Row r of ``C`` (m × nx), ``lo``, ``hi`` from pair ``order[r]``: J_d in its first nv columns, the damper's bound
+    lo = −2ω ḋ − ω² (d − d_s) − J̇_d q̇ (m/s², module docstring), hi = ∞; the rows past ``len(order)`` unused
+    (0 ≤ 0 · x ≤ ``free``). In one call (the numpy form was ~12 calls); the same products in the same order."""
+    C[:, :] = 0.0
+    lo[:] = 0.0
+    hi[:] = free
+    a = -2.0 * omega
+    b = omega * omega
+    nv = J.shape[1]
+    for r in range(len(order)):
+        i = order[r]
+        for c in range(nv):
+            C[r, c] = J[i, c]
+        lo[r] = a * d_dot[i] - b * (d[i] - safety) - drift[i]
+        hi[r] = np.inf
 
 
 class CollisionAvoidance(Task):
@@ -190,14 +210,7 @@ class CollisionAvoidance(Task):
         r = self.model.distance_rows(robot, self.influence)
         order = np.argsort(r.d)[: self.max_rows]
         k = len(order)
-        C[:] = 0.0
-        lo[:] = 0.0
-        hi[:] = _FREE
-        if k:
-            w = self.omega
-            C[:k, : robot.nv] = r.J[order]
-            lo[:k] = -2.0 * w * r.d_dot[order] - w * w * (r.d[order] - self.safety) - r.drift[order]
-            hi[:k] = np.inf
+        damper_rows(C, lo, hi, r.J, r.d, r.d_dot, r.drift, order, self.omega, self.safety, _FREE)
         self.vertex_last = []
         if k and self.vertex_rows and k < self.max_rows:
             n = self._vertex_rows(robot, r, order, C[k:, : robot.nv], lo[k:])
