@@ -251,14 +251,14 @@ def driver_torque(tau, actuated, limits, out):
 
 @nb.njit(cache=True)
 def free_velocity(v, a_free, h, free_flyer):
-    """(v + h a_free, u): the free motion's explicit Euler step and, for a free-flyer root
+    """(v + h a_free, u, w): the free motion's explicit Euler step and, for a free-flyer root
     (velocity coordinates 0-5: linear then angular, body frame), u = v_lin + h (a_lin +
-    ω × v_lin), which the caller rotates by exp(−[ω] h) into v_free's first three entries
-    (:meth:`Simulator._substep`); u is empty otherwise. The same operations in the same
-    order as numpy's, so the same numbers."""
+    ω × v_lin) and w = −ω h, the caller rotating u by exp₃(w) into v_free's first three
+    entries (:meth:`Simulator._substep`); u and w are empty otherwise. The same operations
+    in the same order as numpy's, so the same numbers (w as numpy's ``-v[3:6] * h``)."""
     v_free = v + h * a_free
     if not free_flyer:
-        return v_free, np.empty(0)
+        return v_free, np.empty(0), np.empty(0)
     w0, w1, w2 = v[3], v[4], v[5]
     c0 = w1 * v[2] - w2 * v[1]
     c1 = w2 * v[0] - w0 * v[2]
@@ -267,7 +267,10 @@ def free_velocity(v, a_free, h, free_flyer):
     u[0] = v[0] + h * (a_free[0] + c0)
     u[1] = v[1] + h * (a_free[1] + c1)
     u[2] = v[2] + h * (a_free[2] + c2)
-    return v_free, u
+    w = np.empty(3)
+    for i in range(3):
+        w[i] = (-v[3 + i]) * h
+    return v_free, u, w
 
 
 @nb.njit(cache=True)

@@ -124,6 +124,7 @@ class Simulator:
         Jw = self.data.J
         self._Jw = Jw.reshape(6, 1) if Jw.ndim == 1 else Jw     # (eigenpy hands 6 × 1 over as a vector)
         self._P = np.zeros((len(self.points), 3))
+        self._com = self.data.com[0]       # a view on the data's CoM (centerOfMass refreshes it in place)
         npts = len(self.points)
         self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
         self._ids, self._shape_of = np.zeros(npts, dtype=np.int64), np.zeros(npts, dtype=np.int64)
@@ -263,12 +264,12 @@ class Simulator:
             Minv, a_free = jd.free_motion(m, d, q, v, tau, fext, h)
         else:
             Minv, a_free = self._free_motion(q, v, tau, fext, bool(rows or nh))
-        v_free, u = cr.free_velocity(v, a_free, h, self._free_flyer)
+        v_free, u, w = cr.free_velocity(v, a_free, h, self._free_flyer)
         if self._free_flyer:
             # The root's linear velocity is in the body frame: its rate holds the term
             # −ω × v, which explicit Euler turns into energy gain for a spinning body.
             # Integrate that rotation exactly instead: v⁺ = exp(−[ω] h)(v + h(a + ω × v)).
-            v_free[:3] = pin.exp3(-v[3:6] * h) @ u
+            v_free[:3] = pin.exp3(w) @ u            # w = −ω h
 
         if jd is not None and jd.friction_idx.size:
             v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
@@ -464,7 +465,7 @@ class Simulator:
     def com(self) -> np.ndarray:
         """World position (m) of the centre of mass at the current state."""
         self._kinematics()
-        return self.data.com[0].copy()
+        return self._com.copy()
 
     def energy(self) -> float:
         """Kinetic + gravitational potential energy (J)."""
