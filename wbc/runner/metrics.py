@@ -377,11 +377,11 @@ class RunMetrics:
         for name, task, live in self.err_live:
             if live:
                 e = task.error(robot)
-                errs[name].add(math.sqrt(float(e @ e)))
+                errs[name].add(math.sqrt(float(e.dot(e))))     # (e @ e's bits: numpy's one ddot, with less around it)
                 if name in split:
                     for unit, idx in split[name]:
                         ei = e[idx]
-                        parts[name][unit].add(math.sqrt(float(ei @ ei)))
+                        parts[name][unit].add(math.sqrt(float(ei.dot(ei))))
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].add(errs[name].last)
                 for r in parts.get(name, {}).values():
