@@ -5,7 +5,7 @@ checks of their YAML keys (times in s, frequencies in Hz)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -63,7 +63,8 @@ class Sinusoid:
         else:
             s, ds, dds = 1.0, 0.0, 0.0
         arg = w * t + self.phase
-        sn, cs = np.sin(arg), np.cos(arg)
+        sn: Any = np.sin(arg)
+        cs: Any = np.cos(arg)
         if not isinstance(arg, np.ndarray):     # one phase: numpy's sin and cos as Python floats, so the
             sn, cs = float(sn), float(cs)       # products below are Python's (the same IEEE operations)
         x = s * sn
