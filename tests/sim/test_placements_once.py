@@ -1,5 +1,6 @@
 """The own simulator's views on pinocchio's data taken once at construction (its contact joints'
-``data.oMi`` handles and ``data.J``) follow the data: they read the live values, not a copy."""
+``data.oMi`` rotations and translations, and ``data.J``) follow the data: they read the live
+values, not a copy."""
 
 from __future__ import annotations
 
@@ -19,22 +20,25 @@ def _torque(sim):
     return pin.rnea(sim.model, sim.model.createData(), sim.q, sim.v, np.zeros(sim.model.nv))
 
 
-def _fresh_placements(sim) -> np.ndarray:
+def _fresh_placements(sim) -> tuple[np.ndarray, np.ndarray]:
     d = sim.model.createData()
     pin.forwardKinematics(sim.model, d, sim.q)
-    return np.array([d.oMi[j].homogeneous for j in sim._joints])
+    return np.array([d.oMi[j].rotation for j in sim._joints]), np.array([d.oMi[j].translation for j in sim._joints])
 
 
-def test_the_kept_placement_handles_read_the_live_placements(talos):
-    """The contact joints' ``data.oMi`` handles, taken once at construction, give the placements
-    of the current state after every step and after a state set from outside (a copy taken at
-    construction would give the first state's)."""
+def test_the_kept_placement_views_read_the_live_placements(talos):
+    """The contact joints' ``data.oMi`` rotation and translation views, taken once at
+    construction, give the placements of the current state after every step and after a state
+    set from outside (a copy taken at construction would give the first state's)."""
     sim = _sim(talos)
     tau = _torque(sim)
+    first = np.array(sim._trans)
     for k in range(4):
         sim.step(tau * 0.95)
         sim.point_positions()
-        assert np.array_equal(sim._Hj, _fresh_placements(sim)), k
+        R, t = _fresh_placements(sim)
+        assert np.array_equal(np.array(sim._rot), R) and np.array_equal(np.array(sim._trans), t), k
+    assert not np.array_equal(np.array(sim._trans), first)
     sim.q = pin.neutral(sim.model)
     pts = sim.point_positions()
     d = sim.model.createData()

@@ -177,12 +177,17 @@ class FaultMonitor:
         return sol
 
 
+_FLOAT = np.dtype(float)
+
+
 def diverged(q: np.ndarray, v: np.ndarray) -> str:
     """Why the simulated state (q, v) is one of a simulator that blew up, or "": a NaN or
     inf, a speed beyond :data:`DIVERGED_SPEED` or a coordinate beyond
     :data:`DIVERGED_POSITION`."""
-    q = np.asarray(q, dtype=float).reshape(-1)
-    v = np.asarray(v, dtype=float).reshape(-1)
+    if not (type(q) is np.ndarray and q.dtype is _FLOAT and q.ndim == 1):     # (a simulator's state is)
+        q = np.asarray(q, dtype=float).reshape(-1)
+    if not (type(v) is np.ndarray and v.dtype is _FLOAT and v.ndim == 1):
+        v = np.asarray(v, dtype=float).reshape(-1)
     finite, speed, reach = _extent(q, v)        # one compiled pass (the runner checks every cycle)
     if not finite:
         return "simulated state not finite"

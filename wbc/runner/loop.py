@@ -260,10 +260,11 @@ class ScenarioRun:
             for o in observers:             # what the metrics watch changes only at events
                 o.after_events(c)
         for tname, (traj, absolute, t0) in self.refs.items():
-            if tname not in stack:          # disabled from a live page: its trajectory waits
+            try:
+                task: Any = stack[tname]    # a CoM or Frame task (the scenario loader checked)
+            except KeyError:                # disabled from a live page: its trajectory waits
                 continue
             x, dx, ddx = traj.sample(t - t0)
-            task: Any = stack[tname]        # a CoM or Frame task (the scenario loader checked)
             if isinstance(task, CoM):
                 task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
             else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇

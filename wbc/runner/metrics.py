@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
-from wbc.runner.state_kernel import VIOLATIONS, ratio_max, state_metrics
+from wbc.runner.state_kernel import VIOLATIONS, fallen_state, ratio_max, state_metrics
 from wbc.runner.stats import Running
 from wbc.tasks.contact import Contact
 
@@ -168,16 +168,9 @@ def _joined(groups: list) -> np.ndarray:
 
 def fallen(q: np.ndarray, base_z0: float) -> bool:
     """Whether a free-flyer base that started at height ``base_z0`` (m) has fallen: below
-    :data:`FALL_HEIGHT_FRACTION` of it, tilted beyond :data:`FALL_TILT`, or not finite."""
-    # q·q is finite iff every entry is (or it overflowed: then checked entry by entry)
-    return bool(q[2] < FALL_HEIGHT_FRACTION * base_z0 or tilt(q) > FALL_TILT
-                or not (math.isfinite(q.dot(q)) or np.all(np.isfinite(q))))
-
-
-def tilt(q: np.ndarray) -> float:
-    """Angle (rad) between a free-flyer base's z axis and the vertical (R_zz = 1 − 2(x² + y²))."""
-    x, y = float(q[3]), float(q[4])
-    return math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
+    :data:`FALL_HEIGHT_FRACTION` of it, tilted beyond :data:`FALL_TILT`, or not finite
+    (one compiled pass over ``q``, :func:`~wbc.runner.state_kernel.fallen_state`)."""
+    return fallen_state(np.asarray(q, dtype=float), FALL_HEIGHT_FRACTION * base_z0, FALL_TILT)
 
 
 class Series:
@@ -384,11 +377,11 @@ class RunMetrics:
         for name, task, live in self.err_live:
             if live:
                 e = task.error(robot)
-                errs[name].add(math.sqrt(float(e @ e)))
+                errs[name].add(math.sqrt(float(e.dot(e))))     # (e @ e's bits: numpy's one ddot, with less around it)
                 if name in split:
                     for unit, idx in split[name]:
                         ei = e[idx]
-                        parts[name][unit].add(math.sqrt(float(ei @ ei)))
+                        parts[name][unit].add(math.sqrt(float(ei.dot(ei))))
             elif errs[name]:     # a task removed by an event keeps its last value
                 errs[name].add(errs[name].last)
                 for r in parts.get(name, {}).values():

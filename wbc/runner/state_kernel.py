@@ -127,6 +127,24 @@ def ratio_max(tau, inv_limit):
 
 
 @nb.njit(cache=True)
+def tilt(q):
+    """Angle (rad) between a free-flyer base's z axis and the vertical (R_zz = 1 − 2(x² + y²),
+    x, y the quaternion's q[3], q[4])."""
+    x, y = q[3], q[4]
+    return math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
+
+
+@nb.njit(cache=True)
+def fallen_state(q, z_min, tilt_max):
+    """Whether a free-flyer configuration ``q`` is not finite, has its base below ``z_min``
+    (m) or is tilted beyond ``tilt_max`` (rad) (:func:`tilt`)."""
+    for x in q:
+        if not math.isfinite(x):
+            return True
+    return q[2] < z_min or tilt(q) > tilt_max
+
+
+@nb.njit(cache=True)
 def polygon_margin(P, vertices, px, py):
     """Signed distance (m) of (px, py) to the boundary of the convex polygon whose vertices
     are the points ``P[vertices]`` (xy, counter-clockwise; > 0 inside): min over edges of

@@ -43,14 +43,16 @@ def supports(model, joints) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def point_positions(Hj, slot, offsets, P):
+def point_positions(rot, trans, slot, offsets, P):
     """P[i] = R_{slot i} offsets[i] + t_{slot i} (m): every point's world position from its
-    joint's placement (Hj: joints × 4 × 4, the homogeneous matrices [R t; 0 1])."""
+    joint's placement (``rot``, ``trans``: one R (3 × 3) and t (3) per joint, pinocchio's
+    ``data.oMi`` views)."""
     for i in range(P.shape[0]):
         s = slot[i]
+        R, t = rot[s], trans[s]
         for a in range(3):
-            P[i, a] = (Hj[s, a, 0] * offsets[i, 0] + Hj[s, a, 1] * offsets[i, 1]
-                       + Hj[s, a, 2] * offsets[i, 2]) + Hj[s, a, 3]
+            P[i, a] = (R[a, 0] * offsets[i, 0] + R[a, 1] * offsets[i, 1]
+                       + R[a, 2] * offsets[i, 2]) + t[a]
 
 
 #: shape kinds of :func:`find_contacts` (wbc.sim.environment's HalfSpace and Box)
@@ -97,15 +99,16 @@ def find_contacts(points, shapes, margin, Jw, out):
     depth and frame, and their rows into J[:3k] (:func:`contact_jacobian`). Returns k.
 
     The arguments, grouped (plain tuples, built once by the simulator):
-    ``points`` = (Hj, slot, offsets, S): the joints' placements (joints × 4 × 4, refilled
-    each step), each point's joint slot and offset (m), the support mask (:func:`supports`);
+    ``points`` = (rot, trans, slot, offsets, S): the joints' placements (:func:`point_positions`,
+    views pinocchio refreshes), each point's joint slot and offset (m), the support mask
+    (:func:`supports`);
     ``shapes`` = (kind, point, normal, size, frames), :func:`shape_table`'s first five;
     ``margin`` (m); ``Jw`` pinocchio's ``data.J``; ``out`` = (P, ids, shape_of, depths,
     frames, J), the buffers written."""
-    Hj, slot, offsets, S = points
+    rot, trans, slot, offsets, S = points
     kind, point, normal, size, shape_frames = shapes
     P, ids, shape_of, depths, frames, J = out
-    point_positions(Hj, slot, offsets, P)
+    point_positions(rot, trans, slot, offsets, P)
     k = 0
     for i in range(P.shape[0]):
         best = -1
@@ -251,14 +254,14 @@ def driver_torque(tau, actuated, limits, out):
 
 @nb.njit(cache=True)
 def free_velocity(v, a_free, h, free_flyer):
-    """(v + h a_free, u): the free motion's explicit Euler step and, for a free-flyer root
+    """(v + h a_free, u, w): the free motion's explicit Euler step and, for a free-flyer root
     (velocity coordinates 0-5: linear then angular, body frame), u = v_lin + h (a_lin +
-    ω × v_lin), which the caller rotates by exp(−[ω] h) into v_free's first three entries
-    (:meth:`Simulator._substep`); u is empty otherwise. The same operations in the same
-    order as numpy's, so the same numbers."""
+    ω × v_lin) and w = −ω h, the caller rotating u by exp₃(w) into v_free's first three
+    entries (:meth:`Simulator._substep`); u and w are empty otherwise. The same operations
+    in the same order as numpy's, so the same numbers (w as numpy's ``-v[3:6] * h``)."""
     v_free = v + h * a_free
     if not free_flyer:
-        return v_free, np.empty(0)
+        return v_free, np.empty(0), np.empty(0)
     w0, w1, w2 = v[3], v[4], v[5]
     c0 = w1 * v[2] - w2 * v[1]
     c1 = w2 * v[0] - w0 * v[2]
@@ -267,7 +270,10 @@ def free_velocity(v, a_free, h, free_flyer):
     u[0] = v[0] + h * (a_free[0] + c0)
     u[1] = v[1] + h * (a_free[1] + c1)
     u[2] = v[2] + h * (a_free[2] + c2)
-    return v_free, u
+    w = np.empty(3)
+    for i in range(3):
+        w[i] = (-v[3 + i]) * h
+    return v_free, u, w
 
 
 @nb.njit(cache=True)

@@ -81,6 +81,7 @@ from .bodies import Push, contact_points
 from .environment import Box, HalfSpace
 from .mujoco_contacts import GeomPoints, read_contacts
 from .mujoco_model import build_model
+from .mujoco_state import q_of_qpos
 from .options import SimOptions
 
 if TYPE_CHECKING:
@@ -157,6 +158,7 @@ class MujocoSimulator:
         self._root_q = int(mm.jnt_qposadr[0]) if self._n_root else 0
         self._root_v = int(mm.jnt_dofadr[0]) if self._n_root else 0
         self._T0: np.ndarray | None = None      # velocity_map's constant part
+        self._T: np.ndarray | None = None       # v_from_qvel's T(q)
         self._act_v = np.asarray(robot.actuated_idx, int)   # actuator k drives pinocchio dof _act_v[k]
         gp: dict[int, list] = {}
         for i, (_, r, kind, _, cname) in enumerate(pts):
@@ -217,14 +219,15 @@ class MujocoSimulator:
     def q_from_qpos(self, qpos: np.ndarray) -> np.ndarray:
         """pinocchio's configuration of a MuJoCo qpos."""
         q, a = np.zeros(self.model.nq), self._root_q
-        if self.root == "free_flyer":
-            q[:3] = qpos[a: a + 3]
+        free = self.root == "free_flyer"
+        if free:
             quat = qpos[a + 3: a + 7]
-            w, x, y, z = quat / math.sqrt(quat.dot(quat))       # np.linalg.norm's arithmetic, without its checks
-            q[3:7] = x, y, z, w
-        elif self.root == "planar":
-            q[:4] = qpos[a], qpos[a + 1], math.cos(qpos[a + 2]), math.sin(qpos[a + 2])
-        q[self._qi] = qpos[self._qm]
+            s = math.sqrt(quat.dot(quat))        # np.linalg.norm's arithmetic, without its checks
+        else:
+            s = 1.0
+            if self.root == "planar":
+                q[:4] = qpos[a], qpos[a + 1], math.cos(qpos[a + 2]), math.sin(qpos[a + 2])
+        q_of_qpos(qpos, a, s, free, self._qi, self._qm, q)     # the free-flyer root and the 1-dof joints
         for iq, im in self._cont:
             q[iq], q[iq + 1] = math.cos(qpos[im]), math.sin(qpos[im])
         return q
@@ -239,10 +242,14 @@ class MujocoSimulator:
             T0[self._vm, self._vi] = 1.0
             self._T0 = T0
         T = T0.copy()
+        self._root_block(T, q)
+        return T
+
+    def _root_block(self, T: np.ndarray, q: np.ndarray) -> None:
+        """T's root block (its only part that depends on q) written for q."""
         if self._n_root:
             a, k = self._root_v, (3 if self.root == "free_flyer" else 2)
             T[a: a + k, :k] = self._root_rotation(q)
-        return T
 
     def velocity_map_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Ṫ v (MuJoCo's nv, m/s² and rad/s²): q̈_mj = T v̇ + Ṫ v."""
@@ -258,8 +265,14 @@ class MujocoSimulator:
         return self.velocity_map(q) @ v
 
     def v_from_qvel(self, q: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-        """pinocchio's velocity of a MuJoCo qvel at q."""
-        return self.velocity_map(q).T @ qvel
+        """pinocchio's velocity of a MuJoCo qvel at q (Tᵀ qvel, T(q) in a matrix held for it: its
+        constant part written once, its root block at each call)."""
+        T = self._T
+        if T is None:
+            T = self._T = self.velocity_map(q)
+        else:
+            self._root_block(T, q)
+        return T.T @ qvel
 
     # ----------------------------------------------------------- state, frames
     def set_state(self, q: np.ndarray, v: np.ndarray) -> None:

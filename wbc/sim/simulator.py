@@ -115,22 +115,25 @@ class Simulator:
         self._slot = np.array([self._joints.index(j) for j, _ in self.points], dtype=np.int64)
         self._offsets = np.array([r for _, r in self.points], dtype=float).reshape(-1, 3)
         self._support = cr.supports(model, self._joints)
-        self._Hj = np.zeros((len(self._joints), 4, 4))      # the joints' placements [R t; 0 1]
-        # the contact joints' entries of data.oMi, taken once: boost.python's element proxies read
-        # the live placement (indexing data.oMi anew costs a proxy and its registration each time)
-        self._oMi = [self.data.oMi[j] for j in self._joints]
+        # the contact joints' placements in data.oMi as views taken once (R and t of each, on the
+        # data's memory, which forward kinematics refreshes in place): the compiled calls read them
+        # directly, with no crossing of the bindings per step (a fresh data.oMi[j] costs a proxy
+        # and its registration, its .homogeneous a 4 × 4 array); a dummy pair when no point
+        self._rot = tuple(self.data.oMi[j].rotation for j in self._joints) or (np.zeros((3, 3), order="F"),)
+        self._trans = tuple(self.data.oMi[j].translation for j in self._joints) or (np.zeros(3),)
         # data.J as a view on the data's memory, taken once (each read of the attribute is a binding
         # crossing): allocated with the data, never resized, it lives as long as the simulator's data
         Jw = self.data.J
         self._Jw = Jw.reshape(6, 1) if Jw.ndim == 1 else Jw     # (eigenpy hands 6 × 1 over as a vector)
         self._P = np.zeros((len(self.points), 3))
+        self._com = self.data.com[0]       # a view on the data's CoM (centerOfMass refreshes it in place)
         npts = len(self.points)
         self._shapes = cr.shape_table(self.env)    # None: a shape the compiled search does not know
         self._ids, self._shape_of = np.zeros(npts, dtype=np.int64), np.zeros(npts, dtype=np.int64)
         self._depths, self._frames = np.zeros(npts), np.zeros((npts, 3, 3))
         self._J = np.zeros((3 * npts, model.nv))
         # find_contacts's argument groups (the arrays are refilled in place)
-        self._point_args = (self._Hj, self._slot, self._offsets, self._support)
+        self._point_args = (self._rot, self._trans, self._slot, self._offsets, self._support)
         self._contact_out = (self._P, self._ids, self._shape_of, self._depths, self._frames, self._J)
         self._shape_args = None if self._shapes is None else self._shapes[:5]
         self._tau = np.zeros(model.nv)             # the driver's torque of the current step
@@ -263,12 +266,12 @@ class Simulator:
             Minv, a_free = jd.free_motion(m, d, q, v, tau, fext, h)
         else:
             Minv, a_free = self._free_motion(q, v, tau, fext, bool(rows or nh))
-        v_free, u = cr.free_velocity(v, a_free, h, self._free_flyer)
+        v_free, u, w = cr.free_velocity(v, a_free, h, self._free_flyer)
         if self._free_flyer:
             # The root's linear velocity is in the body frame: its rate holds the term
             # −ω × v, which explicit Euler turns into energy gain for a spinning body.
             # Integrate that rotation exactly instead: v⁺ = exp(−[ω] h)(v + h(a + ω × v)).
-            v_free[:3] = pin.exp3(-v[3:6] * h) @ u
+            v_free[:3] = pin.exp3(w) @ u            # w = −ω h
 
         if jd is not None and jd.friction_idx.size:
             v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
@@ -356,17 +359,8 @@ class Simulator:
     def _point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points from the joints' placements in ``data``
         (kept in a buffer: copy it to keep it)."""
-        self._placements()
-        cr.point_positions(self._Hj, self._slot, self._offsets, self._P)
+        cr.point_positions(self._rot, self._trans, self._slot, self._offsets, self._P)
         return self._P
-
-    def _placements(self) -> None:
-        """The contact joints' placements from ``data.oMi`` into ``_Hj`` (one homogeneous
-        matrix per joint: one binding crossing, where rotation and translation are two), read
-        through the element handles taken at construction (they read the live placement)."""
-        Hj = self._Hj
-        for s, M in enumerate(self._oMi):
-            Hj[s] = M.homogeneous
 
     def _contact_rows(self):
         """Points in (or within ``margin`` of) contact, each with the surface it touches
@@ -375,7 +369,6 @@ class Simulator:
         depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills."""
         Jw = self._Jw
         if self._shapes is not None:
-            self._placements()
             shape_mu = self._shapes[5]
             k = cr.find_contacts(self._point_args, self._shape_args, self.margin, Jw, self._contact_out)
             return self._J[:3 * k], self._frames[:k], self._depths[:k], shape_mu[self._shape_of[:k]], self._ids[:k]
@@ -464,7 +457,7 @@ class Simulator:
     def com(self) -> np.ndarray:
         """World position (m) of the centre of mass at the current state."""
         self._kinematics()
-        return self.data.com[0].copy()
+        return self._com.copy()
 
     def energy(self) -> float:
         """Kinetic + gravitational potential energy (J)."""

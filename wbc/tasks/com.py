@@ -65,7 +65,8 @@ class CoM(MotionTask):
     def error(self, robot) -> np.ndarray:
         if self._target is None:
             self._target = robot.com.copy()
-        return (self._target - robot.com)[self._sel]
+        e = self._target - robot.com
+        return e if self.axes == "xyz" else e[self._sel]
 
     @property
     def moves_position(self) -> bool:

@@ -124,6 +124,13 @@ class Frame(MotionTask):
         self._error = np.zeros(6)
         self._relative = np.zeros((3, 3))            # R_d Rᵀ of rows
 
+    def __getstate__(self) -> dict:
+        """A copy or a pickle takes its target's views anew: the held ones would be copies
+        that no longer follow the copied target."""
+        state = self.__dict__.copy()
+        state["_held"] = (None, None, None)
+        return state
+
     @property
     def target(self) -> pin.SE3 | None:
         return self._target
@@ -158,16 +165,39 @@ class Frame(MotionTask):
             self._target = oMf.copy() if self._pending is None else to_se3(self.name, self._pending, oMf)
         return self._target
 
+    def _views(self, robot) -> tuple:
+        """(the target's held views (target, p_d, R_d), the frame's :class:`FrameArrays` views):
+        what the error and the rows read, without a crossing of pinocchio's bindings."""
+        fid = self._fid
+        if fid is None:
+            fid = self._frame(robot)
+        T = self._target
+        if T is None:
+            T = self._target_at(robot.frame_placement(fid))
+        held = self._held
+        if held[0] is not T:                        # the target's arrays, read once per target
+            held = self._held = (T, T.translation, T.rotation)
+        return held, robot.frame_arrays(fid).views
+
+    def _rotation_error(self, held: tuple, views: tuple) -> np.ndarray:
+        """log₃(R_d Rᵀ) (3, rad): :func:`rotation_error`'s bits, R_d Rᵀ by the compiled
+        :func:`~wbc.tasks.velocity_frames.relative_rotation` (the same sums in Eigen's order)."""
+        Re = self._relative
+        relative_rotation(Re, held[2], views[1])
+        return pin.log3(Re)
+
     def full_error(self, robot) -> np.ndarray:
-        oMf = robot.frame_placement(self._frame(robot))
-        T = self._target_at(oMf)
+        held, views = self._views(robot)
         e = np.empty(6)
-        e[:3] = T.translation - oMf.translation
-        e[3:] = rotation_error(T, oMf)
+        e[:3] = held[1] - views[2]
+        e[3:] = self._rotation_error(held, views)
         return e
 
     def error(self, robot) -> np.ndarray:
-        return self.full_error(robot)[self._sel]
+        sel = self._sel
+        if sel.shape[0] == 3 and sel[0] == 3:      # orientation: log₃ alone (the runner's metrics, each cycle)
+            return self._rotation_error(*self._views(robot))
+        return self.full_error(robot)[sel]
 
     @property
     def moves_position(self) -> bool:
@@ -186,25 +216,14 @@ class Frame(MotionTask):
         world-aligned at the frame's origin, e as the class docstring), in one compiled call
         from pinocchio's arrays (:func:`~wbc.tasks.velocity_frames.frame_motion_rows`; the
         orientation error pinocchio's ``log3``, only when ``mask`` has an angular axis)."""
-        fid = self._fid
-        if fid is None:
-            fid = self._frame(robot)
-        T = self._target
-        if T is None:
-            T = self._target_at(robot.frame_placement(fid))
+        held, views = self._views(robot)
         slot = eq_rows(out, len(self._sel), layout.nx)
         A, b = slot.A, slot.b
         kp, kd = self.gain_vectors(6)
-        held = self._held
-        if held[0] is not T:                        # the target's arrays, read once per target
-            held = self._held = (T, T.translation, T.rotation)
-        frame = robot.frame_arrays(fid)
         e = self._error
         if self._sel[-1] > 2:                       # log₃(R_d Rᵀ), pinocchio's (rotation_error's bits)
-            Re = self._relative
-            relative_rotation(Re, held[2], frame.views[1])
-            e[3:] = pin.log3(Re)
-        frame_motion_rows(A, b, robot.joint_jacobians, frame.views, held[1], e, self._sel, self.target_acceleration,
+            e[3:] = self._rotation_error(held, views)
+        frame_motion_rows(A, b, robot.joint_jacobians, views, held[1], e, self._sel, self.target_acceleration,
                           kp, kd, self.target_velocity, False)
         return Rows(A=A, b=b)
 

@@ -5,7 +5,7 @@ checks of their YAML keys (times in s, frequencies in Hz)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -62,7 +62,11 @@ class Sinusoid:
             ds, dds = (ds / self.ramp, dds / self.ramp / self.ramp) if s > 0.0 else (0.0, 0.0)
         else:
             s, ds, dds = 1.0, 0.0, 0.0
-        sn, cs = np.sin(w * t + self.phase), np.cos(w * t + self.phase)
+        arg = w * t + self.phase
+        sn: Any = np.sin(arg)
+        cs: Any = np.cos(arg)
+        if not isinstance(arg, np.ndarray):     # one phase: numpy's sin and cos as Python floats, so the
+            sn, cs = float(sn), float(cs)       # products below are Python's (the same IEEE operations)
         x = s * sn
         dx = ds * sn + s * w * cs
         ddx = dds * sn + 2 * ds * w * cs - s * w * w * sn

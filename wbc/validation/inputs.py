@@ -4,15 +4,28 @@ raises :class:`~wbc.errors.TargetError` naming its owner (``"task 'com'"``,
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
 from wbc.errors import TargetError
 from wbc.validation.schema import show
 
+_FLOAT = np.dtype(float)
+
 
 def finite_vector(owner: str, what: str, value, n: int) -> np.ndarray:
-    """``value`` as a finite float vector of exactly ``n`` entries."""
+    """``value`` as a finite float vector of exactly ``n`` entries.
+
+    A float64 array of shape (n,) whose entries' sum is finite is returned as it is: a sum
+    with a NaN or an inf in it is not finite, so its entries are (the tasks' references,
+    set every cycle, take this path: one ``tolist`` and a sum instead of numpy's
+    conversion, reshape and ``isfinite``). Anything else, or a sum that overflowed, takes
+    the full check below."""
+    if type(value) is np.ndarray and value.dtype is _FLOAT and value.shape == (n,) \
+            and math.isfinite(sum(value.tolist())):
+        return value
     try:
         arr = np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError, OverflowError):
