@@ -39,6 +39,10 @@ def test_point_positions_and_com_share_one_pass_at_each_new_state(talos, monkeyp
     sim.q = pin.neutral(sim.model)                          # a state set from outside: computed again
     monkeypatch.undo()
     assert np.array_equal(sim.com(), _fresh(sim)[1])
+    sim.q[2] += 0.1                                         # written in place: never read stale
+    pts_ref, com_ref = _fresh(sim)
+    assert np.array_equal(sim.com(), com_ref)
+    np.testing.assert_allclose(sim.point_positions(), pts_ref, rtol=0, atol=1e-15)
 
 
 def test_mujoco_simulator_gives_the_same_com():

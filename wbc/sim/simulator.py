@@ -95,7 +95,7 @@ class Simulator:
         self.substeps = int(substeps)
         self.h = self.dt / self.substeps
         self.q = np.array(q0, dtype=float)
-        self._kin_q: np.ndarray | None = None      # the q data's kinematics and CoM are at (_kinematics)
+        self._kin_q: bytes | None = None           # the q (its bytes) data's kinematics and CoM are at (_kinematics)
         self.v = np.zeros(model.nv) if v0 is None else np.array(v0, dtype=float)
         self.t = 0.0
         self.actuated = np.ones(model.nv, bool) if actuated is None else np.asarray(actuated, bool)
@@ -443,11 +443,13 @@ class Simulator:
         return w
 
     def _kinematics(self) -> None:
-        """``data.oMi`` and ``data.com[0]`` at ``q``, once per state (the ``q`` array: each substep
-        makes a new one): ``pin.centerOfMass(model, data, q)`` runs forward kinematics too."""
-        if self._kin_q is not self.q:
+        """``data.oMi`` and ``data.com[0]`` at ``q``, once per state: ``pin.centerOfMass(model, data, q)``
+        runs forward kinematics too. The state is known by ``q``'s bytes (~0.2 µs), not by the array's
+        identity, so a ``q`` written in place (``sim.q[2] += 0.1``) is computed again, never read stale."""
+        key = self.q.tobytes()
+        if self._kin_q != key:
             pin.centerOfMass(self.model, self.data, self.q)
-            self._kin_q = self.q
+            self._kin_q = key
 
     def point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points at the current state."""
