@@ -120,3 +120,52 @@ def upper_inverse(R):
         for c in range(i, m):
             xi[c] *= d
     return X
+
+
+@nb.njit(cache=True)
+def profile_order(A):
+    """The rows of A in the order of their last nonzero column (stable; a zero row first):
+    the order in which :func:`householder_rows` has the least fill-in (Talos's level 0:
+    the feet's rows, ending at columns 12 and 18, before the equation of motion's dense
+    base rows; in the stack's order the feet's reflectors would work on all 50 columns)."""
+    m, n = A.shape
+    last = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        e = -1
+        for j in range(n - 1, -1, -1):
+            if A[i, j] != 0.0:
+                e = j
+                break
+        last[i] = e
+    return np.argsort(last, kind="mergesort")
+
+
+@nb.njit(cache=True, fastmath=True)
+def reflect_columns(V, tau, end, k, W, transpose):
+    """:func:`reflect` on every column of W (n × p, C order) at once: W ← QᵀW (``transpose``)
+    or QW, each reflector a rank-one update of the rows of its support, w = τ_c v_cᵀ W,
+    W ← W − v_c w (rows of p contiguous entries: the columns of a basis in one pass instead
+    of one short loop per column)."""
+    p = W.shape[1]
+    w = np.empty(p)
+    for step in range(k):
+        c = step if transpose else k - 1 - step
+        vc = V[c]
+        e = end[c]
+        t = tau[c]
+        wc = W[c]
+        for j in range(p):
+            w[j] = wc[j]
+        for i in range(c + 1, e):
+            f = vc[i]
+            wi = W[i]
+            for j in range(p):
+                w[j] += f * wi[j]
+        for j in range(p):
+            w[j] *= t
+            wc[j] -= w[j]
+        for i in range(c + 1, e):
+            f = vc[i]
+            wi = W[i]
+            for j in range(p):
+                wi[j] -= f * w[j]
