@@ -1,4 +1,4 @@
-"""The QR route's exact σ_min test (``factorizations.qr_accepted``): a wide level whose singular
+"""The QR route's exact σ_min test (``kernels/sigma_min.py``'s ``qr_accepted``): a wide level whose singular
 values are close together (Talos's CoM rows: the Frobenius bound 1/‖R⁻¹‖_F cannot prove
 σ_min ≥ ε) is taken by QR when σ_min exceeds the test by the margin, and the rank and the
 damping are always what the SVD decides: on either side of the damping threshold ε and of
@@ -10,16 +10,8 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
-from wbc.solvers.kernels.factorizations import (
-    AUTO,
-    QR,
-    SIGMA_MARGIN,
-    SVD,
-    _svd,
-    largest_eigenvalue,
-    level_step,
-    smallest_singular_value,
-)
+from wbc.solvers.kernels.factorizations import AUTO, QR, SVD, _svd, level_step
+from wbc.solvers.kernels.sigma_min import SIGMA_MARGIN, largest_eigenvalue, smallest_singular_value
 
 EPS, LAMBDA, RANK_TOL = 0.01, 0.01, 1e-9
 

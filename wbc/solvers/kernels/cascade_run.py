@@ -22,7 +22,6 @@ from .factorizations import (
     orthonormal_accepted,
     pack_step,
     projected_rows_full,
-    qr_accepted,
     qr_factor,
     step_from,
 )
@@ -41,6 +40,7 @@ from .records import (
     set_field,
     start_level,
 )
+from .sigma_min import qr_accepted
 
 
 @nb.njit(cache=True)
@@ -91,7 +91,7 @@ def _profiled_qr(A, r, rank_tol, threshold):
     z = Q [R⁻ᵀ P r; 0]; Q[:, m:] is another orthonormal basis of the same null space, so
     the later levels' steps (minimum-norm solutions, singular values, certified QPs: all
     invariant under an orthogonal change of basis) agree to rounding. The acceptance test
-    is the QR route's (:func:`.factorizations.qr_accepted`)."""
+    is the QR route's (:func:`.sigma_min.qr_accepted`)."""
     m, n = A.shape
     order = profile_order(A)
     V = np.empty((m, n))
