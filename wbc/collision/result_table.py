@@ -58,7 +58,7 @@ class ResultTable:
         start = base + _D_OFFSET
         span = (len(results) - 1) * stride + 7 * 8
         buf = (ctypes.c_char * span).from_address(start)
-        flat = np.frombuffer(buf, dtype=np.float64, count=span // 8)
+        flat = np.frombuffer(memoryview(buf), dtype=np.float64, count=span // 8)
         self._candidate = np.lib.stride_tricks.as_strided(flat, shape=(len(results), 7), strides=(stride, 8),
                                                           writeable=False)
 
