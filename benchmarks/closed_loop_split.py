@@ -19,7 +19,6 @@ from wbc.controller.cycle import Controller
 from wbc.runner import loop, metrics
 from wbc.scenario.examples import SCENARIOS_DIR
 from wbc.scenario.loader import load_config
-from wbc.sim.mujoco_sim import MujocoSimulator
 from wbc.sim.simulator import Simulator
 from wbc.tasks.com import CoM
 
@@ -40,15 +39,20 @@ def timed(cls, name: str, key: str) -> None:
 
 def main(simulator: str = "pinocchio") -> None:
     warnings.simplefilter("ignore")
-    for cls, name, key in ((metrics.RunMetrics, "record_state", "metrics.record_state"),
-                           (metrics.RunMetrics, "record_command", "metrics.record_command"),
-                           (Controller, "solve", "controller.solve"), (Simulator, "step", "sim.step"),
-                           (MujocoSimulator, "step", "mujoco.step"), (Simulator, "measure", "sim.measure"),
-                           (MujocoSimulator, "measure", "sim.measure"), (MujocoSimulator, "_read_state", "(mujoco._read_state)"),
-                           (MujocoSimulator, "_read_contacts", "(mujoco._read_contacts)"),
-                           (metrics.RunMetrics, "record_singular", "metrics.record_singular"),
-                           (CoM, "set_reference", "com.set_reference"), (loop, "simulation_diverged", "simulation_diverged"),
-                           (loop, "fallen", "fallen"), (loop.ScenarioRun, "cycle", "cycle")):
+    pieces = [(metrics.RunMetrics, "record_state", "metrics.record_state"),
+              (metrics.RunMetrics, "record_command", "metrics.record_command"),
+              (Controller, "solve", "controller.solve"), (Simulator, "step", "sim.step"),
+              (Simulator, "measure", "sim.measure"),
+              (metrics.RunMetrics, "record_singular", "metrics.record_singular"),
+              (CoM, "set_reference", "com.set_reference"), (loop, "simulation_diverged", "simulation_diverged"),
+              (loop, "fallen", "fallen"), (loop.ScenarioRun, "cycle", "cycle")]
+    if simulator == "mujoco":  # imported only here: the peer environment (pinocchio 3.8) has no MuJoCo
+        from wbc.sim.mujoco_sim import MujocoSimulator
+
+        pieces += [(MujocoSimulator, "step", "mujoco.step"), (MujocoSimulator, "measure", "sim.measure"),
+                   (MujocoSimulator, "_read_state", "(mujoco._read_state)"),
+                   (MujocoSimulator, "_read_contacts", "(mujoco._read_contacts)")]
+    for cls, name, key in pieces:
         timed(cls, name, key)
     loop.run(load_config(SCENARIOS_DIR / "talos_balance.yaml"), solver="hqp", duration=2.0, simulator=simulator)
     med = {k: np.median(x[50:]) / 1e3 for k, x in TIMES.items()}
