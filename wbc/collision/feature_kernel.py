@@ -18,11 +18,6 @@ HULL, SPHERE, CAPSULE, HALFSPACE, UNSUPPORTED = 0, 1, 2, 3, 4
 
 
 @nb.njit(cache=True)
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-@nb.njit(cache=True)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
@@ -32,13 +27,6 @@ def _mv(R, x):
     """R x for a 3 × 3 R."""
     return np.array([R[0, 0] * x[0] + R[0, 1] * x[1] + R[0, 2] * x[2], R[1, 0] * x[0] + R[1, 1] * x[1] + R[1, 2] * x[2],
                      R[2, 0] * x[0] + R[2, 1] * x[1] + R[2, 2] * x[2]])
-
-
-@nb.njit(cache=True)
-def _mtv(R, x):
-    """Rᵀ x for a 3 × 3 R."""
-    return np.array([R[0, 0] * x[0] + R[1, 0] * x[1] + R[2, 0] * x[2], R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
-                     R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2]])
 
 
 @nb.njit(cache=True)
@@ -104,29 +92,35 @@ def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, 
         i = s % m
         g = geoms[s]
         Rs = R[jid[s]]
-        p = P[s]
-        dv = -NN[s]
+        # the outward direction −NN[s], Rᵀ of it and a hull edge's direction are held in scalars: no small array is
+        # allocated per side (the same products and sums, in the same order, as Rᵀx, R x and :func:`_dot` would)
+        dv0, dv1, dv2 = -NN[s, 0], -NN[s, 1], -NN[s, 2]
         k = kind[g]
         r = radius[g]
-        for c in range(3):
-            Y[s, c] = p[c] - r * dv[c]            # the core's witness point (a sphere's centre, a capsule's axis)
-            E[s, c] = dv[c]
+        Y[s, 0] = P[s, 0] - r * dv0               # the core's witness point (a sphere's centre, a capsule's axis)
+        Y[s, 1] = P[s, 1] - r * dv1
+        Y[s, 2] = P[s, 2] - r * dv2
+        E[s, 0] = dv0
+        E[s, 1] = dv1
+        E[s, 2] = dv2
         ty = PLANE
         if k == HULL:
-            dl = _mtv(Rs, dv)
+            dl0 = Rs[0, 0] * dv0 + Rs[1, 0] * dv1 + Rs[2, 0] * dv2
+            dl1 = Rs[0, 1] * dv0 + Rs[1, 1] * dv1 + Rs[2, 1] * dv2
+            dl2 = Rs[0, 2] * dv0 + Rs[1, 2] * dv1 + Rs[2, 2] * dv2
             o = offset[g]
             cur = hints[ks[i], s // m]
             if cur < 0 or cur >= count[g]:
                 cur = 0
             cur += o
-            best = _dot(vertices[cur], dl)
+            best = vertices[cur, 0] * dl0 + vertices[cur, 1] * dl1 + vertices[cur, 2] * dl2
             while True:                       # hill climb on the hull's vertex graph (linear: local max = global)
                 nxt = cur
                 for c in range(neighbours.shape[1]):
                     nb_ = neighbours[cur, c]
                     if nb_ < 0:
                         break
-                    val = _dot(vertices[nb_], dl)
+                    val = vertices[nb_, 0] * dl0 + vertices[nb_, 1] * dl1 + vertices[nb_, 2] * dl2
                     if val > best + 1e-15:
                         best = val
                         nxt = nb_
@@ -140,7 +134,7 @@ def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, 
                 nb_ = neighbours[cur, c]
                 if nb_ < 0:
                     break
-                if abs(_dot(vertices[nb_], dl) - best) <= feature_tol:
+                if abs(vertices[nb_, 0] * dl0 + vertices[nb_, 1] * dl1 + vertices[nb_, 2] * dl2 - best) <= feature_tol:
                     if cnt == 0:
                         other = nb_
                     cnt += 1
@@ -148,14 +142,22 @@ def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, 
                 ty = POINT
             elif cnt == 1:
                 ty = LINE
-                e = _mv(Rs, vertices[other] - vertices[cur])
-                E[s] = e / math.sqrt(_dot(e, e))
+                x0 = vertices[other, 0] - vertices[cur, 0]
+                x1 = vertices[other, 1] - vertices[cur, 1]
+                x2 = vertices[other, 2] - vertices[cur, 2]
+                e0 = Rs[0, 0] * x0 + Rs[0, 1] * x1 + Rs[0, 2] * x2
+                e1_ = Rs[1, 0] * x0 + Rs[1, 1] * x1 + Rs[1, 2] * x2
+                e2_ = Rs[2, 0] * x0 + Rs[2, 1] * x1 + Rs[2, 2] * x2
+                ne = math.sqrt(e0 * e0 + e1_ * e1_ + e2_ * e2_)
+                E[s, 0] = e0 / ne
+                E[s, 1] = e1_ / ne
+                E[s, 2] = e2_ / ne
         elif k == SPHERE:
             ty = POINT
         elif k == CAPSULE:
             ax = _mv(Rs, ends[g, 1] - ends[g, 0])
             ax = ax / math.sqrt(_dot(ax, ax))
-            if abs(_dot(ax, dv)) < 1e-6:           # the witness on the cylindrical part: the axis
+            if abs(ax[0] * dv0 + ax[1] * dv1 + ax[2] * dv2) < 1e-6:   # the witness on the cylindrical part: the axis
                 ty = LINE
                 E[s] = ax
             else:                                  # on a cap: its centre
@@ -180,8 +182,11 @@ def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, 
         elif t1 == PLANE and t2 == LINE:
             typ[s2] = POINT
         elif t1 == LINE and t2 == LINE:
-            c = _cross(E[s1], E[s2])
-            if _dot(c, c) < 1e-6:
+            a, b = E[s1], E[s2]
+            c0 = a[1] * b[2] - a[2] * b[1]
+            c1 = a[2] * b[0] - a[0] * b[2]
+            c2 = a[0] * b[1] - a[1] * b[0]
+            if c0 * c0 + c1 * c1 + c2 * c2 < 1e-6:
                 typ[s1] = POINT
     twists = np.zeros((support.shape[0], 12))   # per joint: J_j q̇, J̇_j q̇, once for all its sides
     done = np.zeros(support.shape[0], dtype=np.bool_)

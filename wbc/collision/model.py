@@ -45,8 +45,8 @@ from ..errors import RobotDefinitionError
 from .drift import curvature_drift, rigid_drift
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
-from .result_table import ResultTable
-from .row_kernels import masked_pair_sum, moved_bound, near_rows, toggles
+from .result_table import ResultTable, proxy_rows
+from .row_kernels import broad_phase, held_near_rows, masked_pair_sum, near_rows, toggles
 from .shapes import Obstacle
 from .step import step_scale
 
@@ -190,7 +190,7 @@ class CollisionModel:
         self._pa, self._pb = self.pairs[:, 0].copy(), self.pairs[:, 1].copy()
         self._rsum = self.radii[self._pa] + self.radii[self._pb]
         self._plane_pairs = np.flatnonzero(~np.isfinite(self._rsum))
-        # the pairs' bound from their last exact distance and the joints' motion since (_moved_bound)
+        # the pairs' bound from their last exact distance and the joints' motion since (_near)
         self._weights_t = np.ascontiguousarray(motion_weights(model, gm, self.pairs, spheres).T)   # (nv × pairs)
         self._d0 = np.full(len(self.pairs), -np.inf)
         self._moved = np.zeros(len(self.pairs))
@@ -258,7 +258,6 @@ class CollisionModel:
             gaps[k] = n @ c - off - r
         return gaps
 
-
     def _compute(self, ks: np.ndarray | None, gd: pin.GeometryData, cmap: np.ndarray | None) -> None:
         """Activate the pairs ``ks`` (None: all) of ``gd`` and run coal on them (pinocchio's ``computeDistances``)."""
         gm = self.geometry_model
@@ -268,17 +267,22 @@ class CollisionModel:
             active[:] = True
         else:
             n_on, n_off = toggles(active, ks, self._on, self._off)
-            if n_on + n_off <= TOGGLES:             # the few pairs that changed, one binding call each (~0.4 µs)
-                for k in self._on[:n_on].tolist():
-                    gd.activateCollisionPair(k)
-                for k in self._off[:n_off].tolist():
-                    gd.deactivateCollisionPair(k)
-            else:
-                cmap = self._map if cmap is None else cmap
-                cmap[:] = False
-                cmap[self._pa[ks], self._pb[ks]] = True
-                gd.setActiveCollisionPairs(gm, cmap)
+            self._switch(gd, ks, n_on, n_off, cmap)
         pin.computeDistances(gm, gd)
+
+    def _switch(self, gd: pin.GeometryData, ks: np.ndarray, n_on: int, n_off: int, cmap: np.ndarray | None) -> None:
+        """Make ``ks`` the active pairs of ``gd``, given :func:`~wbc.collision.row_kernels.toggles`' ``n_on`` pairs to
+        activate (in ``self._on``) and ``n_off`` to deactivate (``self._off``)."""
+        if n_on + n_off <= TOGGLES:             # the few pairs that changed, one binding call each (~0.4 µs)
+            for k in self._on[:n_on].tolist():
+                gd.activateCollisionPair(k)
+            for k in self._off[:n_off].tolist():
+                gd.deactivateCollisionPair(k)
+        else:
+            cmap = self._map if cmap is None else cmap
+            cmap[:] = False
+            cmap[self._pa[ks], self._pb[ks]] = True
+            gd.setActiveCollisionPairs(self.geometry_model, cmap)
 
     def pair_results(self, ks: np.ndarray | None, gd: pin.GeometryData | None = None,
                      cmap: np.ndarray | None = None) -> list:
@@ -315,13 +319,7 @@ class CollisionModel:
             table.confirm(ks)
         if table.rows is not None:
             return table.rows[ks]
-        out = np.empty((len(ks), 7))
-        for i, k in enumerate(ks.tolist()):
-            r = res[k]
-            out[i, 0] = r.min_distance
-            out[i, 1:4] = r.normal
-            out[i, 4:7] = r.getNearestPoint1()
-        return out
+        return proxy_rows(res, ks)
 
     def pair_distances(self, ks: np.ndarray, gd: pin.GeometryData | None = None,
                        cmap: np.ndarray | None = None) -> np.ndarray:
@@ -412,25 +410,31 @@ class CollisionModel:
         return ks, d, P[:m], P[m:], NN[m:]
 
     def _near(self, influence: float, q: np.ndarray) -> tuple:
-        """The broad phase (:meth:`_moved_bound`), coal on the pairs it keeps, and the rows of those within
-        ``influence`` (m): :func:`wbc.collision.row_kernels.near_rows`' (ks, d, P, NN, coef, jid, geoms)."""
-        near = self._moved_bound(q, influence)
-        self.computed = len(near)
-        return near_rows(self.pair_table(near), near, influence, self._d0, self._moved, self.pairs, self.joint_of)
+        """The broad phase, coal on the pairs it keeps, and the rows of those within ``influence`` (m): ``near_rows``'
+        (ks, d, P, NN, coef, jid, geoms); one compiled call each side of coal (``broad_phase``, ``held_near_rows``).
 
-    def _moved_bound(self, q: np.ndarray, influence: float) -> np.ndarray:
-        """The pairs whose lower bound (m) from their last exact distance d₀ and the joints' motion since is below
-        ``influence``: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
+        The broad phase keeps the pairs whose lower bound (m) from their last exact distance d₀ and the joints' motion
+        since is below ``influence``: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
         (:func:`wbc.collision.motion.motion_weights`), so d(q) ≥ d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ|, accumulated from one cycle
-        to the next (one ``pin.difference`` and :func:`wbc.collision.row_kernels.moved_bound`). −∞ for a pair never
-        computed. Exact: a pair it leaves out is farther than ``influence``, whatever the order or size of the steps
-        between calls (an infinite weight times a zero step gives NaN: that pair's bound is −∞ until it is computed
-        again)."""
+        to the next (one ``pin.difference``). −∞ for a pair never computed. Exact: a pair it leaves out is farther than
+        ``influence``, whatever the order or size of the steps between calls (an infinite weight times a zero step
+        gives NaN: that pair's bound is −∞ until it is computed again)."""
+        gd = self.geometry_data
+        _, res, table, active = self._entry(gd)
         add = self._q_last is not None
-        step = np.abs(pin.difference(self.robot.model, self._q_last, q)) if add else self._no_step
+        diff = pin.difference(self.robot.model, self._q_last, q) if add else self._no_step
         self._q_last = q.copy()
-        n = moved_bound(self._weights_t, step, self._moved, self._d0, influence, add, self._near_buf)
-        return self._near_buf[:n].copy()
+        n, n_on, n_off = broad_phase(self._weights_t, diff, self._moved, self._d0, influence, add, self._near_buf,
+                                     active, self._on, self._off)
+        near = self._near_buf[:n]
+        self.computed = n
+        self._switch(gd, near, n_on, n_off, None)
+        pin.computeDistances(self.geometry_model, gd)
+        if table.rows is None and not table.failed and n:
+            table.confirm(near)
+        if table.rows is not None:
+            return held_near_rows(table.rows, near, influence, self._d0, self._moved, self.pairs, self.joint_of)
+        return near_rows(proxy_rows(res, near), near, influence, self._d0, self._moved, self.pairs, self.joint_of)
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
         """The pairs closer than ``influence`` (m) at the robot's current cached state, with their distances, Jacobians and drifts

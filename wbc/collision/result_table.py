@@ -22,7 +22,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["ResultTable", "result_table"]
+__all__ = ["ResultTable", "proxy_rows", "result_table"]
 
 #: where d sits in a DistanceResult relative to its normal (bytes), the row being the 7 doubles from there: d, n, p₁
 #: (confirmed on a real pass, :meth:`ResultTable.confirm`)
@@ -86,3 +86,20 @@ def result_table(results: list) -> ResultTable:
         results: one coal ``DistanceResult`` proxy per pair.
     """
     return ResultTable(results)
+
+
+def proxy_rows(results: list, ks: np.ndarray) -> np.ndarray:
+    """The table's rows [d, n, p₁] (k × 7, m) of the pairs ``ks`` read through the bindings instead (where no table is
+    confirmed): coal's ``min_distance``, ``normal``, ``getNearestPoint1()``.
+
+    Args:
+        results: one coal ``DistanceResult`` proxy per pair.
+        ks: the pairs (k,).
+    """
+    out = np.empty((len(ks), 7))
+    for i, k in enumerate(ks.tolist()):
+        r = results[k]
+        out[i, 0] = r.min_distance
+        out[i, 1:4] = r.normal
+        out[i, 4:7] = r.getNearestPoint1()
+    return out

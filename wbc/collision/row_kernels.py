@@ -5,12 +5,15 @@ the numpy code computed, operation for operation (the same products and sums in 
 multiply-add), so the rows are the same bits (``tests/collision/test_row_kernels.py`` compares them):
 
 - :func:`moved_bound`: the broad phase's bound d₀ − Σ_cycles Σⱼ wₖⱼ |δⱼ| and the pairs it keeps
-  (:meth:`CollisionModel._moved_bound`; summed joint by joint into the accumulated motion, not in BLAS's order: a
+  (:meth:`CollisionModel._near`; summed joint by joint into the accumulated motion, not in BLAS's order: a
   bound, the rows do not depend on its last bits);
 - :func:`near_rows`: from coal's results of the computed pairs ([d, n, p₁] per pair, :mod:`.result_table`), the
   bound's new references d₀, the pairs within the influence distance, their witness points p₁, p₂ = p₁ + d n,
   normals, and each side's coefficients [n_s; p_s × n_s] (n₁ = −n, n₂ = n) of J_d = Σ_s [n_s; p_s × n_s]ᵀ J_j(s);
 - :func:`toggles`: which pairs a pass must activate and deactivate (most are the last pass's);
+- :func:`broad_phase` and :func:`held_near_rows`: the cycle's path (:meth:`CollisionModel._near`), one call on each
+  side of coal: |δ|, the bound and the toggles before; the rows read from the held table of every pair after (no
+  gathered copy of the computed pairs' rows); the same arithmetic as the pieces above;
 - :func:`masked_pair_sum`: each side's (coefficients @ ``data.J``) row masked by its joint's supporting chain, the
   two sides summed (the product itself stays one BLAS call: its bits are numpy's).
 
@@ -47,6 +50,27 @@ def moved_bound(weights_t, step, moved, d0, influence, add, near):
 
 
 @nb.njit(cache=True)
+def broad_phase(weights_t, diff, moved, d0, influence, add, near, active, on, off):
+    """One call before coal: :func:`moved_bound` on the joints' motion |``diff``| (``diff``: the last
+    ``pin.difference``, its absolute value taken here), then :func:`toggles` of the kept pairs ``near[:n]`` against
+    ``active``. Returns (n kept, how many to activate into ``on``, how many to deactivate into ``off``)."""
+    nv, npairs = weights_t.shape
+    if add:
+        for j in range(nv):
+            sj = abs(diff[j])
+            for k in range(npairs):
+                moved[k] += weights_t[j, k] * sj
+    n = 0
+    for k in range(npairs):
+        b = d0[k] - moved[k]
+        if math.isnan(b) or b < influence:
+            near[n] = k
+            n += 1
+    n_on, n_off = toggles(active, near[:n], on, off)
+    return n, n_on, n_off
+
+
+@nb.njit(cache=True)
 def near_rows(table, near, influence, d0, moved, pairs, joint_of):
     """The rows of the computed pairs ``near`` (c,) whose distance is below ``influence`` (m).
 
@@ -54,13 +78,28 @@ def near_rows(table, near, influence, d0, moved, pairs, joint_of):
     references (``d0[k]`` = d, ``moved[k]`` = 0 for every computed pair). Returns (ks (m,), d (m,), P (2m × 3) the
     witness points [p₁; p₂], NN (2m × 3) the sides' normals [−n; n], coef (2m × 6) [n_s; p_s × n_s], jid (2m,)
     each side's joint, geoms (2m,) each side's geometry), first sides then second sides."""
+    return _near_rows(table, False, near, influence, d0, moved, pairs, joint_of)
+
+
+@nb.njit(cache=True)
+def held_near_rows(table, near, influence, d0, moved, pairs, joint_of):
+    """:func:`near_rows` reading the held table of every pair (:mod:`.result_table`; ``table`` (pairs × 7), pair k's
+    row k) at the pairs ``near``: the same rows, without first gathering the computed pairs' rows into an array."""
+    return _near_rows(table, True, near, influence, d0, moved, pairs, joint_of)
+
+
+@nb.njit(cache=True)
+def _near_rows(table, by_pair, near, influence, d0, moved, pairs, joint_of):
+    """:func:`near_rows`, the computed pair ``near[i]``'s row of ``table`` being ``table[near[i]]`` when ``by_pair``,
+    else ``table[i]``."""
     c = len(near)
     m = 0
     for i in range(c):
         k = near[i]
-        d0[k] = table[i, 0]
+        t = k if by_pair else i
+        d0[k] = table[t, 0]
         moved[k] = 0.0
-        if table[i, 0] < influence:
+        if table[t, 0] < influence:
             m += 1
     ks = np.empty(m, dtype=np.int64)
     d = np.empty(m)
@@ -71,15 +110,16 @@ def near_rows(table, near, influence, d0, moved, pairs, joint_of):
     geoms = np.empty(2 * m, dtype=np.int64)
     r = 0
     for i in range(c):
-        di = table[i, 0]
+        k = near[i]
+        t = k if by_pair else i
+        di = table[t, 0]
         if not di < influence:
             continue
-        k = near[i]
         ks[r] = k
         d[r] = di
         for a in range(3):
-            n = table[i, 1 + a]
-            p = table[i, 4 + a]
+            n = table[t, 1 + a]
+            p = table[t, 4 + a]
             P[r, a] = p
             P[m + r, a] = p + di * n
             NN[r, a] = -n
