@@ -15,7 +15,7 @@ from wbc.collision.model import CollisionModel
 from wbc.collision.row_kernels import masked_pair_sum, moved_bound, near_rows, toggles
 from wbc.robot.held_views import joint_rotations
 from wbc.robot.loader import load_robot
-from wbc.tasks.collision_avoidance import _FREE, damper_rows
+from wbc.tasks.collision_avoidance import _FREE, barrier_bound, damper_rows
 
 
 @pytest.fixture(scope="module")
@@ -173,7 +173,7 @@ def test_damper_rows_are_the_numpy_rows_bit_for_bit():
         order = np.argsort(d)[:k]
         C, lo, hi = np.full((rows, nx), 7.0), np.full(rows, 7.0), np.full(rows, 7.0)
         w, s = 0.5 / 0.045, 0.005
-        damper_rows(C, lo, hi, J, d, d_dot, drift, order, w, s, _FREE)
+        damper_rows(C, lo, hi, J, d, d_dot, drift, order, w, w, s, _FREE)
         Cr, lr, hr = np.zeros((rows, nx)), np.zeros(rows), np.full(rows, _FREE)
         Cr[:k, :nv] = J[order]
         lr[:k] = -2.0 * w * d_dot[order] - w * w * (d[order] - s) - drift[order]
@@ -200,3 +200,29 @@ def test_the_analytic_drift_is_the_same_with_the_rotations_stacked(talos):
         np.testing.assert_array_equal(ra.drift, rb.drift)
         found += len(ra.d)
     assert found >= 10 and a.feature_drift._rotations is not None
+
+
+def test_the_barrier_row_is_the_damper_outside_its_safe_set_and_below_it_inside():
+    """γ > ω: inside D (h = ḋ + ω (d − d_s) > 0) the bound is −(ω + γ) ḋ − γ ω (d − d_s) − J̇_d q̇, lower than the
+    critically damped one by (γ − ω) h; outside D it is the damper's, bit for bit (wbc.tasks.collision_avoidance)."""
+    rng = np.random.default_rng(8)
+    m, nv, rows = 40, 9, 40
+    J = rng.normal(size=(m, nv))
+    d, d_dot, drift = rng.uniform(0.005, 0.05, m), rng.normal(0, 0.3, m), rng.normal(0, 1, m)
+    order = np.arange(m)
+    w, s = 0.5 / 0.045, 0.005
+    bounds = {}
+    for g in (w, 2.0 * w):
+        C, lo, hi = np.zeros((rows, nv)), np.zeros(rows), np.zeros(rows)
+        damper_rows(C, lo, hi, J, d, d_dot, drift, order, w, g, s, _FREE)
+        bounds[g] = lo.copy()
+    h = d_dot + w * (d - s)
+    inside = h > 0
+    assert 5 < inside.sum() < m - 5                 # both sides drawn
+    np.testing.assert_array_equal(bounds[2 * w][~inside], bounds[w][~inside])
+    np.testing.assert_allclose(bounds[2 * w][inside], -3 * w * d_dot[inside] - 2 * w * w * (d - s)[inside]
+                               - drift[inside], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose((bounds[w] - bounds[2 * w])[inside], w * h[inside], rtol=1e-9)
+    e = np.linspace(0.001, 0.045, 7)                # on D's boundary (ḋ = −ω e) the same braking −ω ḋ for any γ
+    for g in (w, 3.0 * w):
+        assert np.allclose([barrier_bound(w, g, x, -w * x) for x in e], w * w * e, rtol=1e-12)

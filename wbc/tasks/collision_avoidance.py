@@ -3,15 +3,34 @@
 Rows from :meth:`wbc.collision.model.CollisionModel.distance_rows` (d, J_d, J̇_d q̇ per pair;
 the same rows serve a velocity level: J_d q̇ ≥ −ξ (d − d_s)/(d_i − d_s)).
 
-Acceleration level, the second-order damper on e = d − d_s (critically damped, ζ = 1):
+Acceleration level: a second-order barrier on e = d − d_s. With h = ė + ω e (m/s),
 
-    d̈ ≥ −2ω ḋ − ω² (d − d_s),    i.e.   J_d q̈ ≥ −2ω ḋ − ω² (d − d_s) − J̇_d q̇.
+    inside the safe set D = {h ≥ 0}:   ḣ ≥ −γ h,  i.e.  ë ≥ −(ω + γ) ė − γ ω e,
+    outside it (h < 0):                ḣ ≥ −ω h,  i.e.  ë ≥ −2ω ė − ω² e   (the critically damped damper),
 
-Why this one: held with equality, e(t) = (e₀ + (ė₀ + ω e₀) t) e^{−ωt} crosses zero only if
-ė₀ < −ω e₀. A pair enters the rows at e₀ = d_i − d_s with at most the approach speed
-v̄ (``max_speed``, m/s), so ω = v̄/(d_i − d_s) guarantees d ≥ d_s for every approach no faster
-than v̄; a faster ω only brakes earlier. Against the velocity damper differentiated, this
-form needs no ḋ-dependent switching and asks at most ω v̄ of braking (m/s²) at entry.
+and J_d q̈ ≥ that bound − J̇_d q̇. The bound is the smaller of the two everywhere (they differ by (γ − ω) h).
+
+Why it is safe: h ≥ 0 means ė ≥ −ω e, so e(t) ≥ e₀ e^{−ωt} never crosses zero; inside D, ḣ ≥ −γ h keeps
+h(t) ≥ h₀ e^{−γt} ≥ 0 (comparison lemma), so D is invariant whatever γ > 0. A pair enters the rows at
+e₀ = d_i − d_s with at most the approach speed v̄ (``max_speed``, m/s), i.e. h₀ = ė₀ + ω e₀ ≥ 0 with
+ω = v̄/(d_i − d_s): every approach no faster than v̄ keeps d ≥ d_s, and the guarantee depends on ω alone.
+On D's boundary (h = 0) the bound is ë ≥ −ω ė for every γ: the braking asked is at most ω v̄, as the damper's.
+The second pole γ = ``pole_ratio`` · ω only sets how fast the boundary may be approached. γ = ω is the
+critically damped damper d̈ ≥ −2ω ḋ − ω² (d − d_s) everywhere, which brakes deep inside D: a pair at rest
+10 mm above d_s is held to d̈ ≥ −ω² e = −1.2 m/s² (Talos, ω = 11.1/s), so an upper arm sliding past the torso
+(curvature drift J̇_d q̇ ≈ −3.3 m/s²) had to be pushed away at +2.1 m/s² while its shoulder ran at its velocity
+limit: infeasible with the joint-limit rows, level 0 relaxed (``benchmarks/collisions.md``). With γ > ω the
+bound inside D is lower by (γ − ω) h: never more demanding than the damper's. Outside D (h < 0: a pair that
+entered faster than v̄, a jump of ḋ where the closest hull features switch, a model error) the row asks the
+damper's recovery, not γ's (γ applied there too, as ḣ ≥ −γ h everywhere, asked (γ − ω)|h| more: with γ = 4ω
+one ``talos_hands_cross`` run relaxed level 0 for 49 cycles and went 9 mm through). γ is not free either: the
+damper's braking inside D is also a margin against the drift's errors, which are large on hulls (the ±10 ms
+second difference jumps by ±1 m/s² cycle to cycle where the closest features switch, and ḋ by −14 mm/s): with
+γ = 2ω or 4ω the hands' pair ``arm_left_7/arm_right_5`` rode D's boundary at 7 s and such errors took it to
+0.6-3.3 mm (d_s = 5 mm) in 4 of 7 perturbed runs. Each of 1.5, 2, 4 removed the crossing's relaxed
+cycles; with 1.5 the same pair still reached 2.8 mm in MuJoCo's unperturbed run, so ``pole_ratio`` stays 1 (the
+damper, bit for bit) by default and no bundled scenario opts in (``benchmarks/collisions.md``).
+A drift error δ (m/s²) held at the boundary leaves e = −δ/(γ ω), not −δ/ω².
 
 Vertex rows (``vertex_rows`` > 0, opt-in). The distance between two hulls is the minimum over their
 features, so it is only piecewise smooth: a row holds the closest feature alone, and a flat face
@@ -72,28 +91,46 @@ class CollisionOptions(Options):
     the robot's collision file where it has one, :mod:`wbc.collision.primitives`)"""
     vertex_rows: int = 0
     """per near pair, rows for up to this many hull vertices nearest its separating plane (module docstring)"""
+    pole_ratio: float = 1.0
+    """γ/ω ≥ 1: the barrier's second pole −γ (module docstring; 1: the critically damped damper everywhere)"""
     drift: str = "exact"
     """the rows' J̇_d q̇: ``exact`` (the distance's second difference, three more coal passes) or ``analytic`` (the
     closest features' local model, no coal pass: :mod:`wbc.collision.feature_drift`)"""
 
 
 @nb.njit(cache=True)
-def damper_rows(C, lo, hi, J, d, d_dot, drift, order, omega, safety, free):
-    """Row r of ``C`` (m × nx), ``lo``, ``hi`` from pair ``order[r]``: J_d in its first nv columns, the damper's bound
-    lo = −2ω ḋ − ω² (d − d_s) − J̇_d q̇ (m/s², module docstring), hi = ∞; the rows past ``len(order)`` unused
-    (0 ≤ 0 · x ≤ ``free``). In one call (the numpy form was ~12 calls); the same products in the same order."""
+def damper_rows(C, lo, hi, J, d, d_dot, drift, order, omega, gamma, safety, free):
+    """Row r of ``C`` (m × nx), ``lo``, ``hi`` from pair ``order[r]``: J_d in its first nv columns, the barrier's
+    bound (m/s², module docstring) lo = −(ω + γ) ḋ − γ ω (d − d_s) − J̇_d q̇ inside the safe set (h = ḋ + ω (d − d_s)
+    ≥ 0), the critically damped −2ω ḋ − ω² (d − d_s) − J̇_d q̇ outside it (the smaller of the two, everywhere), hi = ∞;
+    the rows past ``len(order)`` unused (0 ≤ 0 · x ≤ ``free``). γ = ω gives the critically damped row everywhere,
+    bit for bit. In one call (the numpy form was ~12 calls)."""
     C[:, :] = 0.0
     lo[:] = 0.0
     hi[:] = free
     a = -2.0 * omega
     b = omega * omega
+    a_in = -(omega + gamma)
+    b_in = gamma * omega
     nv = J.shape[1]
     for r in range(len(order)):
         i = order[r]
         for c in range(nv):
             C[r, c] = J[i, c]
-        lo[r] = a * d_dot[i] - b * (d[i] - safety) - drift[i]
+        e = d[i] - safety
+        if gamma > omega and d_dot[i] + omega * e > 0.0:
+            lo[r] = a_in * d_dot[i] - b_in * e - drift[i]
+        else:
+            lo[r] = a * d_dot[i] - b * e - drift[i]
         hi[r] = np.inf
+
+
+def barrier_bound(omega: float, gamma: float, e: float, e_dot: float) -> float:
+    """The bound on ë (m/s²) of one row before its drift (module docstring): −(ω + γ) ė − γ ω e inside the safe set
+    (ė + ω e > 0), −2ω ė − ω² e outside it; e = d − d_s (m), ė (m/s), ω, γ (1/s)."""
+    if gamma > omega and e_dot + omega * e > 0.0:
+        return -(omega + gamma) * e_dot - gamma * omega * e
+    return -2.0 * omega * e_dot - omega * omega * e
 
 
 class CollisionAvoidance(Task):
@@ -159,12 +196,15 @@ class CollisionAvoidance(Task):
         self.geometry = text(o.geometry, "geometry", choices=["hulls", "primitives"], **err)
         self.vertex_rows = int(number(o.vertex_rows, "vertex_rows", ge=0, le=100, **err))
         self.drift = text(o.drift, "drift", choices=["exact", "analytic"], **err)
+        self.pole_ratio = number(o.pole_ratio, "pole_ratio", ge=1, le=1000, **err)
         self._vertices: dict[int, np.ndarray | None] = {}   # robot hull -> its vertices in its joint's frame
         #: the last cycle's vertex rows, in row order after the pairs' rows: (pair, side 0/1 (the vertex on the
         #: pair's first or second geometry), geometry, vertex index, normal n, the other witness point (m, world))
         self.vertex_last: list[tuple[int, int, int, int, np.ndarray, np.ndarray]] = []
         self.environment_obstacles: list = []
         self.omega = self.max_speed / (self.influence - self.safety)
+        #: γ (1/s), the barrier's second pole (module docstring)
+        self.gamma = self.pole_ratio * self.omega
         self.model: Any = None          # the CollisionModel, built at bind
         self._buf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         #: the last cycle's rows (wbc.collision.model.DistanceRows) and which are active
@@ -210,7 +250,7 @@ class CollisionAvoidance(Task):
         r = self.model.distance_rows(robot, self.influence)
         order = np.argsort(r.d)[: self.max_rows]
         k = len(order)
-        damper_rows(C, lo, hi, r.J, r.d, r.d_dot, r.drift, order, self.omega, self.safety, _FREE)
+        damper_rows(C, lo, hi, r.J, r.d, r.d_dot, r.drift, order, self.omega, self.gamma, self.safety, _FREE)
         self.vertex_last = []
         if k and self.vertex_rows and k < self.max_rows:
             n = self._vertex_rows(robot, r, order, C[k:, : robot.nv], lo[k:])
@@ -271,7 +311,7 @@ class CollisionAvoidance(Task):
                     row = r.J[i] + sign * np.cross(x - wit, n) @ Jw
                     g_dot = float(row @ robot.v)
                     gap = float(gaps[j])
-                    cand.append((gap, row, -2.0 * w * g_dot - w * w * (gap - self.safety),
+                    cand.append((gap, row, barrier_bound(w, self.gamma, gap - self.safety, g_dot),
                                  (int(r.pairs[i]), side, g, j, n.copy(), other.copy()), (jid, jo, x, sign * n)))
         cand.sort(key=lambda c: c[0])
         cand = cand[: len(lo)]
@@ -320,6 +360,8 @@ class CollisionAvoidance(Task):
             p["vertex_rows"] = self.vertex_rows
         if self.drift != "exact":
             p["drift"] = self.drift
+        if self.pole_ratio != CollisionOptions.pole_ratio:
+            p["pole_ratio"] = self.pole_ratio
         if p["name"] == "collision_avoidance":
             del p["name"]
         return p
