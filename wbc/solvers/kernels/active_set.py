@@ -107,17 +107,17 @@ def _certified(H, g, C, lo, hi, tol, side0):
     ok, Ui = inverse_factor(H)
     if not ok:
         return False, np.empty(0)
-    return certified_factored(Ui, g, C, lo, hi, tol, side0)
+    return certified_factored(Ui, -(Ui @ (Ui.T @ g)), C, lo, hi, tol, side0)
 
 
 @nb.njit(cache=True)
-def certified_factored(Ui, g, C, lo, hi, tol, side0):
-    """:func:`_certified` with H given by ``Ui`` = U⁻¹ of :func:`inverse_factor` (a caller
-    that solves several QPs with the same H factors it once)."""
+def certified_factored(Ui, z0, C, lo, hi, tol, side0):
+    """:func:`_certified` with H given by ``Ui`` = U⁻¹ of :func:`inverse_factor` and the
+    unconstrained minimiser z₀ = −H⁻¹g = −U⁻¹U⁻ᵀg (a caller that solves several QPs with the
+    same H and g factors H and forms z₀ once)."""
     k = Ui.shape[0]
     m = C.shape[0]
     none = np.empty(0)
-    z0 = -(Ui @ (Ui.T @ g))
     if not np.all(np.isfinite(z0)):
         return False, none
     y0 = C @ z0

@@ -139,7 +139,8 @@ def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
     ok, Ui = inverse_factor(H)                   # H factored once for every candidate set
     if not ok:
         return False, none
-    z = -(Ui @ (Ui.T @ g))
+    z0 = -(Ui @ (Ui.T @ g))                      # the unconstrained minimiser, once per QP
+    z = z0
     no_side = np.zeros(0, dtype=np.int64)
     for _ in range(5):
         dx = z if identity else Z @ z
@@ -166,7 +167,7 @@ def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
         for j in range(nc):
             Cc[j] = C[idx[j]]
         CcZ = Cc if identity else Cc @ Z
-        ok, z = certified_factored(Ui, g, CcZ, dlo[idx], dhi[idx], tol, no_side)
+        ok, z = certified_factored(Ui, z0, CcZ, dlo[idx], dhi[idx], tol, no_side)
         if not ok:
             return False, none
     return False, none
@@ -226,8 +227,13 @@ def least_squares_objective(AZ, r, regularization):
     """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
     k = AZ.shape[1]
     G = AZ.T @ AZ
-    H = 0.5 * (G + G.T)                 # exactly symmetric, as the QP back-ends assume
-    eps = regularization * max(1.0, np.trace(H) / max(k, 1))
+    H = np.empty((k, k))                # exactly symmetric, as the QP back-ends assume
+    trace = 0.0
+    for i in range(k):
+        for j in range(k):
+            H[i, j] = 0.5 * (G[i, j] + G[j, i])
+        trace += H[i, i]
+    eps = regularization * max(1.0, trace / max(k, 1))
     for i in range(k):
         H[i, i] += eps
     return H, -(AZ.T @ r)
