@@ -48,7 +48,7 @@ import pinocchio as pin
 
 from ..errors import WbcError
 from . import contact_rows as cr
-from .bodies import Push, contact_points
+from .bodies import Push, contact_points, dynamics_model
 from .contact_solver import ContactSolver, solver_class
 from .joint_dynamics import JointDynamics, eliminate_lateral
 from .options import SimOptions
@@ -89,6 +89,10 @@ class Simulator:
         dt, substeps, actuated, contact_solver = o.dt, o.substeps, o.actuated, o.contact_solver
         self.model = model
         self.data = model.createData()
+        # M⁻¹ and ABA on a joints-only copy of the model and its own data (bodies.dynamics_model:
+        # the same numbers; pinocchio 3's bindings copy the model they are given at each call)
+        self._dyn_model = dynamics_model(model)
+        self._dyn_data = self._dyn_model.createData()
         # the contact surfaces (obstacles, wbc.sim.environment.Sphere/Cylinder, touch no contact point)
         self.env = [e for e in environment if getattr(e, "contact_surface", True)]
         self.dt = float(dt)
@@ -313,17 +317,17 @@ class Simulator:
 
     def _free_motion(self, q, v, tau, fext, need_minv: bool):
         """(M⁻¹ or None, the free acceleration ABA(q, v, τ, f_ext))."""
-        m, d = self.model, self.data
+        dm, dd = self._dyn_model, self._dyn_data
         Minv = None
         if need_minv:
             # M⁻¹ is needed for the contact impulses anyway: then the free acceleration is
             # M⁻¹(τ − h) (one matrix-vector product) rather than a second pass of ABA
-            Minv = pin.computeMinverse(m, d, q)
+            Minv = pin.computeMinverse(dm, dd, q)
         if Minv is not None and fext:
             cr.symmetrise_upper(Minv)                    # computeMinverse fills the upper triangle
         if Minv is None or fext:
-            return Minv, pin.aba(m, d, q, v, tau, fext) if fext else pin.aba(m, d, q, v, tau)
-        return Minv, cr.free_acceleration(Minv, tau, pin.nonLinearEffects(m, d, q, v))
+            return Minv, pin.aba(dm, dd, q, v, tau, fext) if fext else pin.aba(dm, dd, q, v, tau)
+        return Minv, cr.free_acceleration(Minv, tau, pin.nonLinearEffects(self.model, self.data, q, v))
 
     def _keep_impulses(self, lam, frames, ids) -> None:
         """The step's impulses ``lam`` (3k, N·s, contact frames; None: no contact) kept as the next
