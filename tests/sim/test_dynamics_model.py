@@ -65,3 +65,22 @@ def test_the_simulator_steps_as_with_the_full_model(talos):
             sim.step(tau)
         assert sims[0].q.tobytes() == full.q.tobytes() and sims[0].v.tobytes() == full.v.tobytes()
     assert not np.array_equal(sims[0].q, talos.q_default)
+
+
+def test_free_motion_in_one_call_is_the_two_calls():
+    """``free_motion`` (one compiled call) gives free_acceleration's then free_velocity's bits,
+    with and without a free-flyer root, M⁻¹ given by its upper triangle (computeMinverse's)."""
+    from wbc.sim import contact_rows as cr
+
+    rng = np.random.default_rng(3)
+    for k in range(300):
+        n = 6 + k % 30
+        A = rng.normal(size=(n, n))
+        Minv = np.triu(A @ A.T + n * np.eye(n))
+        tau, nle, v = rng.normal(0, 20, n), rng.normal(0, 20, n), rng.normal(0, 2, n)
+        ff = bool(k % 2)
+        got = cr.free_motion(Minv.copy(), tau, nle, v, 1e-3, ff)
+        want = cr.free_velocity(v, cr.free_acceleration(Minv.copy(), tau, nle), 1e-3, ff)
+        assert all(a.tobytes() == b.tobytes() for a, b in zip(got, want, strict=True))
+        full = Minv + np.triu(Minv, 1).T          # the lower triangle filled: what the step integrates
+        assert np.allclose(got[0], v + 1e-3 * (full @ (tau - nle)), rtol=1e-12, atol=1e-12)

@@ -268,9 +268,9 @@ class Simulator:
         jd = self.joint_dynamics
         if jd is not None:          # damped: M̃⁻¹ = (M + hD)⁻¹ in the free motion and every impulse
             Minv, a_free = jd.free_motion(m, d, q, v, tau, fext, h)
+            v_free, u, w = cr.free_velocity(v, a_free, h, self._free_flyer)
         else:
-            Minv, a_free = self._free_motion(q, v, tau, fext, bool(rows or nh))
-        v_free, u, w = cr.free_velocity(v, a_free, h, self._free_flyer)
+            Minv, v_free, u, w = self._free_motion(q, v, tau, fext, bool(rows or nh))
         if self._free_flyer:
             # The root's linear velocity is in the body frame: its rate holds the term
             # −ω × v, which explicit Euler turns into energy gain for a spinning body.
@@ -316,7 +316,8 @@ class Simulator:
         self.t += h
 
     def _free_motion(self, q, v, tau, fext, need_minv: bool):
-        """(M⁻¹ or None, the free acceleration ABA(q, v, τ, f_ext))."""
+        """(M⁻¹ or None, and :func:`~wbc.sim.contact_rows.free_velocity`'s (v_free, u, w) of the free
+        acceleration ABA(q, v, τ, f_ext))."""
         dm, dd = self._dyn_model, self._dyn_data
         Minv = None
         if need_minv:
@@ -325,9 +326,11 @@ class Simulator:
             Minv = pin.computeMinverse(dm, dd, q)
         if Minv is not None and fext:
             cr.symmetrise_upper(Minv)                    # computeMinverse fills the upper triangle
+        h, ff = self.h, self._free_flyer
         if Minv is None or fext:
-            return Minv, pin.aba(dm, dd, q, v, tau, fext) if fext else pin.aba(dm, dd, q, v, tau)
-        return Minv, cr.free_acceleration(Minv, tau, pin.nonLinearEffects(self.model, self.data, q, v))
+            a_free = pin.aba(dm, dd, q, v, tau, fext) if fext else pin.aba(dm, dd, q, v, tau)
+            return (Minv, *cr.free_velocity(v, a_free, h, ff))
+        return (Minv, *cr.free_motion(Minv, tau, pin.nonLinearEffects(self.model, self.data, q, v), v, h, ff))
 
     def _keep_impulses(self, lam, frames, ids) -> None:
         """The step's impulses ``lam`` (3k, N·s, contact frames; None: no contact) kept as the next
