@@ -92,6 +92,31 @@ def hold_torque(tau_good: np.ndarray, M: np.ndarray, v: np.ndarray, actuated: np
     return tau
 
 
+@nb.njit(cache=True)
+def _state_check(q, v, last_q, last_v, has_last):
+    """(whether every entry of q and v is finite, whether (q, v) is stale: ``has_last``, v ≠ 0
+    and q, v equal entry by entry to ``last_q``, ``last_v`` (of the same sizes)). The same
+    decisions as ``np.isfinite(·).all()``, ``v.any()`` and ``np.array_equal`` in one pass."""
+    for x in q:
+        if not math.isfinite(x):
+            return False, False
+    moving = False
+    for x in v:
+        if not math.isfinite(x):
+            return False, False
+        if x != 0.0:
+            moving = True
+    if not (has_last and moving):
+        return True, False
+    for i in range(q.shape[0]):
+        if q[i] != last_q[i]:
+            return True, False
+    for i in range(v.shape[0]):
+        if v[i] != last_v[i]:
+            return True, False
+    return True, True
+
+
 class FaultMonitor:
     """The fault policy of one controller: detection, counting, the latched stop."""
 
@@ -112,6 +137,18 @@ class FaultMonitor:
         of the wrong shape passes (the solve refuses it with its own error)."""
         q = np.asarray(q, dtype=float)
         v = np.asarray(v, dtype=float)
+        last = self._last_state
+        if q.ndim == 1 and v.ndim == 1 and (last is None or (last[0].shape == q.shape and last[1].shape == v.shape)):
+            # a measured state's usual case in one compiled pass: finite, and equal to the last or not
+            finite, stale = _state_check(q, v, _NO_STATE if last is None else last[0],
+                                         _NO_STATE if last is None else last[1], last is not None)
+            if finite:
+                if not self.policy.detect_stale:
+                    return None
+                self._last_state = (q.copy(), v.copy())
+                if stale:
+                    return "stale_cycles", "measured state stale: (q, v) repeats the previous cycle's while v ≠ 0"
+                return None
         # a sum of squares is finite iff every entry is (or it overflowed: checked entry by
         # entry); q·q is one BLAS call, cheaper than a reduction through numpy's ufuncs
         squares = q.dot(q) + v.dot(v) if q.ndim == 1 and v.ndim == 1 else q.sum() + v.sum()
@@ -178,6 +215,7 @@ class FaultMonitor:
 
 
 _FLOAT = np.dtype(float)
+_NO_STATE = np.zeros(0)
 
 
 def diverged(q: np.ndarray, v: np.ndarray) -> str:

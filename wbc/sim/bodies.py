@@ -1,5 +1,6 @@
-"""What a simulator touches and pushes: a robot's contact points (both simulators), a push, and
-small pinocchio models for simulator tests and demos (a free-floating box)."""
+"""What a simulator touches and pushes: a robot's contact points (both simulators), a push,
+small pinocchio models for simulator tests and demos (a free-floating box), and the joints-only
+copy of a model the own simulator's dynamics calls take (:func:`dynamics_model`)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,39 @@ def box_model(size=(0.2, 0.2, 0.2), mass: float = 5.0) -> tuple[pin.Model, list[
     m.addFrame(pin.Frame("box", j, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
     corners = [("box", 0.5 * np.array([x * sx, y * sy, z * sz])) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
     return m, corners
+
+
+#: the model fields a joints-only copy keeps besides the joints, their placements and inertias
+#: (what pinocchio's dynamics algorithms read: the armature in D = SᵀIS, the rest for completeness)
+_JOINT_FIELDS = ("armature", "rotorInertia", "rotorGearRatio", "friction", "damping", "effortLimit",
+                 "velocityLimit", "lowerPositionLimit", "upperPositionLimit")
+
+
+def dynamics_model(model: pin.Model) -> pin.Model:
+    """A copy of ``model`` with its joints (the same types, parents, placements, indices), their
+    inertias, armature, limits and the gravity, and none of its frames; the joints named
+    ``j1``, ``j2``, ... (short names: no heap allocation per name); ``model`` itself when it
+    has a mimic joint.
+
+    Why: pinocchio 3's bindings of ``computeMinverse`` and ``aba`` check for mimic joints
+    with a copy of the model they are given, at every call (``mimic_not_supported_function``
+    takes it by value): for Talos (34 joints, 121 frames with their names) that copy is ~30 µs
+    of a ~45 µs call. The algorithms read only the joints, placements, inertias, armature and
+    gravity, which this copy holds as they are, so M⁻¹ and ABA's accelerations are the same
+    numbers, bit for bit (tests/sim/test_dynamics_model.py); pinocchio 4's bindings copy
+    nothing, and the copy costs there what the full model costs."""
+    if any("Mimic" in model.joints[j].shortname() for j in range(1, model.njoints)):
+        return model
+    out = pin.Model()
+    out.name = model.name
+    for j in range(1, model.njoints):
+        out.addJoint(int(model.parents[j]), model.joints[j], model.jointPlacements[j], f"j{j}")
+        out.inertias[j] = model.inertias[j].copy()
+    for name in _JOINT_FIELDS:
+        if hasattr(model, name):
+            setattr(out, name, getattr(model, name).copy())
+    out.gravity = model.gravity.copy()
+    return out
 
 
 def contact_points(robot, extra_points=()) -> list[tuple[str, np.ndarray, str, np.ndarray, str]]:

@@ -27,7 +27,7 @@ from .pgs import pgs_solve
 
 __all__ = ["shape_table", "find_contacts", "point_positions", "contact_jacobian", "contact_velocity", "delassus", "point_forces",
            "symmetrise_upper", "supports",
-           "contact_step", "free_acceleration", "driver_torque", "free_velocity"]
+           "contact_step", "free_acceleration", "driver_torque", "free_velocity", "free_motion"]
 
 
 def supports(model, joints) -> np.ndarray:
@@ -281,3 +281,10 @@ def free_acceleration(Minv, tau, nle):
     """M⁻¹ (τ − h) with M⁻¹'s lower triangle first filled from its upper one (in place)."""
     symmetrise_upper(Minv)
     return Minv @ (tau - nle)
+
+
+@nb.njit(cache=True)
+def free_motion(Minv, tau, nle, v, h, free_flyer):
+    """:func:`free_acceleration` then :func:`free_velocity` in one call (the same operations):
+    (v_free, u, w) of the acceleration M⁻¹ (τ − h), ``nle`` the nonlinear effects h (N·m)."""
+    return free_velocity(v, free_acceleration(Minv, tau, nle), h, free_flyer)
