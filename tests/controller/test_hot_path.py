@@ -432,7 +432,7 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
     solver = RecursiveProjection()
     d = solver.damping
     rng = np.random.default_rng(7)
-    saturations = scaled = kept_rows = 0
+    saturations = scaled = kept_rows = tie_splits = 0
     for trial in range(1000):
         # one-row levels (half the trials) make refused saturations, hence scaling, common
         nv, L = int(rng.integers(5, 10)), int(rng.integers(2, 5))
@@ -463,25 +463,34 @@ def test_compiled_saturation_in_the_null_space_equals_the_python_loop():
         for k in range(L):
             info = LevelInfo(k, dof_before=cas.dof)
             r0, r1 = rows[k]
-            over = np.maximum(np.maximum(g[1] - gC @ cas.x, gC @ cas.x - g[2]), 0.0)
+            gx = gC @ cas.x
+            # a general row on its bound to rounding (where a previous level's scaling left x): whether
+            # this level's step is scaled to 0 or to a ~1e-16/1e-14 ratio is decided by rounding, which
+            # differs with the CPU's BLAS kernels (numpy's 2-term dot takes an FMA on some CPUs)
+            tie = bool(k and np.any(np.abs(np.minimum(gx - g[1], g[2] - gx)) <= 1e-12 * (1.0 + np.abs(gx))))
+            over = np.maximum(np.maximum(g[1] - gx, gx - g[2]), 0.0)
             step = sns_level(solver, cas, A[r0:r1], b[r0:r1], (idx, lo, hi), None, info, scale=k > 0, g=g)
             if k:           # below level 0 the general rows get no worse (inside stays inside)
                 after = np.maximum(np.maximum(g[1] - gC @ cas.x, gC @ cas.x - g[2]), 0.0)
                 assert np.all(after <= over + 1e-9)
             info.rank = step.rank
             a = fast[k]
+            if tie and a.scale != pytest.approx(info.scale, rel=1e-12, abs=1e-12):
+                tie_splits += 1     # the two took either side of the tie: the rest of the trial not compared
+                break
             assert (a.saturated, a.dof_before, a.rank) == (info.saturated, info.dof_before, info.rank)
             assert a.scale == pytest.approx(info.scale, rel=1e-12, abs=1e-12)
             saturations += len(info.saturated)
             scaled += info.scale < 1.0
             kept_rows += ng > 0 and info.scale < 1.0
-        np.testing.assert_allclose(cas_c.x, cas.x, rtol=0, atol=1e-9 * (1 + np.abs(cas.x).max()))
-
-        assert cas_c.calls == cas.calls
-        np.testing.assert_array_equal(hints_c, hints_p)
+        else:
+            np.testing.assert_allclose(cas_c.x, cas.x, rtol=0, atol=1e-9 * (1 + np.abs(cas.x).max()))
+            assert cas_c.calls == cas.calls
+            np.testing.assert_array_equal(hints_c, hints_p)
     print(f"\n{saturations} saturations, {scaled} scaled levels ({kept_rows} by the general rows)")
     assert kept_rows > 20
     assert saturations > 1000 and scaled > 40
+    assert tie_splits <= 3      # rounding-level ties split the two: rare (1 in 1000 on an AMD EPYC, 0 elsewhere)
 
 
 @pytest.mark.parametrize("solver", ["hqp", "projection"])

@@ -122,7 +122,9 @@ class _Reference:
             n = math.hypot(d[0], d[1])
             if n > 1e-6:
                 fa, fb = pf[a, :2].sum(axis=0), pf[b, :2].sum(axis=0)
-                internal = float((fa - fb) @ d) / (2.0 * n)
+                # the two products summed as written: numpy's 2-term dot (BLAS) takes an FMA on some CPUs
+                # (OpenBLAS's kernels on an AMD EPYC), whose last bit the compiled sum does not reproduce
+                internal = float((fa[0] - fb[0]) * d[0] + (fa[1] - fb[1]) * d[1]) / (2.0 * n)
         idx, verts, com = support
         if len(idx) < 3 or not np.all(np.isfinite(pts[idx, :2])):
             margin = -np.inf
