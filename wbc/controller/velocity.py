@@ -84,6 +84,20 @@ class VelocitySolution(Solution):
         super().__init__(_zeros(nv), _zeros(na), _zeros(nv), {}, qd, status, message, report)
         self.qd, self.q_next = qd, q_next
 
+    @classmethod
+    def accepted(cls, qd: np.ndarray, q_next: np.ndarray, na: int, evaluate) -> VelocitySolution:
+        """``VelocitySolution(qd, q_next, na, "ok", "", SolutionReport(evaluate=evaluate))``: the same
+        attributes (``tests/controller/test_velocity_mode.py`` compares them), set in one step
+        (the velocity mode's common cycle: ~1 µs less than through the named tuple and
+        :class:`Solution`'s ``__init__``)."""
+        sol = cls.__new__(cls)
+        nv = len(qd)
+        sol.__dict__.update(qdd=_zeros(nv), tau=_zeros(na), tau_full=_zeros(nv), forces={}, x=qd, status="ok",
+                            message="", qp_count=0, relaxed=False, saturated=False, tau_ratio=0.0,
+                            _degraded=False, saturated_torques=[], singular_levels=[], fault="", _residuals=None,
+                            _task_residuals=None, _diagnostics=None, _evaluate=evaluate, qd=qd, q_next=q_next)
+        return sol
+
 
 _ZEROS: dict[int, np.ndarray] = {}
 
@@ -276,8 +290,7 @@ class VelocityController:
         values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
         evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:], plan.problem.levels,
                            (values, len(buf.b), len(buf.lo)), (self.sacrifice_tol, self.sacrifice_rel))
-        return VelocitySolution(qd, pin.integrate(self.robot.model, q, qd * self.dt), self.robot.na, "ok", "",
-                                SolutionReport(0, False, False, False, 0.0, None, None, evaluate))
+        return VelocitySolution.accepted(qd, pin.integrate(self.robot.model, q, qd * self.dt), self.robot.na, evaluate)
 
     def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):
         """The solve again with the collision rows re-linearised where the command breaks them
