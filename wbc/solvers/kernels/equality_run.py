@@ -364,8 +364,8 @@ def equality_cascade(eq, ineq, x0, hints, settings):
             e[c] = 1.0
             _reflect(V, tau, end, wide, e, True)
             zc = e[wide:]
-            for i in range(dof):                  # the upper triangle: the only part the Cholesky reads
-                for j in range(i, dof):
+            for i in range(dof):
+                for j in range(dof):
                     G[i, j] -= zc[i] * zc[j]
     else:
         a = np.empty(n)
@@ -374,7 +374,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
             _reflect(V, tau, end, wide, a, True)
             za = a[wide:]
             for p in range(dof):
-                for q in range(p, dof):
+                for q in range(dof):
                     G[p, q] += za[p] * za[q]
     ub2 = 0.0                                     # ‖A Z‖_F² = trace G ≥ σ_max²
     for i in range(dof):
