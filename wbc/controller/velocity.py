@@ -87,7 +87,7 @@ class VelocitySolution(Solution):
     @classmethod
     def accepted(cls, qd: np.ndarray, q_next: np.ndarray, na: int, evaluate) -> VelocitySolution:
         """``VelocitySolution(qd, q_next, na, "ok", "", SolutionReport(evaluate=evaluate))``: the same
-        attributes (``tests/controller/test_velocity_mode.py`` compares them), set in one step
+        attributes (``tests/controller/test_velocity_accepted.py`` compares them), set in one step
         (the velocity mode's common cycle: ~1 µs less than through the named tuple and
         :class:`Solution`'s ``__init__``)."""
         sol = cls.__new__(cls)
