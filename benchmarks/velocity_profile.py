@@ -31,9 +31,7 @@ def split(ctrl, q) -> dict[str, int]:
 
     import pinocchio as pin
 
-    from wbc.controller.diagnostics import level_diagnostics
-    from wbc.controller.solution import SolutionReport, solve_status
-    from wbc.controller.velocity import VelocitySolution, _solve_planned
+    from wbc.controller.velocity import VelocitySolution, _equality_diagnostics
     from wbc.problem.buffer import row_values
 
     t, ns = {}, time.perf_counter_ns
@@ -56,27 +54,23 @@ def split(ctrl, q) -> dict[str, int]:
     assert plan.fill()              # the frames', contacts', CoM's, posture's, limits' rows in one call, the others'
     t4 = ns()
     t["rows (VelocityPlan.fill: wbc.tasks.velocity_stack's call, the other writers)"] = t4 - t3
-    res = _solve_planned(ctrl.solver, plan.problem)     # as the controller calls it (equality-only first)
+    got = ctrl.solver.equality_step(plan.problem)       # as the controller calls it (equality-only first)
+    assert got is not None, "the equality-only cascade did not answer: the phases below are not the cycle's"
     t5 = ns()
-    t["solver (hqp: equality-only cascade, else the full run)"] = t5 - t4
+    t["solver (hqp: the equality-only cascade, HierarchicalQP.equality_step)"] = t5 - t4
     nv = robot.nv
-    qd = res.x[:nv]
-    ok, message = res.ok, res.message
-    if not math.isfinite(qd.dot(qd)) and not np.all(np.isfinite(qd)):
-        ok, message = False, "non-finite solution"
-    status, relaxed = solve_status(ok, res)
+    qd = got[0][:nv]
+    assert math.isfinite(qd.dot(qd))
     buf = plan.buffer
     values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
-    evaluate = partial(level_diagnostics, buf.levels, buf.spans, res.levels, (values, len(buf.b), len(buf.lo)),
-                       (not res.enforces_inequality_rows, res.outside_cascade),
-                       (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
+    evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:], plan.problem.levels,
+                       (values, len(buf.b), len(buf.lo)), (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
     t6 = ns()
-    t["bookkeeping (status, row values, diagnostics closure)"] = t6 - t5
+    t["bookkeeping (finite check, row values, diagnostics closure)"] = t6 - t5
     q_next = pin.integrate(robot.model, q, qd * ctrl.dt)
     t7 = ns()
     t["integration (pin.integrate)"] = t7 - t6
-    VelocitySolution(qd, q_next, robot.na, status, message,
-                     SolutionReport(qp_count=res.qp_count, relaxed=relaxed, evaluate=evaluate))
+    VelocitySolution.accepted(qd, q_next, robot.na, evaluate)
     t["solution object"] = ns() - t7
     return t
 

@@ -58,6 +58,38 @@ class PlannedEntry:
         if not _plain(self):
             return self.solve(problem)
         levels = problem.levels
+        got, x0 = self._planned_args(problem)
+        L = len(levels)
+        if equalities_first and self.equality_first:
+            done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
+            if done:        # every level full rank and undamped (its acceptance tests): none singular
+                return SolveResult(x, equality_levels(ints, floats, levels), True, 0, "")
+        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
+        if out[0] != L:
+            return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, got[5][-1]), out)
+        ints, floats = out[4], out[5]
+        certified = sum(ints.item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
+        return SolveResult(out[1], _deferred(ints, floats, levels), True, certified, "")
+
+    def equality_step(self: Any, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The equality-only cascade of :meth:`solve_planned` alone: ``(x, ints, floats)`` when it
+        is accepted (x the solution, its levels' records :func:`equality_levels` reads), else None,
+        and then ``solve_planned(problem)`` (without ``equalities_first``: nothing computed twice)
+        gives the hqp's result. The same x and records as ``solve_planned(problem,
+        equalities_first=True)``, without building its :class:`SolveResult` (the velocity mode's
+        common cycle: its diagnostics are worked out only when read). None also where
+        :meth:`solve_planned` would not try it (:attr:`equality_first` False, a subclass that
+        solves otherwise)."""
+        if not (self.equality_first and _plain(self)):
+            return None
+        got, x0 = self._planned_args(problem)
+        done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
+        return (x, ints, floats) if done else None
+
+    def _planned_args(self: Any, problem: Problem) -> tuple[tuple, np.ndarray]:
+        """(the compiled run's arguments for this rows object, level list and solver setting,
+        built once and kept in ``_planned``; the start x₀: ``problem.x_ref`` or zeros)."""
+        levels = problem.levels
         d = self.damping
         margin = self.margin if problem.margin is None else problem.margin
         key = (len(levels), margin, d.rank_tol, d.threshold, d.max_damping, self.tol, self.certify,
@@ -70,19 +102,7 @@ class PlannedEntry:
                                    (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
                                     self.certify, self.regularization, margin))
         x_ref = problem.x_ref
-        x0 = np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
-        L = len(levels)
-        if equalities_first and self.equality_first:
-            done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
-            if done:        # every level full rank and undamped (its acceptance tests): none singular
-                return SolveResult(x, DeferredLevels(partial(_decoded, ints, floats, levels), singular=_NONE), True,
-                                   0, "")
-        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
-        if out[0] != L:
-            return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, margin), out)
-        ints, floats = out[4], out[5]
-        certified = sum(ints.item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
-        return SolveResult(out[1], _deferred(ints, floats, levels), True, certified, "")
+        return got, np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
 
 
 
@@ -102,6 +122,13 @@ def _plain(obj: Any) -> bool:
     own = getattr(obj, "__dict__", None) or {}
     return cls.solve is entries[0] and cls.solve_levels is entries[1] and "solve" not in own \
         and "solve_levels" not in own
+
+
+def equality_levels(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> DeferredLevels:
+    """The levels' :class:`LevelInfo` of an accepted equality-only run
+    (:meth:`PlannedEntry.equality_step`), decoded when read; none damped or singular (its
+    acceptance tests admit only full-rank undamped levels)."""
+    return DeferredLevels(partial(_decoded, ints, floats, levels), singular=_NONE)
 
 
 def _deferred(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> DeferredLevels:

@@ -279,6 +279,8 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     rhs = b - A @ x0                              # b' of every level (their rows at x₀)
     y = np.zeros(n)                               # Qᵀ(x − x₀), block by block
     x = x0.copy()
+    u = y
+    u_at = -1                                     # the reflectors u = Q y was taken over (x = x₀ + u), −1: none
     calls = 0
     dof = n
     e0 = 0
@@ -312,20 +314,21 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                 u = y.copy()
                 _reflect(V, tau, end, e_end[k], u, False)
                 x = x0 + u
+                u_at = e_end[k]
         end_r_factors(ints, L, k, r_at)
         set_calls(ints, L, calls)
         if i_end[k] > 0 and _violated(crow, lo, hi, i_end[k], x, tol):
             return False, x0, none[0], none[1]
         e0 = e_end[k]
-    if tall < 0:
+    if u_at != wide:                              # else the last wide level's (y is final): the same numbers
         u = y.copy()
         _reflect(V, tau, end, wide, u, False)
-        return True, x0 + u, ints, floats
+        x = x0 + u
+    if tall < 0:
+        return True, x, ints, floats
     # the tall level: x̂ (after the wide levels), A Z with Z = Q[:, wide:], its Gram matrix
     k = tall
-    u = y.copy()
-    _reflect(V, tau, end, wide, u, False)
-    xh = x0 + u
+    xh = x
     e0 = e_end[k - 1] if k else 0
     m = e_end[k] - e0
     Ak = A[e0:e_end[k]]
