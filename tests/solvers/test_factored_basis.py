@@ -14,7 +14,7 @@ from numba.typed import List
 
 from wbc.solvers.hqp import GRAM_MIN_RATIO
 from wbc.solvers.kernels.cascade_run import cascade_prefix, cascade_prefix_explicit, cascade_prefix_keeping
-from wbc.solvers.kernels.factored_basis import basis_times, explicit_basis, push_level, rows_through
+from wbc.solvers.kernels.factored_basis import NO_ENDS, basis_times, explicit_basis, push_level, rows_through
 from wbc.solvers.kernels.factorizations import qr_factor
 from wbc.solvers.kernels.records import CERTIFIED, DOF, LEVEL_FLOATS, LEVEL_INTS, hint_table
 
@@ -137,15 +137,15 @@ def test_reflector_basis_is_the_explicit_orthonormal_basis():
     for m in (3, 5, 2):
         A = rng.standard_normal((m, n))
         rows.append(A)
-        AZ = A if nf == 0 else rows_through(A, qs, taus, ms, nf)
+        AZ = A if nf == 0 else rows_through(A, qs, taus, ms, nf, NO_ENDS)
         ok, _, Q, tau, _, _ = qr_factor(AZ, rng.standard_normal(m), 1e-9, 0.0)
         assert ok
         nf = push_level(qs, taus, ms, nf, Q, tau, m)
-    Z = explicit_basis(qs, taus, ms, nf)
+    Z = explicit_basis(qs, taus, ms, nf, NO_ENDS)
     assert Z.shape == (n, n - 10)
     np.testing.assert_allclose(Z.T @ Z, np.eye(n - 10), atol=1e-13)
     np.testing.assert_allclose(np.vstack(rows) @ Z, 0.0, atol=1e-12)
     w = rng.standard_normal(n - 10)
-    np.testing.assert_allclose(basis_times(w, qs, taus, ms, nf), Z @ w, atol=1e-13)
+    np.testing.assert_allclose(basis_times(w, qs, taus, ms, nf, NO_ENDS), Z @ w, atol=1e-13)
     B = rng.standard_normal((4, n))
-    np.testing.assert_allclose(rows_through(B, qs, taus, ms, nf), B @ Z, atol=1e-12)
+    np.testing.assert_allclose(rows_through(B, qs, taus, ms, nf, NO_ENDS), B @ Z, atol=1e-12)

@@ -1,5 +1,6 @@
 """HierarchicalQP.solve_planned (the velocity plan's entry) gives solve's result bit for bit (its
-equality-only path off: tests/solvers/test_equality_run.py compares that one, to rounding):
+equality-only path and its profiled path off: tests/solvers/test_equality_run.py and
+tests/solvers/test_profiled_level.py compare those, to rounding):
 x, the QP count and every level's record, both when the compiled run solves every level
 (its records then decoded only when read) and when it stops at a level for a back-end QP
 (a hand target the joint limits refuse: certify off, or a QP the certificate does not
@@ -46,7 +47,7 @@ def _same(a, b):
 def test_solve_planned_is_solve(talos, certify, offset, kind):
     p = _problem(talos, np.array(offset))
     ref, fast = HierarchicalQP(certify=certify, margin=1e-3), HierarchicalQP(certify=certify, margin=1e-3)
-    fast.equality_first = False
+    fast.equality_first = fast.profile_first = False
     for _ in range(3):                          # the second and later calls reuse the run's arguments
         a, b = ref.solve(p), fast.solve_planned(p)
         _same(a, b)

@@ -15,7 +15,7 @@ from ..problem.problem import Problem
 from ..problem.result import DeferredLevels, LevelInfo, SolveResult
 from ..problem.rows import Level
 from .cascade import _NO_BASIS, GRAM_MIN_RATIO
-from .kernels.cascade_run import cascade_prefix
+from .kernels.cascade_run import cascade_prefix, cascade_prefix_profiled
 from .kernels.equality_run import equality_cascade
 from .kernels.records import CALL, LAMBDA2, LEVEL_FLOATS, LEVEL_INTS, decode
 from .kernels.records import CERTIFIED as CERTIFIED_FIELD
@@ -30,6 +30,11 @@ class PlannedEntry:
     #: :mod:`~wbc.solvers.kernels.equality_run`: the same solution to rounding when no
     #: inequality is met on the way, else the full run); False: the full run only
     equality_first: bool = True
+    #: the full run with a QR level from the identity (the torque stack's level 0) factored
+    #: within its rows' profiles (:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix_profiled`:
+    #: the same result to rounding), the plain run where it stops for a back-end QP; False:
+    #: the plain run only. Not where the equality-only cascade is tried first.
+    profile_first: bool = True
     #: (solve, solve_levels) of the class that takes this one as a base, as defined
     _entries: tuple | None = None
 
@@ -39,8 +44,8 @@ class PlannedEntry:
             PlannedEntry._entries = (cls.__dict__["solve"], cls.__dict__["solve_levels"])
 
     def solve_planned(self: Any, problem: Problem, equalities_first: bool = False) -> SolveResult:
-        """:meth:`solve` (the same result: bit for bit by the full run, to rounding by the
-        equality-only one) for a problem whose rows stay in the same arrays from one cycle to
+        """:meth:`solve` (the same result: bit for bit by the plain run, to rounding by the
+        equality-only one and the profiled one) for a problem whose rows stay in the same arrays from one cycle to
         the next (the velocity mode's plan, :mod:`wbc.controller.velocity_plan`; the torque
         cycle's stack buffer): the compiled run's arguments are built once per rows object
         (``problem.rows``, the same object while the stack's structure is unchanged), level
@@ -50,6 +55,9 @@ class PlannedEntry:
         (:func:`~wbc.solvers.kernels.equality_run.equality_cascade`: one Householder QR of the
         stacked wide levels, the hqp's acceptance tests, every inequality checked on the way;
         when any test fails, the full run below, so the result is the hqp's to rounding).
+        Otherwise (the torque cycle) and with :attr:`profile_first`, the run with level 0
+        factored within its rows' profiles first, the plain run where that one stops for a
+        back-end QP (whose answer, to its own tolerance, would move with the basis).
         When the run solves every level (no back-end QP: the common case) the levels'
         :class:`LevelInfo` are decoded only when read
         (:class:`~wbc.problem.result.DeferredLevels`). A run that stops at a level goes on
@@ -64,7 +72,15 @@ class PlannedEntry:
             done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
             if done:        # every level full rank and undamped (its acceptance tests): none singular
                 return SolveResult(x, equality_levels(ints, floats, levels), True, 0, "")
-        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
+        start = (x0, _NO_BASIS, True, 0, 0)
+        if self.profile_first and not equalities_first:
+            hints = self._hints.copy()
+            out = cascade_prefix_profiled(got[3], got[4], start, self._hints, got[5])
+            if out[0] != L:          # the back-end is handed the plain run's basis
+                self._hints[:] = hints
+                out = cascade_prefix(got[3], got[4], start, self._hints, got[5])
+        else:
+            out = cascade_prefix(got[3], got[4], start, self._hints, got[5])
         if out[0] != L:
             return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, got[5][-1]), out)
         ints, floats = out[4], out[5]

@@ -6,6 +6,10 @@
   certificate;
 - :mod:`.qp_rows`: the hierarchical QP's rows and objectives in z, violation measures,
   the certified QPs on them;
+- :mod:`.sigma_min`: the QR route's acceptance test, σ_min exact where its bound is
+  inconclusive;
+- :mod:`.profile_qr`: a Householder QR of a few rows within each row's nonzero profile
+  (the equality-only cascade's stacked levels, the torque stack's level 0);
 - :mod:`.cascade_run`: the hierarchical QP's cascade over the levels that need no
   back-end QP, in one call;
 - :mod:`.sns_run`: the projection solver's levels with saturation in the null space;

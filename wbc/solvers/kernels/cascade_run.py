@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .factored_basis import basis_times, explicit_basis, push_level, rows_through, transposed_times
+from .factored_basis import NO_ENDS, basis_times, explicit_basis, push_level, rows_through, transposed_times
 from .factorizations import (
     AUTO,
     GRAM,
@@ -25,6 +25,7 @@ from .factorizations import (
     qr_factor,
     step_from,
 )
+from .profile_qr import householder_rows, profile_order, reflect, row_ends, upper_inverse
 from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
 from .records import (
     CERTIFIED,
@@ -39,12 +40,24 @@ from .records import (
     set_field,
     start_level,
 )
+from .sigma_min import qr_accepted
 
 
 @nb.njit(cache=True)
 def cascade_prefix(eq, ineq, start, hints, settings):
     """The strict cascade's run (:func:`cascade_prefix_keeping`, which documents it)."""
-    out = _run(eq, ineq, start, hints, settings, -1, True)
+    out = _run(eq, ineq, start, hints, settings, -1, True, False)
+    return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
+
+
+@nb.njit(cache=True)
+def cascade_prefix_profiled(eq, ineq, start, hints, settings):
+    """:func:`cascade_prefix` with a QR level taken from the identity (the torque stack's level
+    0) factored within its rows' profiles (:func:`_profiled_qr`): the same run to rounding
+    (another orthonormal basis of the same null space). For a run that solves every level;
+    where it stops for a back-end QP the caller runs :func:`cascade_prefix` instead (a
+    back-end's answer, to its own tolerance, moves with the basis)."""
+    out = _run(eq, ineq, start, hints, settings, -1, True, True)
     return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
 
 
@@ -52,7 +65,7 @@ def cascade_prefix(eq, ineq, start, hints, settings):
 def cascade_prefix_explicit(eq, ineq, start, hints, settings):
     """:func:`cascade_prefix` with every basis formed as a matrix (no level's basis kept as
     reflectors, :mod:`.factored_basis`): the form the factored run is tested against."""
-    out = _run(eq, ineq, start, hints, settings, -1, False)
+    out = _run(eq, ineq, start, hints, settings, -1, False, False)
     return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
 
 
@@ -64,19 +77,59 @@ def cascade_prefix_keeping(eq, ineq, start, hints, settings, keep):
     end of that level (it started below it, or stopped at or above it). The weighted QP's
     per-level singularity test reads level 0's null space from it instead of factorising
     level 0's rows a second time."""
-    return _run(eq, ineq, start, hints, settings, keep, True)
+    return _run(eq, ineq, start, hints, settings, keep, True, False)
 
 
 @nb.njit(cache=True)
-def _explicit(A, b, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n):
+def _profiled_qr(A, r, rank_tol, threshold):
+    """The QR route of a level from the identity (Z = I: AZ = A) with its rows' zeros skipped:
+    (ok, z, Q, τ, R, ends) as :func:`.factorizations.qr_factor` gives them, and the
+    reflectors' supports. The rows are taken in :func:`.profile_qr.profile_order` (P A) and
+    factored by :func:`.profile_qr.householder_rows`; Q is the n × m transpose of its rows
+    (LAPACK's storage of the reflectors), R the m × m factor of P A. Permuting the rows
+    changes neither null(A), nor its singular values, nor the minimum-norm step
+    z = Q [R⁻ᵀ P r; 0]; Q[:, m:] is another orthonormal basis of the same null space, so
+    the later levels' steps (minimum-norm solutions, singular values, certified QPs: all
+    invariant under an orthogonal change of basis) agree to rounding. The acceptance test
+    is the QR route's (:func:`.sigma_min.qr_accepted`)."""
+    m, n = A.shape
+    order = profile_order(A)
+    V = np.empty((m, n))
+    for j in range(m):
+        V[j] = A[order[j]]
+    tau = np.empty(m)
+    rdiag = np.empty(m)
+    ends = row_ends(V)
+    R = np.zeros((m, m))
+    if not householder_rows(V, tau, rdiag, ends, np.empty(n)):
+        return False, np.empty(0), V.T, tau, R, ends
+    for j in range(m):                            # row j of V: (R[0..j−1, j], R[j, j], v_j)
+        for i in range(j):
+            R[i, j] = V[j, i]
+        R[j, j] = rdiag[j]
+    Rinv = upper_inverse(R)
+    if not qr_accepted(Rinv, np.sqrt(np.sum(A * A)), rank_tol, threshold):
+        return False, np.empty(0), V.T, tau, R, ends
+    z = np.zeros(n)                               # z = Q [R⁻ᵀ P r; 0]
+    for i in range(m):
+        s = 0.0
+        for p in range(i + 1):
+            s += Rinv[p, i] * r[order[p]]
+        z[i] = s
+    reflect(V, tau, ends, m, z, False)
+    return True, z, V.T, tau, R, ends
+
+
+@nb.njit(cache=True)
+def _explicit(A, b, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n, ends0):
     """The level's basis before (Z) and after (Z_next) its step, and A Z, as matrices, when
     the run kept them as reflectors (``nf`` levels; ``fstep``: this level's step was taken
     in factored form, 1 by QR with reflectors ``Qn``, ``taun``, 2 by the orthonormal
-    shortcut, which leaves nothing free)."""
-    Zc = explicit_basis(qs, taus, ms, nf) if nf else Z
+    shortcut, which leaves nothing free; ``ends0``: :mod:`.factored_basis`'s)."""
+    Zc = explicit_basis(qs, taus, ms, nf, ends0) if nf else Z
     if fstep == 1:
         nf = push_level(qs, taus, ms, nf, Qn, taun, m)
-        Z_next = explicit_basis(qs, taus, ms, nf)
+        Z_next = explicit_basis(qs, taus, ms, nf, ends0)
     else:
         Z_next = np.empty((n, 0))
     AZ, _, _ = projected_rows_full(A, b, x, Zc, identity)
@@ -84,7 +137,7 @@ def _explicit(A, b, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n):
 
 
 @nb.njit(cache=True)
-def _run(eq, ineq, start, hints, settings, keep, factored):
+def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
     """The strict cascade's levels, one after the other, for as long as none needs a
     back-end QP: the hierarchical QP's common case in one call (``tests/helpers/reference_hqp.py``
     is the same mathematics, step for step, in Python).
@@ -121,7 +174,9 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
     orthonormal shortcut of a posture over every coordinate), the basis is kept as the
     levels' Householder reflectors (:mod:`.factored_basis`) and formed as a matrix only
     when a level needs it (another route, a QP over it, the run handing it back): the
-    same numbers to rounding, without the n × k products (the 156-joint chain's cascade)."""
+    same numbers to rounding, without the n × k products (the 156-joint chain's cascade).
+    ``profiled`` (with ``factored``): a QR level from the identity by :func:`_profiled_qr`
+    (:func:`cascade_prefix_profiled`)."""
     A, b, e_end = eq
     C, lo, hi, i_end = ineq
     Z_keep, identity_keep = np.empty((0, 0)), True
@@ -147,6 +202,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
     taus = [np.empty(1)]
     ms = [0]
     nf = 0
+    ends0 = NO_ENDS                              # the supports of qs[0]'s reflectors when profiled
     for k in range(k0, L):
         i0 = i_end[k - 1] if k else 0
         m = e_end[k] - e0
@@ -164,11 +220,15 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
             if factored and (identity or nf):
                 AZ, rk, orthonormal = projected_rows_full(Ak, bk, x, Z, True)   # (A, b − A x̂)
                 if route == QR:
-                    AZ = AZ if identity else rows_through(Ak, qs, taus, ms, nf)
-                    ok, z, Qn, taun, R, _ = qr_factor(AZ, rk, rank_tol[k], threshold[k])
+                    if identity and profiled:
+                        ok, z, Qn, taun, R, ends = _profiled_qr(Ak, rk, rank_tol[k], threshold[k])
+                        ends0 = ends if ok else ends0
+                    else:
+                        AZ = AZ if identity else rows_through(Ak, qs, taus, ms, nf, ends0)
+                        ok, z, Qn, taun, R, _ = qr_factor(AZ, rk, rank_tol[k], threshold[k])
                     if ok:
                         fstep = 1
-                        x_next = x + (z if identity else basis_times(z, qs, taus, ms, nf))
+                        x_next = x + (z if identity else basis_times(z, qs, taus, ms, nf, ends0))
                         packed = pack_step(z, x_next, R)
                         rank, smin, smax, lam2 = m, np.nan, np.nan, 0.0
                 elif route == GRAM and orthonormal and nf and orthonormal_accepted(dof, rank_tol[k], threshold[k],
@@ -177,15 +237,15 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
                     for i in range(m):
                         for j in range(n):
                             u[j] += Ak[i, j] * rk[i]
-                    z = transposed_times(u, qs, taus, ms, nf)
+                    z = transposed_times(u, qs, taus, ms, nf, ends0)
                     fstep = 2
-                    x_next = x + basis_times(z, qs, taus, ms, nf)
+                    x_next = x + basis_times(z, qs, taus, ms, nf, ends0)
                     packed = pack_step(z, x_next, np.empty((0, 0)))
                     rank, smin, smax, lam2 = dof, 1.0, 1.0, 0.0
                     Z_next = np.empty((n, 0))
             if fstep == 0:
                 if nf:
-                    Z = explicit_basis(qs, taus, ms, nf)
+                    Z = explicit_basis(qs, taus, ms, nf, ends0)
                     nf = 0
                 AZ, rk, orthonormal = projected_rows_full(Ak, bk, x, Z, identity)
                 _, route, rank, smin, smax, lam2, packed, Z_next = step_from(
@@ -199,7 +259,8 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
             set_calls(ints, L, calls)
             if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
                 if fstep or nf:
-                    Z, Z_next, AZ = _explicit(Ak, bk, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n)
+                    Z, Z_next, AZ = _explicit(Ak, bk, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n,
+                                              ends0)
                     fstep = nf = 0
                 if not certify:
                     return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
@@ -214,7 +275,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
         if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
             if fstep or nf:
                 Z, Z_next, _ = _explicit(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, qs, taus, ms, nf, fstep,
-                                         Qn, taun, m, n)
+                                         Qn, taun, m, n, ends0)
                 fstep = nf = 0
             ok = False
             if certify:
@@ -243,11 +304,11 @@ def _run(eq, ineq, start, hints, settings, keep, factored):
             x = x_next
         if k == keep:
             if nf:
-                Z = explicit_basis(qs, taus, ms, nf)
+                Z = explicit_basis(qs, taus, ms, nf, ends0)
                 nf = 0
             Z_keep, identity_keep = Z, identity
         e0 = e_end[k]
     if nf:
-        Z = explicit_basis(qs, taus, ms, nf)
+        Z = explicit_basis(qs, taus, ms, nf, ends0)
     set_calls(ints, L, calls)
     return L, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0)), Z_keep, identity_keep

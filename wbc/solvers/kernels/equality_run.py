@@ -26,7 +26,7 @@ the rows of levels 0..k to ``tol``, as the run does. Any test that fails, a rout
 force, or a non-finite number: ``ok`` False and the caller runs the full hqp, so the
 result is always the hqp's (to rounding: the same factorisations by another order of
 operations, ~1e-15 relative on the Talos IK problem). Sparse where the rows are: the QR works
-within each row's profile (its last nonzero column: a contact's rows end at its leg's), the
+within each row's profile (:mod:`.profile_qr`: a contact's rows end at its leg's), the
 inequality rows are checked on their nonzeros (joint limits: unit rows). Records in the format of
 :mod:`.records` (:func:`~.records.decode`), as the run writes them.
 """
@@ -37,6 +37,10 @@ import numba as nb
 import numpy as np
 
 from .factorizations import GRAM, QR, unit_columns
+from .profile_qr import householder_rows as _householder_rows
+from .profile_qr import reflect as _reflect
+from .profile_qr import row_ends as _row_ends
+from .profile_qr import upper_inverse as _upper_inverse
 from .records import CALL as CALL_FIELD
 from .records import LAMBDA2 as LAMBDA2_FIELD
 from .records import (
@@ -51,107 +55,6 @@ from .records import RANK as RANK_FIELD
 from .records import ROUTE as ROUTE_FIELD
 from .records import SIGMA_MAX as SIGMA_MAX_FIELD
 from .records import SIGMA_MIN as SIGMA_MIN_FIELD
-
-
-@nb.njit(cache=True)
-def _row_ends(V):
-    """For each row j of V, one past its last nonzero entry (at least j + 1): the row's
-    profile, within which :func:`_householder_rows` works."""
-    M, n = V.shape
-    end = np.empty(M, dtype=np.int64)
-    for j in range(M):
-        e = j + 1
-        for i in range(n - 1, j, -1):
-            if V[j, i] != 0.0:
-                e = i + 1
-                break
-        end[j] = e
-    return end
-
-
-@nb.njit(cache=True, fastmath=True)
-def _householder_rows(V, tau, rdiag, end, w):
-    """In place, the Householder QR of Vᵀ (V: M × n, C order, M ≤ n): row j of V ends as
-    (R[0..j, j], v_j[j+1:]) with v_j the j-th reflector (v_j[j] = 1, H_j = I − τ_j v_j v_jᵀ,
-    LAPACK's convention) and R[j, j] in ``rdiag``. False if a column is zero.
-
-    Sparse in the rows' profiles: ``end[j]`` (from :func:`_row_ends`) is one past the last
-    nonzero of row j; v_j is zero beyond ``end[j]``, so H_j touches a row r only on
-    [j, end[j]) and leaves end[r] ≥ end[j] (updated here, ends as v_j's support bound). A
-    contact's rows end at its leg's last column: the feet's reflectors work on 12-18 of
-    Talos's 38 columns. The same numbers as the dense loops (only exact zeros skipped).
-    ``w``: scratch of n."""
-    M, n = V.shape
-    for j in range(M):
-        e = end[j]
-        alpha = V[j, j]
-        s = 0.0
-        for i in range(j + 1, e):
-            s += V[j, i] * V[j, i]
-        norm = np.sqrt(alpha * alpha + s)
-        if not norm > 0.0:
-            return False
-        beta = -norm if alpha >= 0.0 else norm
-        t = (beta - alpha) / beta
-        scale = 1.0 / (alpha - beta)
-        for i in range(j + 1, e):
-            V[j, i] *= scale
-            w[i] = V[j, i]
-        V[j, j] = beta
-        tau[j] = t
-        rdiag[j] = beta
-        for r in range(j + 1, M):               # H_j applied to the columns still to factor
-            vr = V[r]
-            d = vr[j]
-            for i in range(j + 1, e):
-                d += w[i] * vr[i]
-            if d == 0.0:
-                continue
-            d *= t
-            vr[j] -= d
-            for i in range(j + 1, e):
-                vr[i] -= d * w[i]
-            if end[r] < e:
-                end[r] = e
-    return True
-
-
-@nb.njit(cache=True, fastmath=True)
-def _reflect(V, tau, end, k, v, transpose):
-    """v ← Qᵀv (``transpose``) or Qv in place, Q = H₀⋯H_{k−1} the reflectors
-    :func:`_householder_rows` left in V's rows (v_j on [j, end[j]))."""
-    for step in range(k):
-        c = step if transpose else k - 1 - step
-        vc = V[c]
-        e = end[c]
-        t = v[c]
-        for i in range(c + 1, e):
-            t += vc[i] * v[i]
-        t *= tau[c]
-        v[c] -= t
-        for i in range(c + 1, e):
-            v[i] -= t * vc[i]
-
-
-@nb.njit(cache=True, fastmath=True)
-def _upper_inverse(R):
-    """R⁻¹ of an upper-triangular m × m R with nonzero diagonal, row by row from the last
-    (X[i] = (e_i − Σ_{p>i} R[i, p] X[p]) / R[i, i]: contiguous rows)."""
-    m = R.shape[0]
-    X = np.zeros((m, m))
-    for i in range(m - 1, -1, -1):
-        xi = X[i]
-        xi[i] = 1.0
-        ri = R[i]
-        for p in range(i + 1, m):
-            f = ri[p]
-            xp = X[p]
-            for c in range(p, m):
-                xi[c] -= f * xp[c]
-        d = 1.0 / ri[i]
-        for c in range(i, m):
-            xi[c] *= d
-    return X
 
 
 @nb.njit(cache=True, fastmath=True)

@@ -17,7 +17,10 @@ basis, to rounding (each factor is orthogonal to ~1e-16).
 
 The reflectors are held in plain lists (``qs``: each level's Fortran-order Q array from
 :func:`.factorizations.qr_factor`, ``taus``, ``ms``: its rows) and a count ``nf`` of the
-entries in use (the lists are reused, not shrunk).
+entries in use (the lists are reused, not shrunk). ``ends0``: when the outermost level was
+factored within its rows' profiles (:mod:`.profile_qr`, the torque stack's level 0: ``qs[0]``
+is then the n × m transpose of that kernel's rows, LAPACK's storage), its reflectors'
+supports, and they are applied within them (:func:`.profile_qr.reflect`); else empty.
 """
 
 from __future__ import annotations
@@ -27,45 +30,74 @@ import numpy as np
 
 from ..lapack import SIDE_TRANS
 from .factorizations import apply_q, apply_reflectors
+from .profile_qr import reflect, reflect_columns
+
+#: ``ends0`` of a chain whose outermost level is a LAPACK QR
+NO_ENDS = np.empty(0, dtype=np.int64)
 
 
 @nb.njit(cache=True)
-def rows_through(A, qs, taus, ms, nf):
+def _apply(qs, taus, ms, level, ends0, v, transpose):
+    """v ← Q_levelᵀ v or Q_level v in place (the profiled kernel for level 0 when ``ends0``)."""
+    if level == 0 and ends0.shape[0]:
+        reflect(qs[0].T, taus[0], ends0, ms[0], v, transpose)
+    else:
+        apply_reflectors(qs[level], taus[level], ms[level], v, transpose)
+
+
+@nb.njit(cache=True)
+def rows_through(A, qs, taus, ms, nf, ends0):
     """A Z (m × k_nf) for the rows of A (m × n), Z the basis the reflectors keep."""
     m = A.shape[0]
     k = qs[nf - 1].shape[0] - ms[nf - 1]
     AZ = np.empty((m, k))
+    if ends0.shape[0]:                           # a profiled level 0: all rows through it at once
+        W = np.ascontiguousarray(A.T)
+        reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, True)
+        for i in range(m):
+            AZ[i] = _through(W[ms[0]:, i].copy(), qs, taus, ms, 1, nf)
+        return AZ
     for i in range(m):
-        AZ[i] = transposed_times(A[i], qs, taus, ms, nf)
+        AZ[i] = _through(A[i].copy(), qs, taus, ms, 0, nf)
     return AZ
 
 
 @nb.njit(cache=True)
-def transposed_times(u, qs, taus, ms, nf):
-    """Zᵀ u (k_nf) for u (n)."""
-    v = u.copy()
-    for level in range(nf):
+def _through(v, qs, taus, ms, first, nf):
+    """v (overwritten) through the LAPACK levels ``first`` .. nf − 1: their Zᵀ."""
+    for level in range(first, nf):
         apply_reflectors(qs[level], taus[level], ms[level], v, True)
         v = v[ms[level]:].copy()
     return v
 
 
 @nb.njit(cache=True)
-def basis_times(w, qs, taus, ms, nf):
+def transposed_times(u, qs, taus, ms, nf, ends0):
+    """Zᵀ u (k_nf) for u (n)."""
+    v = u.copy()
+    for level in range(nf):
+        _apply(qs, taus, ms, level, ends0, v, True)
+        v = v[ms[level]:].copy()
+    return v
+
+
+@nb.njit(cache=True)
+def basis_times(w, qs, taus, ms, nf, ends0):
     """Z w (n) for w (k_nf)."""
     for level in range(nf - 1, -1, -1):
         v = np.zeros(qs[level].shape[0])
         v[ms[level]:] = w
-        apply_reflectors(qs[level], taus[level], ms[level], v, False)
+        _apply(qs, taus, ms, level, ends0, v, False)
         w = v
     return w
 
 
 @nb.njit(cache=True)
-def explicit_basis(qs, taus, ms, nf):
+def explicit_basis(qs, taus, ms, nf, ends0):
     """Z (n × k_nf, C order) as a matrix: Q_nf applied to [0; I], then each level above it
     to [0; ·] (dormqr from the right on the transpose, whose Fortran layout is the C
-    layout of the columns; for one level the very call the QR route's own basis makes)."""
+    layout of the columns; for one level the very call the QR route's own basis makes).
+    A profiled level 0 (``ends0``) is applied within its supports (:func:`.profile_qr.reflect_columns`)."""
     last = nf - 1
     k = qs[last].shape[0]
     p = k - ms[last]
@@ -79,7 +111,9 @@ def explicit_basis(qs, taus, ms, nf):
             V = np.zeros((k, p))
             V[ms[level]:] = W
             W = V
-        if apply_q(SIDE_TRANS, p, k, ms[level], qs[level], k, taus[level], W, p, work) != 0:
+        if level == 0 and ends0.shape[0]:
+            reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, False)
+        elif apply_q(SIDE_TRANS, p, k, ms[level], qs[level], k, taus[level], W, p, work) != 0:
             W[:, :] = np.nan       # never seen: LAPACK's argument check; a NaN step is reported as a failed cycle
     return W
 

@@ -20,9 +20,11 @@ solved exactly; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
 - ``GRAM`` (m ≥ k): normal equations (Cholesky, or eigen-decomposition when the
   Cholesky bounds are inconclusive), accepted only if κ(AZ)² ≤ 1/``gram_min_ratio``
   (full rank, nothing left free);
-- ``QR`` (m < k): Householder QR of (AZ)ᵀ, accepted only if the bound
-  1/‖R⁻¹‖_F ≤ σ_min proves full row rank above the damping threshold
-  (σ_max ≤ ‖AZ‖_F bounds the rank tolerance);
+- ``QR`` (m < k): Householder QR of (AZ)ᵀ, accepted only if it proves full row rank
+  above the damping threshold (σ_max ≤ ‖AZ‖_F bounds the rank tolerance): by the bound
+  1/‖R⁻¹‖_F ≤ σ_min, else by σ_min itself, 1/‖R⁻¹‖₂ from the m × m R⁻ᵀR⁻¹ (a few Jacobi
+  rotations), with a margin over the SVD's own rounding (:func:`.sigma_min.qr_accepted`: the SVD
+  would decide the same);
 - ``COD`` (either shape, when the first route refuses): a complete orthogonal
   decomposition from a column-pivoted QR, for rank-deficient levels whose rank
   it can prove (a posture level has no say on the internal contact forces);
@@ -45,6 +47,7 @@ from ..lapack import (
     dpotrf,
     dtrtri,
 )
+from .sigma_min import qr_accepted
 
 AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
 
@@ -185,9 +188,7 @@ def qr_factor(AZ, r, rank_tol, threshold):
            mi[2:].ctypes)
     if mi[2] != 0:
         return False, np.empty(0), Q, tau, R, work
-    ub_max = np.sqrt(np.sum(AZ * AZ))           # ‖R‖_F = ‖AZ‖_F ≥ σ_max
-    lb_min = 1.0 / np.sqrt(np.sum(Rinv * Rinv))  # ≤ σ_min
-    if not lb_min > max(rank_tol * max(1.0, ub_max), threshold):
+    if not qr_accepted(Rinv, np.sqrt(np.sum(AZ * AZ)), rank_tol, threshold):   # ‖AZ‖_F ≥ σ_max
         return False, np.empty(0), Q, tau, R, work
     z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
     z[:m] = Rinv.T @ r
