@@ -34,10 +34,16 @@ def moved_bound(weights_t, step, moved, d0, influence, add, near):
     ``moved += weightsᵀ step`` when ``add`` (``weights_t``: the (nv × pairs) transpose of the weights, so that the
     inner loop runs over the pairs, contiguous), and write into ``near`` the pairs whose bound d₀ − moved is below
     ``influence`` (m; a NaN bound, an infinite weight times a zero step, counts as −∞); returns how many."""
+    return _bound(weights_t, step, False, moved, d0, influence, add, near)
+
+
+@nb.njit(cache=True)
+def _bound(weights_t, step, take_abs, moved, d0, influence, add, near):
+    """:func:`moved_bound`, on |``step``| when ``take_abs``."""
     nv, npairs = weights_t.shape
     if add:
         for j in range(nv):
-            sj = step[j]
+            sj = abs(step[j]) if take_abs else step[j]
             for k in range(npairs):
                 moved[k] += weights_t[j, k] * sj
     n = 0
@@ -54,18 +60,7 @@ def broad_phase(weights_t, diff, moved, d0, influence, add, near, active, on, of
     """One call before coal: :func:`moved_bound` on the joints' motion |``diff``| (``diff``: the last
     ``pin.difference``, its absolute value taken here), then :func:`toggles` of the kept pairs ``near[:n]`` against
     ``active``. Returns (n kept, how many to activate into ``on``, how many to deactivate into ``off``)."""
-    nv, npairs = weights_t.shape
-    if add:
-        for j in range(nv):
-            sj = abs(diff[j])
-            for k in range(npairs):
-                moved[k] += weights_t[j, k] * sj
-    n = 0
-    for k in range(npairs):
-        b = d0[k] - moved[k]
-        if math.isnan(b) or b < influence:
-            near[n] = k
-            n += 1
+    n = _bound(weights_t, diff, True, moved, d0, influence, add, near)
     n_on, n_off = toggles(active, near[:n], on, off)
     return n, n_on, n_off
 
