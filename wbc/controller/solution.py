@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 
@@ -85,6 +85,9 @@ class LevelDiagnostics:
             return ""
         head = f"level {self.index}: " + (f"sacrificed {self.sacrificed}" if self.sacrificed else "tasks met")
         return head + ("; " + "; ".join(causes) if causes else "")
+
+
+_S = TypeVar("_S", bound="Solution")
 
 
 class SolutionReport(NamedTuple):
@@ -187,6 +190,27 @@ class Solution:
         self._task_residuals: Any = report.task_residuals
         self._diagnostics: Any = report.diagnostics
         self._evaluate = report.evaluate
+
+    @classmethod
+    def ok_without_qp(cls: type[_S], zeros: tuple[np.ndarray, np.ndarray, np.ndarray], x: np.ndarray, evaluate,
+                      **more: Any) -> _S:
+        """``cls(*zeros, {}, x, "ok", "", SolutionReport(evaluate=evaluate))`` with the attributes ``more``
+        of a subclass added: the same attributes set in one step (a cycle answered without a QP, nothing
+        relaxed or saturated, its diagnostics from ``evaluate`` when read; ~1 µs less than through the
+        named tuple and ``__init__``).
+
+        Args:
+            zeros: (q̈, τ, τ_full), zero arrays for an output without accelerations or torques.
+            x: the solver's solution (the decision vector).
+            evaluate: called once when the residuals or diagnostics are first read.
+            more: a subclass's own attributes (the velocity mode's ``qd``, ``q_next``).
+        """
+        sol = cls.__new__(cls)
+        sol.__dict__.update(qdd=zeros[0], tau=zeros[1], tau_full=zeros[2], forces={}, x=x, status="ok", message="",
+                            qp_count=0, relaxed=False, saturated=False, tau_ratio=0.0, _degraded=False,
+                            saturated_torques=[], singular_levels=[], fault="", _residuals=None,
+                            _task_residuals=None, _diagnostics=None, _evaluate=evaluate, **more)
+        return sol
 
     @property
     def conditions(self) -> tuple[str, ...]:

@@ -41,7 +41,9 @@ def dynamics_model(model: pin.Model) -> pin.Model:
     of a ~45 µs call. The algorithms read only the joints, placements, inertias, armature and
     gravity, which this copy holds as they are, so M⁻¹ and ABA's accelerations are the same
     numbers, bit for bit (tests/sim/test_dynamics_model.py); pinocchio 4's bindings copy
-    nothing, and the copy costs there what the full model costs."""
+    nothing, and the copy costs there what the full model costs. The copy is taken when the
+    simulator is built: a model changed afterwards needs a new simulator (nothing in wbc changes
+    a simulator's model after that; a perturbed model is given to the simulator it perturbs)."""
     if any("Mimic" in model.joints[j].shortname() for j in range(1, model.njoints)):
         return model
     out = pin.Model()
