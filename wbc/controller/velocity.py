@@ -277,13 +277,14 @@ class VelocityController:
 
     def _accepted(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan, got: tuple) -> VelocitySolution:
         """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got``: its
-        x, ints, floats, :meth:`wbc.solvers.hqp.HierarchicalQP.equality_step`): what :meth:`_solve`
-        builds from the same run's SolveResult (status "ok", no QP, nothing relaxed, no message),
-        its levels' records decoded only when the diagnostics are read."""
+        x, ints, floats and the rows' values at x, :meth:`wbc.solvers.hqp.HierarchicalQP.equality_step`,
+        the plan's problem's rows being the buffer's: :func:`row_values` of ``buf`` at q̇, computed in
+        the solver's call): what :meth:`_solve` builds from the same run's SolveResult (status "ok",
+        no QP, nothing relaxed, no message), its levels' records decoded only when the diagnostics
+        are read."""
         buf = plan.buffer
-        values = row_values(buf.A, buf.b, buf.C, buf.lo, buf.hi, qd)
-        evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:], plan.problem.levels,
-                           (values, len(buf.b), len(buf.lo)), (self.sacrifice_tol, self.sacrifice_rel))
+        evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:3], plan.problem.levels,
+                           (got[3], len(buf.b), len(buf.lo)), (self.sacrifice_tol, self.sacrifice_rel))
         return VelocitySolution.accepted(qd, pin.integrate(self.robot.model, q, qd * self.dt), self.robot.na, evaluate)
 
     def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):

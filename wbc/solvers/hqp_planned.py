@@ -16,7 +16,7 @@ from ..problem.result import DeferredLevels, LevelInfo, SolveResult
 from ..problem.rows import Level
 from .cascade import _NO_BASIS, GRAM_MIN_RATIO
 from .kernels.cascade_run import cascade_prefix, cascade_prefix_profiled
-from .kernels.equality_run import equality_cascade
+from .kernels.equality_run import equality_cascade, equality_step_values
 from .kernels.records import CALL, LAMBDA2, LEVEL_FLOATS, LEVEL_INTS, decode
 from .kernels.records import CERTIFIED as CERTIFIED_FIELD
 
@@ -87,9 +87,11 @@ class PlannedEntry:
         certified = sum(ints.item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
         return SolveResult(out[1], _deferred(ints, floats, levels), True, certified, "")
 
-    def equality_step(self: Any, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """The equality-only cascade of :meth:`solve_planned` alone: ``(x, ints, floats)`` when it
-        is accepted (x the solution, its levels' records :func:`equality_levels` reads), else None,
+    def equality_step(self: Any, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """The equality-only cascade of :meth:`solve_planned` alone: ``(x, ints, floats, values)`` when
+        it is accepted (x the solution, its levels' records :func:`equality_levels` reads, and the
+        problem's rows' values at x, :func:`wbc.problem.buffer.row_values` of ``problem.rows``, in the
+        same compiled call: :func:`~wbc.solvers.kernels.equality_run.equality_step_values`), else None,
         and then ``solve_planned(problem)`` (without ``equalities_first``: nothing computed twice)
         gives the hqp's result. The same x and records as ``solve_planned(problem,
         equalities_first=True)``, without building its :class:`SolveResult` (the velocity mode's
@@ -99,8 +101,8 @@ class PlannedEntry:
         if not (self.equality_first and _plain(self)):
             return None
         got, x0 = self._planned_args(problem)
-        done, x, ints, floats = equality_cascade(got[3], got[4], x0, self._hints, got[5])
-        return (x, ints, floats) if done else None
+        done, x, ints, floats, values = equality_step_values(got[3], got[4], x0, self._hints, got[5])
+        return (x, ints, floats, values) if done else None
 
     def _planned_args(self: Any, problem: Problem) -> tuple[tuple, np.ndarray]:
         """(the compiled run's arguments for this rows object, level list and solver setting,
