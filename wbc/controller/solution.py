@@ -130,6 +130,12 @@ class SolutionReport(NamedTuple):
 NO_REPORT = SolutionReport()
 
 
+#: the attributes of a cycle answered without a QP (:meth:`Solution.ok_without_qp`) that are the same
+#: every such cycle, each immutable (the lists and the forces' dict are new each cycle)
+_OK_WITHOUT_QP = {"status": "ok", "message": "", "qp_count": 0, "relaxed": False, "saturated": False, "tau_ratio": 0.0,
+                  "_degraded": False, "fault": "", "_residuals": None, "_task_residuals": None, "_diagnostics": None}
+
+
 class Solution:
     """Result of :meth:`wbc.Controller.solve`.
 
@@ -196,7 +202,7 @@ class Solution:
                       **more: Any) -> _S:
         """``cls(*zeros, {}, x, "ok", "", SolutionReport(evaluate=evaluate))`` with the attributes ``more``
         of a subclass added: the same attributes set in one step (a cycle answered without a QP, nothing
-        relaxed or saturated, its diagnostics from ``evaluate`` when read; ~1 µs less than through the
+        relaxed or saturated, its diagnostics from ``evaluate`` when read; ~1.5 µs less than through the
         named tuple and ``__init__``).
 
         Args:
@@ -206,10 +212,9 @@ class Solution:
             more: a subclass's own attributes (the velocity mode's ``qd``, ``q_next``).
         """
         sol = cls.__new__(cls)
-        sol.__dict__.update(qdd=zeros[0], tau=zeros[1], tau_full=zeros[2], forces={}, x=x, status="ok", message="",
-                            qp_count=0, relaxed=False, saturated=False, tau_ratio=0.0, _degraded=False,
-                            saturated_torques=[], singular_levels=[], fault="", _residuals=None,
-                            _task_residuals=None, _diagnostics=None, _evaluate=evaluate, **more)
+        # one dict display: the constant (immutable) attributes from _OK_WITHOUT_QP, new lists and dict
+        sol.__dict__ = {"qdd": zeros[0], "tau": zeros[1], "tau_full": zeros[2], "forces": {}, "x": x, **_OK_WITHOUT_QP,
+                        "saturated_torques": [], "singular_levels": [], "_evaluate": evaluate, **more}
         return sol
 
     @property

@@ -89,11 +89,16 @@ class VelocitySolution(Solution):
         """``VelocitySolution(qd, q_next, na, "ok", "", SolutionReport(evaluate=evaluate))``: the same
         attributes (``tests/controller/test_velocity_accepted.py`` compares them), set in one step by
         :meth:`Solution.ok_without_qp` (the velocity mode's common cycle)."""
-        nv = len(qd)
-        return cls.ok_without_qp((_zeros(nv), _zeros(na), _zeros(nv)), qd, evaluate, qd=qd, q_next=q_next)
+        zeros = _ZERO_FIELDS.get((len(qd), na))
+        if zeros is None:
+            nv = len(qd)
+            zeros = _ZERO_FIELDS[nv, na] = (_zeros(nv), _zeros(na), _zeros(nv))
+        return cls.ok_without_qp(zeros, qd, evaluate, qd=qd, q_next=q_next)
 
 
 _ZEROS: dict[int, np.ndarray] = {}
+#: (q̈, τ, τ_full) of a velocity solution by (nv, na): :func:`_zeros`' vectors, looked up once a cycle
+_ZERO_FIELDS: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
 def _solve_planned(solver, problem, equalities_first: bool = True):

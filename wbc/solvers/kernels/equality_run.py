@@ -21,10 +21,11 @@ direction left.
 
 Every acceptance test is the hqp's own (:mod:`.factorizations`): a wide level only if
 1/‖R_kk⁻¹‖_F > max(rank_tol·max(1, ‖R_kk‖_F), ε) (full rank, undamped), the tall level
-only on the Cholesky branch's bounds; the inequalities are checked at every x̂_k against
-the rows of levels 0..k to ``tol``, as the run does. Any test that fails, a route hint in
-force, or a non-finite number: ``ok`` False and the caller runs the full hqp, so the
-result is always the hqp's (to rounding: the same factorisations by another order of
+only on the Cholesky branch's bounds (its ‖U⁻¹‖_F² by Woodbury from the few rows of Z a
+posture leaves out: :func:`_inverse_norm2`, the same bound to rounding, x unchanged); the
+inequalities are checked at every x̂_k against the rows of levels 0..k to ``tol``, as the
+run does. Any test that fails, a route hint in force, or a non-finite number: ``ok`` False
+and the caller runs the full hqp, so the result is always the hqp's (to rounding: the same factorisations by another order of
 operations, ~1e-15 relative on the Talos IK problem). Sparse where the rows are: the QR works
 within each row's profile (:mod:`.profile_qr`: a contact's rows end at its leg's), the
 inequality rows are checked on their nonzeros (joint limits: unit rows). Records in the format of
@@ -36,6 +37,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ...cholesky import cholesky_lower
 from ...problem.buffer import row_values
 from .factorizations import GRAM, QR, unit_columns
 from .profile_qr import householder_rows as _householder_rows
@@ -74,6 +76,36 @@ def _gram_solve(U, g):
             s -= U[i, p] * z[p]
         z[i] = s / U[i, i]
     return z
+
+
+@nb.njit(cache=True, fastmath=True)
+def _inverse_norm2(U, Y):
+    """‖U⁻¹‖_F² = trace G⁻¹ of G = UᵀU (U upper triangular, d × d). Where G = I − YᵀY with Y
+    of p < d rows (the tall level of distinct unit rows: Y the p rows of Z its rows leave out),
+    by Woodbury, G⁻¹ = I + Yᵀ S⁻¹ Y with S = I − Y Yᵀ (p × p), so trace G⁻¹ = d − p + trace S⁻¹
+    (trace(S⁻¹ YYᵀ) = trace(S⁻¹(I − S))) and trace S⁻¹ = ‖L⁻¹‖_F² for S = L Lᵀ: a p × p Cholesky
+    and inverse (Talos: 6 × 6) instead of U's d × d inverse (20 × 20); the same number to
+    rounding. Otherwise (Y with no rows or p ≥ d, or S not positive definite to rounding) by
+    U⁻¹. Read only for the acceptance bound 1/‖U⁻¹‖_F² ≤ σ_min²(U)."""
+    d = U.shape[0]
+    p = Y.shape[0]
+    if 0 < p < d:
+        S = np.empty((p, p))
+        for i in range(p):
+            yi = Y[i]
+            for j in range(i + 1):
+                yj = Y[j]
+                t = 0.0
+                for c in range(d):
+                    t += yi[c] * yj[c]
+                S[i, j] = S[j, i] = -t
+            S[i, i] += 1.0
+        L, ok = cholesky_lower(S, 0.0)
+        if ok:
+            Linv = _upper_inverse(L.T.copy())         # (Lᵀ)⁻¹ = (L⁻¹)ᵀ: the same Frobenius norm
+            return (d - p) + np.sum(Linv * Linv)
+    Uinv = _upper_inverse(U)
+    return np.sum(Uinv * Uinv)
 
 
 @nb.njit(cache=True, fastmath=True)
@@ -257,10 +289,12 @@ def equality_cascade(eq, ineq, x0, hints, settings):
     _reflect(V, tau, end, wide, g, True)
     gz = g[wide:].copy()
     G = np.zeros((dof, dof))
+    Y = np.empty((n - m if distinct else 0, dof))  # the rows Z_i, i ∉ S (below: ‖U⁻¹‖_F by Woodbury)
     if distinct:                                  # G = Σ_{i∈S} Z_iᵀ Z_i = I − Σ_{i∉S} Z_iᵀ Z_i
         for i in range(dof):
             G[i, i] = 1.0
         e = np.empty(n)
+        p = 0
         for c in range(n):
             if unit[c] >= 0:
                 continue
@@ -271,6 +305,8 @@ def equality_cascade(eq, ineq, x0, hints, settings):
             for i in range(dof):
                 for j in range(dof):
                     G[i, j] -= zc[i] * zc[j]
+            Y[p] = zc
+            p += 1
     else:
         a = np.empty(n)
         for i in range(m):
@@ -300,8 +336,7 @@ def equality_cascade(eq, ineq, x0, hints, settings):
                 ri[c] -= f * rj[c]
         for i in range(j + 1, dof):
             U[i, j] = 0.0
-    Uinv = _upper_inverse(U)
-    lb2 = 1.0 / np.sum(Uinv * Uinv)               # ≤ σ_min²
+    lb2 = 1.0 / _inverse_norm2(U, Y)              # ≤ σ_min²
     if not (lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol[k] * max(1.0, np.sqrt(ub2)),
                                                                threshold[k])):
         return False, x0, none[0], none[1]
