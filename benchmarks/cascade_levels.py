@@ -4,7 +4,8 @@
 
 Runs the bench trajectory (``benchmarks.harness``: the moving CoM and hand targets, the 5-level
 Talos stack, 200 warm-up cycles), captures the arguments of every call of the compiled run
-(:func:`wbc.solvers.kernels.cascade_run.cascade_prefix`, the hqp's torque cycle) and replays
+(:func:`wbc.solvers.kernels.cascade_run.cascade_prefix_profiled`, the hqp's torque cycle since
+level 0 is factored within its rows' profiles) and replays
 them cut after level k (the levels' row ends truncated), ``--reps`` times each: the median
 thread CPU time per call, cumulative, and how many of the captured cycles solved a certified
 QP at each level. The route hints are copied per call, so each replay starts from the state
@@ -24,13 +25,12 @@ def capture(cycles: int) -> list:
     import pinocchio as pin
 
     import wbc
-    import wbc.solvers.hqp as hq
     import wbc.solvers.hqp_planned as hp
     from benchmarks.harness import stacks, trajectory
 
     warnings.simplefilter("ignore")
     calls: list = []
-    run = hp.cascade_prefix
+    run = hp.cascade_prefix_profiled
 
     def kept(eq, ineq, start, hints, settings):
         calls.append((eq, ineq, start, hints.copy(), settings))
@@ -38,7 +38,7 @@ def capture(cycles: int) -> list:
         calls[-1] = tuple(_copied(a) for a in calls[-1])      # the buffer is refilled next cycle
         return out
 
-    hp.cascade_prefix = hq.cascade_prefix = kept
+    hp.cascade_prefix_profiled = kept
     robot = wbc.load_robot("talos")
     stack = stacks.talos_stack()
     ctrl = wbc.Controller(robot, stack, solver="hqp", backend="daqp")
@@ -52,7 +52,7 @@ def capture(cycles: int) -> list:
         sol = ctrl.solve(q, v)
         v = v + sol.qdd * trajectory.DT
         q = pin.integrate(robot.model, q, v * trajectory.DT)
-    hp.cascade_prefix = hq.cascade_prefix = run
+    hp.cascade_prefix_profiled = run
     return calls
 
 
@@ -63,7 +63,7 @@ def _copied(a):
 
 
 def main() -> None:
-    from wbc.solvers.kernels.cascade_run import cascade_prefix
+    from wbc.solvers.kernels.cascade_run import cascade_prefix_profiled as cascade_prefix
     from wbc.solvers.kernels.records import CERTIFIED, LEVEL_INTS
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

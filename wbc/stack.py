@@ -242,10 +242,10 @@ class Stack:
         key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
         buf = self._row_buffer
         if buf is not None and buf.key == key:
-            # each task writes its equality rows into its slot of the buffer (for this call only)
-            rows = [[t.rows(robot, layout, out) for t, out in zip(tasks, slots)]
-                    for tasks, slots in zip(groups, buf.slots)]
-            if buf.fill(groups, rows):
+            # each task writes its equality rows into its slot of the buffer (for this call
+            # only), and its other rows are put in as they come; rows: the structure changed
+            rows = buf.refill(robot, layout, groups)
+            if rows is None:
                 return buf.levels
         else:
             rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]

@@ -105,51 +105,98 @@ class RowBuffer:
         False (nothing to trust) if they no longer have the structure the buffer was built for."""
         if len(rows) != len(self.plans):
             return False
-        copyto = np.copyto
+        put = _put
         for plan, rs, tasks in zip(self.plans, rows, groups):
             if len(rs) != len(plan):
                 return False
-            for (w0, eqv, inv, boxv), r, t in zip(plan, rs, tasks):
-                if t.weight != w0:
-                    return False
-                rA, rb = r.A, r.b
-                if rA is not None:
-                    if eqv is None or rb is None:
-                        return False
-                    A, b, w = eqv
-                    if rA is A and rb is b:
-                        pass                        # written in place, in its slot
-                    elif rA.shape != A.shape:
-                        return False
-                    elif w == 1.0:
-                        copyto(A, rA)
-                        copyto(b, rb)
-                    else:
-                        np.multiply(rA, w, out=A)
-                        np.multiply(rb, w, out=b)
-                elif eqv is not None:
-                    return False
-                rC, rlo, rhi = r.C, r.lo, r.hi
-                if rC is not None and len(rC):
-                    if inv is None or rC.shape != inv[0].shape or rlo is None or rhi is None:
-                        return False
-                    C, lo, hi = inv
-                    copyto(C, rC)
-                    copyto(lo, rlo)
-                    copyto(hi, rhi)
-                elif inv is not None:
-                    return False
-                if r.box is not None:
-                    if boxv is None:
-                        return False
-                    lo, hi, src, idx = boxv
-                    if r.box[0] is not src and not np.array_equal(r.box[0], idx):
-                        return False
-                    copyto(lo, r.box[1])
-                    copyto(hi, r.box[2])
-                elif boxv is not None:
+            for entry, r, t in zip(plan, rs, tasks):
+                if not put(entry, r, t):
                     return False
         return True
+
+    def refill(self, robot, layout, groups: list[list[Task]]) -> list[list[Rows]] | None:
+        """Each task's rows of this cycle (``Task.rows`` with its slot) put in as it comes,
+        one pass over the tasks (:meth:`fill`'s checks and copies, task by task): None when
+        every task's rows are in; else (the structure is no longer the buffer's) every task's
+        :class:`Rows` of this call, each task called once, for a new buffer.
+
+        Args:
+            robot: the :class:`~wbc.robot.model.RobotModel`, updated to this cycle's state.
+            layout: this cycle's :class:`~wbc.problem.rows.Layout`.
+            groups: the tasks, level by level (as the buffer was built for).
+        """
+        plans, all_slots, put = self.plans, self.slots, _put
+        ok = len(groups) == len(plans)
+        rows: list[list[Rows]] = []
+        for k, tasks in enumerate(groups):
+            level: list[Rows] = []
+            rows.append(level)
+            if ok and len(tasks) == len(plans[k]):
+                for t, entry, out in zip(tasks, plans[k], all_slots[k]):
+                    r = t.rows(robot, layout, out)
+                    level.append(r)
+                    if not put(entry, r, t):
+                        ok = False
+                        break
+                else:
+                    continue
+            ok = False
+            # the structure changed: the level's other tasks called once each, in their slots
+            slots = all_slots[k] if k < len(all_slots) else []
+            for j in range(len(level), len(tasks)):
+                level.append(tasks[j].rows(robot, layout, slots[j] if j < len(slots) else None))
+        return None if ok else rows
+
+
+def _put(entry: tuple, r: Rows, t: Task) -> bool:
+    """One task's rows ``r`` into its place in the buffer (``entry``, its plan: weight,
+    equality, inequality and box views); False if they do not have the structure it was
+    built for (another weight, shape or box index)."""
+    if t.weight != entry[0]:
+        return False
+    rA, rb = r.A, r.b
+    eqv = entry[1]
+    if rA is not None:
+        if eqv is None or rb is None:
+            return False
+        A, b, w = eqv
+        if rA is A and rb is b:
+            pass                        # written in place, in its slot
+        elif rA.shape != A.shape:
+            return False
+        elif w == 1.0:
+            np.copyto(A, rA)
+            np.copyto(b, rb)
+        else:
+            np.multiply(rA, w, out=A)
+            np.multiply(rb, w, out=b)
+    elif eqv is not None:
+        return False
+    rC = r.C
+    inv = entry[2]
+    if rC is not None and len(rC):
+        rlo, rhi = r.lo, r.hi
+        if inv is None or rC.shape != inv[0].shape or rlo is None or rhi is None:
+            return False
+        C, lo, hi = inv
+        np.copyto(C, rC)
+        np.copyto(lo, rlo)
+        np.copyto(hi, rhi)
+    elif inv is not None:
+        return False
+    rbox = r.box
+    boxv = entry[3]
+    if rbox is not None:
+        if boxv is None:
+            return False
+        lo, hi, src, idx = boxv
+        if rbox[0] is not src and not np.array_equal(rbox[0], idx):
+            return False
+        np.copyto(lo, rbox[1])
+        np.copyto(hi, rbox[2])
+    elif boxv is not None:
+        return False
+    return True
 
 
 def split_values(values: np.ndarray, ne: int, ni: int) -> tuple[np.ndarray, ...]:

@@ -83,9 +83,8 @@ class PlannedEntry:
             out = cascade_prefix(got[3], got[4], start, self._hints, got[5])
         if out[0] != L:
             return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, got[5][-1]), out)
-        ints, floats = out[4], out[5]
-        certified = sum(ints.item(LEVEL_INTS * k + CERTIFIED_FIELD) for k in range(L))
-        return SolveResult(out[1], _deferred(ints, floats, levels), True, certified, "")
+        deferred, certified = _deferred(out[4], out[5], levels)
+        return SolveResult(out[1], deferred, True, certified, "")
 
     def equality_step(self: Any, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """The equality-only cascade of :meth:`solve_planned` alone: ``(x, ints, floats, values)`` when
@@ -149,13 +148,21 @@ def equality_levels(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -
     return DeferredLevels(partial(_decoded, ints, floats, levels), singular=_NONE)
 
 
-def _deferred(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> DeferredLevels:
-    """The records of a compiled run that solved every level, decoded when read, with the
-    levels :func:`decode` would report damped (λ² > 0 on a level that took a step) read now."""
+def _deferred(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> tuple[DeferredLevels, int]:
+    """(the records of a compiled run that solved every level, decoded when read, with the
+    levels :func:`decode` would report damped (λ² > 0 on a level that took a step) read now;
+    the QPs it solved by certificate, the levels' ``CERTIFIED`` counts summed), one pass
+    over the records."""
     L = len(levels)
     iv, fv = ints[:LEVEL_INTS * L].tolist(), floats[:LEVEL_FLOATS * L].tolist()
-    damped = [k for k in range(L) if iv[LEVEL_INTS * k + CALL] >= 0 and fv[LEVEL_FLOATS * k + LAMBDA2] > 0.0]
-    return DeferredLevels(partial(_decoded, ints, floats, levels), singular=damped)
+    damped = []
+    certified = 0
+    for k in range(L):
+        i = LEVEL_INTS * k
+        certified += iv[i + CERTIFIED_FIELD]
+        if iv[i + CALL] >= 0 and fv[LEVEL_FLOATS * k + LAMBDA2] > 0.0:
+            damped.append(k)
+    return DeferredLevels(partial(_decoded, ints, floats, levels), singular=damped), certified
 
 
 def _decoded(ints: np.ndarray, floats: np.ndarray, levels: list[Level]) -> list[LevelInfo]:

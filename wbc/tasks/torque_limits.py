@@ -37,12 +37,13 @@ class TorqueLimits(Task):
             a = robot.actuated_idx
             a = np.asarray(a[np.isfinite(robot.tau_max[a])], dtype=np.int64)
             n = len(a)
-            buf = self._buf = (np.zeros((n, layout.nx)), a, self.scale * robot.tau_max[a], self.scale,
-                               np.zeros(n), np.zeros(n), np.zeros(n))
-        C, a, tmax, _, ha, lo, hi = buf
+            tmax = self.scale * robot.tau_max[a]
+            buf = self._buf = (np.zeros((n, layout.nx)), a, tmax, self.scale, np.zeros(n), np.zeros(n), np.zeros(n),
+                               -tmax)
+        C, a, tmax, _, ha, lo, hi, neg = buf
         dynamics_block(C, ha, robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, a,
                        layout.nv, 1.0)
-        np.subtract(-tmax, ha, out=lo)
+        np.subtract(neg, ha, out=lo)                # −τ_max held (negation is exact): no temporary a cycle
         np.subtract(tmax, ha, out=hi)
         return Rows(C=C, lo=lo, hi=hi)
 
