@@ -135,10 +135,9 @@ class FeatureDrift:
         R = self._rotations
         if R is None:
             R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
-        out, bad = feature_drift(ks, geoms, d, P, NN, R, data.J, data.dJ, cm.support, jid, v, self.kind, self.radius,
-                                 self.ends, self.vertices, self.neighbours, self.offset, self.count, self.hints,
-                                 FEATURE_TOL, MIN_DISTANCE, STEP)
-        self.fallback = int(bad.sum())
+        out, bad, self.fallback = feature_drift(ks, geoms, d, P, NN, R, data.J, data.dJ, cm.support, jid, v, self.kind,
+                                                self.radius, self.ends, self.vertices, self.neighbours, self.offset,
+                                                self.count, self.hints, FEATURE_TOL, MIN_DISTANCE, STEP)
         if self.fallback:
             out[bad] = curvature_drift(cm, robot, ks[bad])
         return out
