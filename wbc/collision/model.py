@@ -421,10 +421,11 @@ class CollisionModel:
         gives NaN: that pair's bound is −∞ until it is computed again)."""
         gd = self.geometry_data
         _, res, table, active = self._entry(gd)
-        add = self._q_last is not None
-        diff = pin.difference(self.robot.model, self._q_last, q) if add else self._no_step
-        if add and self._q_last.shape == q.shape:
-            np.copyto(self._q_last, q)              # the held copy, refilled
+        last = self._q_last
+        add = last is not None
+        diff = pin.difference(self.robot.model, last, q) if add else self._no_step
+        if last is not None and last.shape == q.shape:
+            np.copyto(last, q)                      # the held copy, refilled
         else:
             self._q_last = q.copy()
         n, n_on, n_off = broad_phase(self._weights_t, diff, self._moved, self._d0, influence, add, self._near_buf,

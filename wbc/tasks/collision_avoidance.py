@@ -249,8 +249,8 @@ class CollisionAvoidance(Task):
             self._buf = (np.zeros((n, layout.nx)), np.zeros(n), np.full(n, _FREE))
             self._out = Rows(C=self._buf[0], lo=self._buf[1], hi=self._buf[2])
         C, lo, hi = self._buf
-        out = self._out
-        assert out is not None
+        held = self._out
+        assert held is not None
         r = self.model.distance_rows(robot, self.influence)
         order = r.d.argsort()[: self.max_rows]          # np.argsort's sort, without its dispatch
         k = len(order)
@@ -260,7 +260,7 @@ class CollisionAvoidance(Task):
             n = self._vertex_rows(robot, r, order, C[k:, : robot.nv], lo[k:])
             hi[k:k + n] = np.inf
         self.last = (r, order)
-        return out           # the buffer's arrays, refilled above: one Rows for every cycle
+        return held          # the buffer's arrays, refilled above: one Rows for every cycle
 
     def _hull_vertices(self, g: int) -> np.ndarray | None:
         """Robot geometry ``g``'s hull vertices in its joint's frame (None: not a hull)."""
