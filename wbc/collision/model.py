@@ -421,13 +421,9 @@ class CollisionModel:
         gives NaN: that pair's bound is −∞ until it is computed again)."""
         gd = self.geometry_data
         _, res, table, active = self._entry(gd)
-        last = self._q_last
-        add = last is not None
-        diff = pin.difference(self.robot.model, last, q) if add else self._no_step
-        if last is not None and last.shape == q.shape:
-            np.copyto(last, q)                      # the held copy, refilled
-        else:
-            self._q_last = q.copy()
+        add = self._q_last is not None
+        diff = pin.difference(self.robot.model, self._q_last, q) if add else self._no_step
+        self._q_last = q.copy()
         n, n_on, n_off = broad_phase(self._weights_t, diff, self._moved, self._d0, influence, add, self._near_buf,
                                      active, self._on, self._off)
         near = self._near_buf[:n]
@@ -460,6 +456,7 @@ class CollisionModel:
         m = len(ks)
         P1, P2, N = P[:m], P[m:], NN[m:]
         J = self._jacobians(data, coef, jid)
+        drift = np.zeros(m)
         if m and self.exact_drift and self.analytic_drift:
             if self.feature_drift is None:
                 from .feature_drift import FeatureDrift
@@ -468,8 +465,6 @@ class CollisionModel:
             drift = self.feature_drift.drift(robot, ks, d, P, NN, jid, geoms)
         elif m:
             drift = curvature_drift(self, robot, ks) if self.exact_drift else rigid_drift(self, robot, ks, P1, P2, N)
-        else:
-            drift = np.zeros(0)
         rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
         self._cycle, self._rows = key, rows
         return rows
