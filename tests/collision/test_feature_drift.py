@@ -122,6 +122,25 @@ def test_the_joint_rotations_follow_forward_kinematics(talos):
         np.testing.assert_array_equal(fd._rotations[j], cm.fd_data.oMi[j].rotation)
 
 
+
+def test_the_held_jacobians_follow_later_time_variations(talos):
+    """J and J̇ read once from the drift's pinocchio data are its J and J̇ after a later
+    ``computeJointJacobiansTimeVariation`` at another state (and not all zero: they moved)."""
+    cm = CollisionModel(talos)
+    cm.analytic_drift = True
+    talos.update(talos.q_default, np.ones(talos.nv))
+    cm.distance_rows(talos, 0.05)
+    fd = cm.feature_drift
+    assert fd._jacobians is not None
+    J, dJ = fd._jacobians
+    before = (J.copy(), dJ.copy())
+    rng = np.random.default_rng(4)
+    pin.computeJointJacobiansTimeVariation(talos.model, cm.fd_data, pin.randomConfiguration(talos.model),
+                                           rng.normal(size=talos.nv))
+    np.testing.assert_array_equal(J, cm.fd_data.J)
+    np.testing.assert_array_equal(dJ, cm.fd_data.dJ)
+    assert not np.array_equal(J, before[0]) and not np.array_equal(dJ, before[1])
+
 def test_the_drift_option():
     assert CollisionAvoidance(drift="analytic").params()["drift"] == "analytic"
     assert "drift" not in CollisionAvoidance().params()

@@ -112,6 +112,11 @@ class FeatureDrift:
         # where pinocchio's storage is not laid out as one (then stacked per call). The translations are not needed
         # (the cores are found from the witness points).
         self._rotations = joint_rotations(cm.fd_data)
+        # ``cm.fd_data``'s J and J̇ (6 × nv), as views on its own storage that every later
+        # ``computeJointJacobiansTimeVariation`` of it refills (checked in the tests): each read through the bindings
+        # makes a new view (~1 µs); None where they are copies (then read per call)
+        J, dJ = cm.fd_data.J, cm.fd_data.dJ
+        self._jacobians = None if J.flags.owndata or dJ.flags.owndata else (J, dJ)
 
     def drift(self, robot, ks: np.ndarray, d: np.ndarray, P: np.ndarray, NN: np.ndarray, jid: np.ndarray,
               geoms: np.ndarray) -> np.ndarray:
@@ -135,10 +140,10 @@ class FeatureDrift:
         R = self._rotations
         if R is None:
             R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
-        out, bad = feature_drift(ks, geoms, d, P, NN, R, data.J, data.dJ, cm.support, jid, v, self.kind, self.radius,
-                                 self.ends, self.vertices, self.neighbours, self.offset, self.count, self.hints,
-                                 FEATURE_TOL, MIN_DISTANCE, STEP)
-        self.fallback = int(bad.sum())
+        J, dJ = (data.J, data.dJ) if self._jacobians is None else self._jacobians
+        out, bad, self.fallback = feature_drift(ks, geoms, d, P, NN, R, J, dJ, cm.support, jid, v, self.kind,
+                                                self.radius, self.ends, self.vertices, self.neighbours, self.offset,
+                                                self.count, self.hints, FEATURE_TOL, MIN_DISTANCE, STEP)
         if self.fallback:
             out[bad] = curvature_drift(cm, robot, ks[bad])
         return out

@@ -69,7 +69,8 @@ def _path(x, vx, ax, tau, unit, out):
 @nb.njit(cache=True)
 def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, ends, vertices, neighbours,
                   offset, count, hints, feature_tol, min_distance, h):
-    """d̈ (m,) at q̈ = 0 of the m pairs ``ks`` and a flag (m,) where the closest-feature model does not apply.
+    """d̈ (m,) at q̈ = 0 of the m pairs ``ks``, a flag (m,) where the closest-feature model does not apply and how many
+    flags are set.
 
     Per side (first sides 0..m−1, then second sides m..2m−1): ``geoms`` its geometry, ``P`` its witness point,
     ``NN`` its side's normal (−n for the first side, n for the second: its outward direction is −``NN``), ``jid``
@@ -238,4 +239,4 @@ def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, 
         out[i] = acc / (h * h)
         if not math.isfinite(out[i]):
             bad[i] = True
-    return out, bad
+    return out, bad, np.count_nonzero(bad)

@@ -207,6 +207,7 @@ class CollisionAvoidance(Task):
         self.gamma = self.pole_ratio * self.omega
         self.model: Any = None          # the CollisionModel, built at bind
         self._buf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._out: Rows | None = None     # the Rows of ``_buf``, returned by every ``rows`` call
         #: the last cycle's rows (wbc.collision.model.DistanceRows) and which are active
         self.last: tuple[Any, np.ndarray] | None = None
         #: (pinocchio Data, GeometryData) of the velocity mode's check of its command
@@ -246,9 +247,12 @@ class CollisionAvoidance(Task):
         if self._buf is None or self._buf[0].shape[1] != layout.nx:
             n = self.max_rows
             self._buf = (np.zeros((n, layout.nx)), np.zeros(n), np.full(n, _FREE))
+            self._out = Rows(C=self._buf[0], lo=self._buf[1], hi=self._buf[2])
         C, lo, hi = self._buf
+        held = self._out
+        assert held is not None
         r = self.model.distance_rows(robot, self.influence)
-        order = np.argsort(r.d)[: self.max_rows]
+        order = r.d.argsort()[: self.max_rows]          # np.argsort's sort, without its dispatch
         k = len(order)
         damper_rows(C, lo, hi, r.J, r.d, r.d_dot, r.drift, order, self.omega, self.gamma, self.safety, _FREE)
         self.vertex_last = []
@@ -256,7 +260,7 @@ class CollisionAvoidance(Task):
             n = self._vertex_rows(robot, r, order, C[k:, : robot.nv], lo[k:])
             hi[k:k + n] = np.inf
         self.last = (r, order)
-        return Rows(C=C, lo=lo, hi=hi)
+        return held          # the buffer's arrays, refilled above: one Rows for every cycle
 
     def _hull_vertices(self, g: int) -> np.ndarray | None:
         """Robot geometry ``g``'s hull vertices in its joint's frame (None: not a hull)."""
