@@ -9,6 +9,11 @@ be pushed away at +2 m/s² against its curvature drift while the shoulder ran at
 second pole (:mod:`wbc.tasks.collision_avoidance`, ``pole_ratio: 1.5``, opt-in) asks nothing of a pair that deep
 inside its safe set.
 
+The scenario as bundled keeps the damper and takes those rows' drift as ``drift: switching``: the upper arm's
+"curvature" was the staircase of its hull features' switches, read by the ±10 ms second difference as −4 to −8 m/s²
+(switches already passed included); with ``switching`` a switch that leaves the pair in its safe set is a jump of
+ḋ, not an acceleration (the second test; its seeds relax with the exact drift).
+
 Each seed's run checks the scenario's criteria over the crossing (the first 2.5 s, own simulator): no relaxed
 level, no solver failure, no fall, every monitored pair ≥ d_s − 1 mm on the simulator's true state. Not the whole
 run: with ``pole_ratio: 1.5`` the hands' pair ``arm_left_7/arm_right_5`` reaches 2.8 mm at 7.2 s in MuJoCo
