@@ -6,7 +6,8 @@ as fast as the joint velocity limits allow: v̄ = max s subject to J v = s u, |v
 (a linear program; u the approach direction, J the hand's linear Jacobian), with q̇ = that v. A frame task one level below
 the collision task keeps pulling the hand through the sphere at that same constant velocity;
 the joint and torque limits share level 0 with the collision task (so that the braking it asks
-is one the motors can give); the closed loop runs on the own simulator (real dynamics). The true
+is one the motors can give); the closed loop runs on the own simulator (real dynamics). With the drift
+``exact`` (the default) and ``switching`` (the analytic drift and ḋ's jump at a feature switch ahead). The true
 distance of every monitored pair, every cycle, stays ≥ d_s (within coal's GJK tolerance and
 the 1 ms discretisation: 1 mm), and the hand does get close (the damper is not just far away).
 """
@@ -60,13 +61,14 @@ def _setup(direction):
     return robot, q0, v0, v_bar, centre, J @ v0
 
 
+@pytest.mark.parametrize("drift", ["exact", "switching"])
 @pytest.mark.parametrize("direction", [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-def test_damper_stops_the_fastest_approach_above_the_safety_distance(direction):
+def test_damper_stops_the_fastest_approach_above_the_safety_distance(direction, drift):
     robot, q0, v0, v_bar, centre, hand_vel = _setup(direction)
     assert v_bar > 0.3                  # the Panda's limits allow a fast hand (m/s)
     sphere = {"type": "sphere", "center": centre.tolist(), "radius": RADIUS}
     coll = CollisionAvoidance(influence=D_I, safety=D_S, max_speed=v_bar * 1.01, self_collision=False,
-                              obstacles=[sphere], links=HAND_LINKS)
+                              obstacles=[sphere], links=HAND_LINKS, drift=drift)
     hand = Frame("hand", kp=100.0, mask="position")
     stack = Stack([[JointLimits(), TorqueLimits(), coll], [hand]])
     ctrl = Controller(robot, stack, solver="hqp", dt=1e-3)

@@ -9,6 +9,12 @@ be pushed away at +2 m/s² against its curvature drift while the shoulder ran at
 second pole (:mod:`wbc.tasks.collision_avoidance`, ``pole_ratio: 1.5``, opt-in) asks nothing of a pair that deep
 inside its safe set.
 
+The scenario as bundled keeps the damper and takes those rows' drift as ``drift: switching``: the upper arm's
+"curvature" was the staircase of its hull features' switches, read by the ±10 ms second difference as −4 to −8 m/s²
+(switches already passed included); with ``switching`` a switch that leaves the pair in its safe set is a jump of
+ḋ, not an acceleration (the second test: seed 3 holds, which relaxed with the exact drift; seeds 1 and 2 still
+relax a few cycles, expected failures).
+
 Each seed's run checks the scenario's criteria over the crossing (the first 2.5 s, own simulator): no relaxed
 level, no solver failure, no fall, every monitored pair ≥ d_s − 1 mm on the simulator's true state. Not the whole
 run: with ``pole_ratio: 1.5`` the hands' pair ``arm_left_7/arm_right_5`` reaches 2.8 mm at 7.2 s in MuJoCo
@@ -68,5 +74,24 @@ def _check(m: dict, safety: float) -> None:
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_the_crossing_holds_under_rounding_perturbations(seed):
     m, safety = _run(seed, "pinocchio", 2.5, pole_ratio=1.5)
+    _check(m, safety)
+    assert m["collision_pairs_active_max"] >= 1
+
+
+#: seeds 1 and 2 still relax level 0 in 4 and 3 cycles (2.19-2.23 s): switches on both sides of the ±10 ms window
+#: (one every 4-5 ms) lower both one-sided differences, so a = max(a₊, a₋) still reads −4 to −5 m/s² there
+#: (``benchmarks/collisions.md``, hands3); with the exact drift seed 3 relaxed 6 cycles (2.310-2.315 s)
+_BOTH_SIDES = pytest.mark.xfail(strict=True, reason="switches on both sides of the window (benchmarks/collisions.md)")
+
+
+@pytest.mark.parametrize("seed", [pytest.param(1, marks=_BOTH_SIDES), pytest.param(2, marks=_BOTH_SIDES), 3])
+def test_the_crossing_holds_with_the_damper_under_rounding_perturbations(seed):
+    # the scenario as bundled: the critically damped damper (pole_ratio 1) with ``drift: switching``, whose rows take
+    # the hull features' switches at the crossing as jumps of ḋ (with the exact drift these seeds relax level 0 at
+    # 2.17-2.31 s)
+    sc = load_config("talos_hands_cross")
+    task = next(t for t in sc.stack if t.kind == "collision_avoidance")
+    assert task.pole_ratio == 1.0 and task.drift == "switching"
+    m, safety = _run(seed, "pinocchio", 2.5)
     _check(m, safety)
     assert m["collision_pairs_active_max"] >= 1

@@ -22,9 +22,9 @@ Per cycle (:meth:`CollisionModel.distance_rows`), from the joint placements that
    = (p₂ − p₁)/‖p₂ − p₁‖ (coal's, from 1 to 2; it stays defined in penetration, d < 0), read as one held table
    (:mod:`wbc.collision.result_table`), the pairs that changed activated one by one;
 3. the distance Jacobian J_d = nᵀ (J_p₂ − J_p₁) (1 × nv), J_p the world-aligned Jacobian of the point of the
-   geometry's joint at the witness point, J_p = J_v − [p − o]× J_ω; and the drift J̇_d q̇ ≈ nᵀ (a_p₂ − a_p₁) with a_p
-   = a_o + α × r + ω × (ω × r) the point's classical acceleration at q̈ = 0 (the normal's and the witness points' own
-   motion are left out: they change d̈ at second order in the distance's curvature).
+   geometry's joint at the witness point, J_p = J_v − [p − o]× J_ω; and the drift J̇_d q̇: the distance's second
+   difference (default; with ``switch_jump`` ḋ's jump at a feature switch ahead too), the closest features' local
+   model (``analytic_drift``) or the witness points' rigid drift (:mod:`wbc.collision.drift`).
 
 The result is level-independent (:class:`DistanceRows`): the acceleration-level row reads J_d q̈ ≥ d̈_min − J̇_d q̇, a
 velocity-level row J_d q̇ ≥ ḋ_min.
@@ -42,7 +42,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RobotDefinitionError
-from .drift import curvature_drift, rigid_drift
+from .drift import curvature_drift, rigid_drift, switch_jump
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .result_table import ResultTable, proxy_rows
@@ -55,10 +55,11 @@ from .step import step_scale
 class DistanceRows:
     """The near pairs of one cycle, level-independent (:mod:`wbc.collision.model`).
 
-    ``pairs`` (k,) indices into :attr:`CollisionModel.pairs`; ``d`` (k,) distances (m,
-    < 0 in penetration); ``d_dot`` (k,) ḋ = J_d q̇ (m/s); ``J`` (k × nv) distance Jacobians
-    (m per unit of q̇); ``drift`` (k,) J̇_d q̇ (m/s²); ``normal`` (k × 3) unit normals from the
-    first geometry to the second; ``p1``, ``p2`` (k × 3) witness points (m, world)."""
+    ``pairs`` (k,) indices into :attr:`CollisionModel.pairs`; ``d`` (k,) distances (m, < 0 in penetration); ``d_dot``
+    (k,) ḋ = J_d q̇ (m/s); ``J`` (k × nv) distance Jacobians (m per unit of q̇); ``drift`` (k,) J̇_d q̇ (m/s²);
+    ``normal`` (k × 3) unit normals from 1 to 2; ``p1``, ``p2`` (k × 3) witness points (m, world); with
+    ``switch_jump`` (else None): ``jump`` (k,) ḋ's jump at a feature switch ahead (m/s,
+    :func:`~wbc.collision.drift.switch_jump`), ``local`` (k,) the closest features' pieces' J̇_d q̇ (m/s²)."""
 
     pairs: np.ndarray
     d: np.ndarray
@@ -68,6 +69,8 @@ class DistanceRows:
     normal: np.ndarray
     p1: np.ndarray
     p2: np.ndarray
+    jump: np.ndarray | None = None
+    local: np.ndarray | None = None
 
 
 #: at most this many pairs switched one by one between two passes (:meth:`CollisionModel._compute`); more: one map
@@ -167,9 +170,9 @@ class CollisionModel:
         #: J̇_d q̇ from the distance's exact second difference (:func:`wbc.collision.drift.curvature_drift`); False:
         #: the witness points' rigid-body drift only (cheaper, blind to the surfaces' curvature)
         self.exact_drift = True
-        #: J̇_d q̇ from the closest features' local models instead (:mod:`wbc.collision.feature_drift`; no coal
-        #: pass), when ``exact_drift`` is set too; opt-in (the collision task's ``drift: analytic``)
-        self.analytic_drift = False
+        #: J̇_d q̇ from the closest features' local models instead (:mod:`wbc.collision.feature_drift`; no coal pass),
+        #: with ``exact_drift``; opt-in (``drift: analytic``); ``switch_jump``: the rows' ``jump`` too (``switching``)
+        self.analytic_drift = self.switch_jump = False
         self.feature_drift: Any = None
         self.drift_step = 1e-2
         self.fd_data = model.createData()
@@ -437,16 +440,13 @@ class CollisionModel:
         return near_rows(proxy_rows(res, near), near, influence, self._d0, self._moved, self.pairs, self.joint_of)
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
-        """The pairs closer than ``influence`` (m) at the robot's current cached state, with their distances, Jacobians and drifts
-        (:class:`DistanceRows`). Computed once per cycle: a second call in the same cycle (same ``robot.cycle``) returns
-        the same rows.
+        """The pairs closer than ``influence`` (m) at the robot's current cached state, with their distances, Jacobians
+        and drifts (:class:`DistanceRows`). Once per cycle: a second call in the same ``robot.cycle`` returns the same.
 
-        Vectorised over the k near pairs, from pinocchio's world-frame joint Jacobians
-        ``data.J`` (``computeJointJacobians``, done once per cycle by ``RobotModel.update``):
-        a point p on joint j moves with v_p = J_v,j q̇ − p × (J_ω,j q̇) (spatial velocity at the
-        world origin), so nᵀ v_p = [n; p × n]ᵀ J_j q̇, and the k rows are one (k × 6)(6 × nv)
-        product masked by each joint's supporting chain. The drift nᵀ a_p uses the joint's
-        classical acceleration at q̈ = 0 (``data.a``, local) rotated to the world."""
+        Vectorised over the k near pairs, from pinocchio's world-frame joint Jacobians ``data.J``
+        (``computeJointJacobians``, done once per cycle by ``RobotModel.update``): a point p on joint j moves with
+        v_p = J_v,j q̇ − p × (J_ω,j q̇) (spatial velocity at the world origin), so nᵀ v_p = [n; p × n]ᵀ J_j q̇, and the
+        k rows are one (k × 6)(6 × nv) product masked by each joint's supporting chain. The drift: module docstring."""
         key = (robot.cycle, id(robot), influence)
         if self._cycle == key:
             return self._rows
@@ -456,16 +456,17 @@ class CollisionModel:
         m = len(ks)
         P1, P2, N = P[:m], P[m:], NN[m:]
         J = self._jacobians(data, coef, jid)
-        drift = np.zeros(m)
+        drift, jump, local, d_dot = np.zeros(m), None, None, J @ robot.v
         if m and self.exact_drift and self.analytic_drift:
             if self.feature_drift is None:
                 from .feature_drift import FeatureDrift
-
                 self.feature_drift = FeatureDrift(self)
             drift = self.feature_drift.drift(robot, ks, d, P, NN, jid, geoms)
+        elif m and self.exact_drift and self.switch_jump:     # drift: switching: the pieces' curvature in ``local``
+            drift, jump, local = switch_jump(self, robot, ks, d_dot)
         elif m:
             drift = curvature_drift(self, robot, ks) if self.exact_drift else rigid_drift(self, robot, ks, P1, P2, N)
-        rows = DistanceRows(ks, d, J @ robot.v, J, drift, N, P1, P2)
+        rows = DistanceRows(ks, d, d_dot, J, drift, N, P1, P2, jump, local)
         self._cycle, self._rows = key, rows
         return rows
 

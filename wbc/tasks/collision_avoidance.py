@@ -46,6 +46,21 @@ J_ω q̇ (n held fixed; J_ω the world angular Jacobian of the vertex's joint) a
 the pair plus the rigid difference (n × r)ᵀ α₀ − nᵀ(ω × (ω × r)), r = v − p₁. Every such
 vertex then obeys the damper's bound by itself, so the minimum over them does too.
 
+Feature switches (``drift: switching``, opt-in). Between hulls d is the minimum over feature pairs: where another
+pair becomes the closest, ḋ drops by Δ < 0 (a concave kink). A faceted round surface sliding past another is a
+staircase of them (Talos's upper arm past its torso at 0.5 m/s: one every 4-5 ms, ḋ dropping by 20-250 mm/s at
+each, the pieces between them curving at +1.5 m/s²), and the exact drift, a second difference over ±10 ms, reads
+them as J̇_d q̇ = −4 to −8 m/s², a switch already passed included: the damper then asked +2 to +4 m/s² of J_d q̈
+from a pair 10 mm above d_s while the joints that move it away were at their velocity bound (level 0 relaxed).
+A switch is a jump of ė, not an acceleration: it needs no braking if it leaves the pair in D (h + Δ ≥ 0), which
+the damper then keeps on the new features. With ``switching`` the same three coal passes also give the one-sided
+differences a± = ±2 [d(q ⊕ ±εv) − d ∓ ḋ ε]/ε² (ε = 10 ms; their mean is the exact drift): a switch only lowers the
+one on its side, so a = max(a₊, a₋) is the pieces' curvature and Δ̂ = −ε/2 · max(0, a₋ − a₊) the jump of a switch
+ahead (Δ (ε − τ)/ε at τ, tending to Δ as it nears; 0 for one passed, :func:`wbc.collision.drift.switch_jump`).
+Where ḋ + Δ̂ + ω e ≥ 0 the row is the damper at the velocity after the switch with the pieces' drift, ë ≥
+−2ω (ė + Δ̂) − ω² e − a (never below the damper of the current features: Δ̂ ≤ 0); elsewhere (a switch that would
+take the pair out of D, e.g. at d_s) the exact drift's row, which brakes the switch ahead as before.
+
 Rows are fixed in number (``max_rows``, so that the stack's buffers keep their size): the
 nearest pairs first; the unused rows are 0 ≤ 0 · x ≤ 1, always satisfied. Units: m, m/s, m/s².
 """
@@ -94,8 +109,9 @@ class CollisionOptions(Options):
     pole_ratio: float = 1.0
     """γ/ω ≥ 1: the barrier's second pole −γ (module docstring; 1: the critically damped damper everywhere)"""
     drift: str = "exact"
-    """the rows' J̇_d q̇: ``exact`` (the distance's second difference, three more coal passes) or ``analytic`` (the
-    closest features' local model, no coal pass: :mod:`wbc.collision.feature_drift`)"""
+    """the rows' J̇_d q̇: ``exact`` (the distance's second difference, three more coal passes), ``analytic`` (the
+    closest features' local model, no coal pass: :mod:`wbc.collision.feature_drift`) or ``switching`` (the exact
+    passes, a feature switch ahead taken as a jump of ḋ where it leaves the pair in the safe set: module docstring)"""
 
 
 @nb.njit(cache=True)
@@ -158,8 +174,9 @@ class CollisionAvoidance(Task):
         vertex_rows: per near pair and robot hull, rows for up to this many vertices nearest the
             pair's separating plane (module docstring; 0: none), within the ``max_rows`` rows.
         drift: ``exact`` (default: the distance's second difference over ±10 ms, three more coal
-            passes) or ``analytic`` (the closest features' local model, no coal pass,
-            :mod:`wbc.collision.feature_drift`).
+            passes), ``analytic`` (the closest features' local model, no coal pass,
+            :mod:`wbc.collision.feature_drift`) or ``switching`` (the exact passes; a feature switch ahead
+            that leaves the pair in the safe set is a jump of ḋ: module docstring).
     """
 
     kind = "collision_avoidance"
@@ -195,7 +212,7 @@ class CollisionAvoidance(Task):
         self.environment = boolean(environment, "environment", **err)
         self.geometry = text(o.geometry, "geometry", choices=["hulls", "primitives"], **err)
         self.vertex_rows = int(number(o.vertex_rows, "vertex_rows", ge=0, le=100, **err))
-        self.drift = text(o.drift, "drift", choices=["exact", "analytic"], **err)
+        self.drift = text(o.drift, "drift", choices=["exact", "analytic", "switching"], **err)
         self.pole_ratio = number(o.pole_ratio, "pole_ratio", ge=1, le=1000, **err)
         self._vertices: dict[int, np.ndarray | None] = {}   # robot hull -> its vertices in its joint's frame
         #: the last cycle's vertex rows, in row order after the pairs' rows: (pair, side 0/1 (the vertex on the
@@ -222,6 +239,7 @@ class CollisionAvoidance(Task):
                                         obstacle_links=self.links, self_collision=self.self_collision,
                                         primitives=self.geometry == "primitives")
             self.model.analytic_drift = self.drift == "analytic"
+            self.model.switch_jump = self.drift == "switching"
             if self.links is not None:
                 unknown = sorted(set(self.links) - {robot.model.frames[i].name for i in range(robot.model.nframes)})
                 if unknown:
@@ -254,7 +272,11 @@ class CollisionAvoidance(Task):
         r = self.model.distance_rows(robot, self.influence)
         order = r.d.argsort()[: self.max_rows]          # np.argsort's sort, without its dispatch
         k = len(order)
-        damper_rows(C, lo, hi, r.J, r.d, r.d_dot, r.drift, order, self.omega, self.gamma, self.safety, _FREE)
+        d_dot, drift = r.d_dot, r.drift
+        if r.jump is not None:      # drift: switching (module docstring): a switch that leaves the pair in D
+            inside = r.d_dot + r.jump + self.omega * (r.d - self.safety) >= 0.0
+            d_dot, drift = np.where(inside, r.d_dot + r.jump, r.d_dot), np.where(inside, r.local, r.drift)
+        damper_rows(C, lo, hi, r.J, r.d, d_dot, drift, order, self.omega, self.gamma, self.safety, _FREE)
         self.vertex_last = []
         if k and self.vertex_rows and k < self.max_rows:
             n = self._vertex_rows(robot, r, order, C[k:, : robot.nv], lo[k:])
