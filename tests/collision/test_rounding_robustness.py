@@ -80,11 +80,11 @@ def test_the_crossing_holds_under_rounding_perturbations(seed):
 
 #: seeds 1 and 2 still relax level 0 in 4 and 3 cycles (2.19-2.23 s): switches on both sides of the ±10 ms window
 #: (one every 4-5 ms) lower both one-sided differences, so a = max(a₊, a₋) still reads −4 to −5 m/s² there
-#: (``benchmarks/collisions.md``, hands3); with the exact drift seed 3 relaxed 6 cycles (2.310-2.315 s)
-_BOTH_SIDES = pytest.mark.xfail(strict=True, reason="switches on both sides of the window (benchmarks/collisions.md)")
+#: (``benchmarks/collisions.md``, hands3). They are not asserted either way (a rounding lottery that another BLAS or
+#: pinocchio may win). With the exact drift seed 3 relaxed 6 cycles (2.310-2.315 s).
 
 
-@pytest.mark.parametrize("seed", [pytest.param(1, marks=_BOTH_SIDES), pytest.param(2, marks=_BOTH_SIDES), 3])
+@pytest.mark.parametrize("seed", [3])
 def test_the_crossing_holds_with_the_damper_under_rounding_perturbations(seed):
     # the scenario as bundled: the critically damped damper (pole_ratio 1) with ``drift: switching``, whose rows take
     # the hull features' switches at the crossing as jumps of ḋ (with the exact drift these seeds relax level 0 at
