@@ -14,8 +14,10 @@
    are within the influence distance (rows) and how many the broad phase passed to coal.
 
 ``--drift analytic`` times the cycle (A) with the collision task's analytic drift (``drift: analytic``,
-:mod:`wbc.collision.feature_drift`: no coal pass for J̇_d q̇); the distance phase is timed with each
-drift (exact, analytic, rigid witness-point) whatever the flag. ``--every 1`` replays every cycle, as
+:mod:`wbc.collision.feature_drift`: no coal pass for J̇_d q̇), ``--drift switching`` with the scenario's own
+(``drift: switching``: the exact passes and the switches' jumps), ``exact`` (the default) with the exact second
+difference alone; the distance phase is timed with each drift (exact, analytic, rigid witness-point, switching)
+whatever the flag. ``--every 1`` replays every cycle, as
 the control loop calls it (the broad phase's bound grows with the step between calls, so states 10
 cycles apart pass ~3× more pairs to coal than the 1 ms loop does).
 
@@ -86,7 +88,7 @@ def main() -> None:
     ap.add_argument("--out", default=None)
     ap.add_argument("--geometry", choices=["hulls", "primitives"], default="hulls")
     ap.add_argument("--max-excess", type=float, default=None)
-    ap.add_argument("--drift", choices=["exact", "analytic"], default="exact")
+    ap.add_argument("--drift", choices=["exact", "analytic", "switching"], default="exact")
     a = ap.parse_args()
     warnings.simplefilter("ignore")
     sc = load_config("talos_hands_cross")
@@ -94,8 +96,9 @@ def main() -> None:
         _use_primitives(sc, a.max_excess)
     task = sc.stack["collision_avoidance"]
     task.drift = a.drift
-    if task.model is not None:
+    if task.model is not None:                  # the loader bound the model with the scenario's drift
         task.model.analytic_drift = a.drift == "analytic"
+        task.model.switch_jump = a.drift == "switching"
     r = ScenarioRun(sc, duration=a.seconds)
     hands = [t for t in sc.stack if t.kind == "frame" and t.moves_position]
     states = []
@@ -143,10 +146,11 @@ def main() -> None:
     phase = {}
     near: list[int] = []
     computed: list[int] = []
-    for kind in ("exact", "analytic", "witness"):
+    for kind in ("exact", "analytic", "witness", "switching"):
         exact = kind != "witness"
         model.exact_drift = exact
         model.analytic_drift = kind == "analytic"
+        model.switch_jump = kind == "switching"
         times = []
         for _ in range(a.rounds):
             for q, v, _ in states:
@@ -163,6 +167,7 @@ def main() -> None:
             "p90_cpu_ms": float(np.percentile(times, 90, axis=0)[1]) * 1e3}
     model.exact_drift = True
     model.analytic_drift = a.drift == "analytic"
+    model.switch_jump = a.drift == "switching"
     out = {"geometry": a.geometry, "drift": a.drift, "every": a.every, "max_excess": a.max_excess,
            "primitives": len(getattr(model, "primitive_names", [])),
            "states": len(states), "pairs": len(model.pairs), "geometries": model.geometry_model.ngeoms,

@@ -12,8 +12,7 @@ inside its safe set.
 The scenario as bundled keeps the damper and takes those rows' drift as ``drift: switching``: the upper arm's
 "curvature" was the staircase of its hull features' switches, read by the ±10 ms second difference as −4 to −8 m/s²
 (switches already passed included); with ``switching`` a switch that leaves the pair in its safe set is a jump of
-ḋ, not an acceleration (the second test: seed 3 holds, which relaxed with the exact drift; seeds 1 and 2 still
-relax a few cycles, expected failures).
+ḋ, not an acceleration (the second test: over five seeds it relaxes a third or less of the exact drift's cycles, not none).
 
 Each seed's run checks the scenario's criteria over the crossing (the first 2.5 s, own simulator): no relaxed
 level, no solver failure, no fall, every monitored pair ≥ d_s − 1 mm on the simulator's true state. Not the whole
@@ -47,11 +46,15 @@ class PerturbedVelocity:
         return getattr(self._sim, name)
 
 
-def _run(seed: int, simulator: str, duration: float | None, pole_ratio: float | None = None) -> tuple[dict, float]:
+def _run(seed: int, simulator: str, duration: float | None, pole_ratio: float | None = None,
+         drift: str | None = None) -> tuple[dict, float]:
     sc = load_config("talos_hands_cross")
     task = next(t for t in sc.stack if t.kind == "collision_avoidance")
     if pole_ratio is not None:
         task.pole_ratio, task.gamma = pole_ratio, pole_ratio * task.omega
+    if drift is not None:           # the loader bound the model with the scenario's drift
+        task.drift = drift
+        task.model.switch_jump = drift == "switching"
     rng = np.random.default_rng(seed)
     r = ScenarioRun(sc, simulator=simulator, duration=duration, wrap_simulator=lambda s: PerturbedVelocity(s, rng))
     relaxed = 0
@@ -78,20 +81,27 @@ def test_the_crossing_holds_under_rounding_perturbations(seed):
     assert m["collision_pairs_active_max"] >= 1
 
 
-#: seeds 1 and 2 still relax level 0 in 4 and 3 cycles (2.19-2.23 s): switches on both sides of the ±10 ms window
-#: (one every 4-5 ms) lower both one-sided differences, so a = max(a₊, a₋) still reads −4 to −5 m/s² there
-#: (``benchmarks/collisions.md``, hands3). They are not asserted either way (a rounding lottery that another BLAS or
-#: pinocchio may win). With the exact drift seed 3 relaxed 6 cycles (2.310-2.315 s).
+#: the perturbation seeds of the damper's comparison
+SEEDS = (1, 2, 3, 4, 5)
 
 
-@pytest.mark.parametrize("seed", [3])
-def test_the_crossing_holds_with_the_damper_under_rounding_perturbations(seed):
+def test_switching_drift_relaxes_far_fewer_crossing_cycles_than_the_exact_drift():
     # the scenario as bundled: the critically damped damper (pole_ratio 1) with ``drift: switching``, whose rows take
-    # the hull features' switches at the crossing as jumps of ḋ (with the exact drift these seeds relax level 0 at
-    # 2.17-2.31 s)
+    # the hull features' switches at the crossing as jumps of ḋ. Same seeds, first 2.5 s, own simulator: the exact
+    # drift relaxed 56 cycles in all (22, 5, 6, 2, 21) on pinocchio 4.1 and 58 (7, 2, 6, 21, 22) on 3.8, switching
+    # 17 (4, 3, 0, 5, 5) and 7 (0, 0, 3, 2, 2) (benchmarks/collisions.md). Not zero: where switches fall on both sides
+    # of the ±10 ms window both one-sided differences are low and a = max(a₊, a₋) still reads −4 to −5 m/s². Which
+    # seed relaxes is a rounding lottery (another BLAS or pinocchio wins others), so the test compares the totals.
     sc = load_config("talos_hands_cross")
     task = next(t for t in sc.stack if t.kind == "collision_avoidance")
     assert task.pole_ratio == 1.0 and task.drift == "switching"
-    m, safety = _run(seed, "pinocchio", 2.5)
-    _check(m, safety)
-    assert m["collision_pairs_active_max"] >= 1
+    relaxed = {}
+    for drift in ("switching", "exact"):
+        relaxed[drift] = 0
+        for seed in SEEDS:
+            m, safety = _run(seed, "pinocchio", 2.5, drift=drift)
+            assert not m["fell"] and m["solver_failures"] == 0
+            assert m["collision_distance_min"] >= safety - 1e-3, m["collision_closest"]
+            relaxed[drift] += m["relaxed_cycles"]
+    assert relaxed["exact"] >= 20, relaxed           # the crossing still exercises the defect
+    assert relaxed["switching"] <= relaxed["exact"] / 2, relaxed

@@ -43,15 +43,23 @@ def curvature_drift(cm, robot, ks: np.ndarray) -> np.ndarray:
         robot: the robot at the cycle's state (q, q̇).
         ks: the pairs (indices into ``cm.pairs``).
     """
+    d0, ahead, behind = _three_distances(cm, robot, ks)
+    eps = cm.drift_step
+    return (-2.0 * d0 + ahead + behind) / (eps * eps)
+
+
+def _three_distances(cm, robot, ks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """d(q), d(q ⊕ εv), d(q ⊖ εv) of the pairs ``ks`` (m; ε = ``cm.drift_step`` s), three coal passes on the model's
+    own finite-difference data."""
     model, gm, gd, data = robot.model, cm.geometry_model, cm.fd_geometry_data, cm.fd_data
     eps = cm.drift_step
-    out = np.zeros(len(ks))
-    for step, w in ((0.0, -2.0), (eps, 1.0), (-eps, 1.0)):
+    ds = []
+    for step in (0.0, eps, -eps):
         q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
-        out += w * cm.pair_distances(ks, gd)
-    return out / (eps * eps)
+        ds.append(cm.pair_distances(ks, gd))
+    return ds[0], ds[1], ds[2]
 
 
 def rigid_drift(cm, robot, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray) -> np.ndarray:
@@ -124,15 +132,9 @@ def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarra
         ks: the pairs (indices into ``cm.pairs``).
         d_dot: their ḋ = J_d q̇ (k,; m/s).
     """
-    model, gm, gd, data = robot.model, cm.geometry_model, cm.fd_geometry_data, cm.fd_data
+    d0, dp, dm = _three_distances(cm, robot, ks)
     eps = cm.drift_step
-    ds = []
-    for step in (0.0, eps, -eps):
-        q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
-        pin.forwardKinematics(model, data, q)
-        pin.updateGeometryPlacements(model, data, gm, gd)
-        ds.append(cm.pair_distances(ks, gd))
-    central = (-2.0 * ds[0] + ds[1] + ds[2]) / (eps * eps)
-    ahead = 2.0 * (ds[1] - ds[0] - d_dot * eps) / (eps * eps)
-    behind = 2.0 * (ds[2] - ds[0] + d_dot * eps) / (eps * eps)
+    central = (-2.0 * d0 + dp + dm) / (eps * eps)
+    ahead = 2.0 * (dp - d0 - d_dot * eps) / (eps * eps)
+    behind = 2.0 * (dm - d0 + d_dot * eps) / (eps * eps)
     return central, -0.5 * eps * np.maximum(behind - ahead, 0.0), np.maximum(ahead, behind)
