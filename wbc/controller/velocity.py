@@ -80,8 +80,7 @@ class VelocitySolution(Solution):
 
     def __init__(self, qd: np.ndarray, q_next: np.ndarray, na: int, status: str, message: str = "",
                  report: SolutionReport = NO_REPORT) -> None:
-        nv = len(qd)
-        super().__init__(_zeros(nv), _zeros(na), _zeros(nv), {}, qd, status, message, report)
+        super().__init__(*_torque_fields(len(qd), na), {}, qd, status, message, report)
         self.qd, self.q_next = qd, q_next
 
     @classmethod
@@ -89,15 +88,10 @@ class VelocitySolution(Solution):
         """``VelocitySolution(qd, q_next, na, "ok", "", SolutionReport(evaluate=evaluate))``: the same
         attributes (``tests/controller/test_velocity_accepted.py`` compares them), set in one step by
         :meth:`Solution.ok_without_qp` (the velocity mode's common cycle)."""
-        zeros = _ZERO_FIELDS.get((len(qd), na))
-        if zeros is None:
-            nv = len(qd)
-            zeros = _ZERO_FIELDS[nv, na] = (_zeros(nv), _zeros(na), _zeros(nv))
-        return cls.ok_without_qp(zeros, qd, evaluate, qd=qd, q_next=q_next)
+        return cls.ok_without_qp(_torque_fields(len(qd), na), qd, evaluate, qd=qd, q_next=q_next)
 
 
 _ZEROS: dict[int, np.ndarray] = {}
-#: (q̈, τ, τ_full) of a velocity solution by (nv, na): :func:`_zeros`' vectors, looked up once a cycle
 _ZERO_FIELDS: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
@@ -117,6 +111,15 @@ def _equality_diagnostics(levels: list[Level], spans, records: tuple, solved: li
     outside the cascade."""
     return level_diagnostics(levels, spans, equality_levels(records[0], records[1], solved), values, (False, ()),
                              tols)
+
+
+def _torque_fields(nv: int, na: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q̈, τ, τ_full) of every velocity solution with nv velocities and na actuators: :func:`_zeros`'
+    read-only vectors, the triple made once (one lookup a cycle)."""
+    z = _ZERO_FIELDS.get((nv, na))
+    if z is None:
+        z = _ZERO_FIELDS[nv, na] = (_zeros(nv), _zeros(na), _zeros(nv))
+    return z
 
 
 def _zeros(n: int) -> np.ndarray:
