@@ -19,6 +19,7 @@ from .problem.rows import Layout, Level
 from .tasks.base import Task
 from .tasks.contact import Contact
 from .tasks.group import TaskGroup, builds
+from .tasks.torque_stack import TorquePlan, torque_plan
 
 
 def _as_level(obj) -> list[Task]:
@@ -54,9 +55,18 @@ class Stack:
         self._contacts: tuple | None = None     # (version, contact tasks)
         self._layout: tuple | None = None       # (key, Layout, its force-Jacobian blocks)
         self._row_buffer: RowBuffer | None = None
+        #: (the buffer it is for, its plan or None: no plan for it) of :func:`torque_plan`
+        self._plan: tuple[RowBuffer, TorquePlan | None] | None = None
         for lvl in levels:
             self.levels.append(_as_level(lvl))
         self._check_names()
+
+    def __getstate__(self) -> dict:
+        """A copy or a pickle plans again: the plan holds its arrays' addresses, which a copy's
+        arrays do not have."""
+        state = self.__dict__.copy()
+        state["_plan"] = None
+        return state
 
     def _check_names(self) -> None:
         seen: dict[str, int] = {}
@@ -242,10 +252,18 @@ class Stack:
         key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
         buf = self._row_buffer
         if buf is not None and buf.key == key:
+            plan = self._plan
+            if plan is not None and plan[0] is buf and plan[1] is not None:
+                # the known tasks' rows in one compiled call (wbc.tasks.torque_stack)
+                if plan[1].write(robot, layout):
+                    return buf.levels
+                plan = self._plan = None           # a change it does not follow: the tasks, then plan again
             # each task writes its equality rows into its slot of the buffer (for this call
             # only), and its other rows are put in as they come; rows: the structure changed
             rows = buf.refill(robot, layout, groups)
             if rows is None:
+                if plan is None or plan[0] is not buf:
+                    self._plan = (buf, torque_plan(groups, buf, robot, layout))
                 return buf.levels
         else:
             rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]

@@ -1,0 +1,429 @@
+"""A torque stack's rows in one compiled call: the plan :meth:`wbc.stack.Stack.assemble` runs
+in place of each task's ``rows`` while the stack's structure holds.
+
+Each task's ``rows`` is a Python call of 1-5 µs of which < 1 µs is arithmetic: the rest is
+Python (its slot, gains, targets, a :class:`~wbc.problem.rows.Rows`) and numba's dispatch of
+its compiled kernel (~1 µs a call, ~0.06-0.2 µs an argument), and the row buffer's ``_put``
+after it. :func:`torque_plan` makes, from a :class:`~wbc.problem.buffer.RowBuffer` the tasks
+have filled once, one plan for the frame tasks, the contacts (their equality rows and their
+friction rows), the CoM, one posture, the joint and torque limits, the floating-base dynamics
+and the contact-wrench targets: one call of :func:`_torque_rows`, which calls the tasks' own
+kernels (:func:`~wbc.tasks.velocity_frames.frame_motion_rows`,
+:func:`~wbc.tasks.base.motion_rows`, :func:`~wbc.tasks.base.dynamics_block`,
+:func:`~wbc.tasks.posture._posture_rhs`, :func:`~wbc.tasks.joint_limits.acceleration_bounds`)
+on the buffer's blocks: the same rows, bit for bit (``tests/tasks/test_torque_stack.py``).
+The logarithms stay pinocchio's, computed before the call as the tasks compute them (a
+contact's ``log6(oMc⁻¹ M_ref)``, a frame's ``log3(R_d Rᵀ)`` after the compiled R_d Rᵀ, the
+posture's ``difference``). A task of weight w ≠ 1 is written into its slot's scratch and
+scaled by √w into the buffer, as ``_put`` does (one product a coefficient: the same bits).
+
+What is held and what is read each cycle.
+
+- By address (one int64 table ``at``; :func:`~wbc.tasks.velocity_stack._pointer`), arrays
+  fixed for the plan's life: the buffer's blocks and scratch slots, pinocchio's arrays
+  (``data.J``, ``data.M``, each frame's placement, its joint's rotation, v and a, the CoM's
+  arrays), the layout's J_f (refilled in place by ``Stack.layout``), a contact's friction
+  rows and the torque limits' scratch. The plan holds the robot, its ``data``, the layout and
+  each task's own array objects, and runs only while they are the same objects.
+- Copied each cycle into the cycle table ``cv``: every target (a frame's R_d, p_d, ẋ_d, ẍ_d,
+  a contact's reference position, the CoM's, a wrench's) and the logarithms: a target
+  replaced or changed in place is read as it is now.
+- Copied into the constant table ``fx`` when replaced (by identity, the plan's own record of
+  what it copied): the gains K_p, K_d (``gain_vectors``), the joint limits' settings.
+- Passed: q, v, h (``RobotModel.h``: another array with a joint compensation) and the
+  posture's error.
+
+A cycle the plan cannot write as the tasks would (a target not set yet, a weight, a
+``cop_margin``, ``sliding``, a torque-limit ``scale`` changed, another robot, data or
+layout) returns False: the stack then calls the tasks (``RowBuffer.refill``, which sees a
+changed structure) and plans again. A stack with a task of another class (or a subclass)
+has no plan: its tasks are called as before. The contact regularisation and the
+differential drive keep their ``rows`` inside the plan (called first; cheap, idempotent).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+import pinocchio as pin
+
+from ..problem.buffer import _put
+from .base import dynamics_block, motion_rows
+from .com import CoM
+from .contact import Contact
+from .contact_regularization import ContactRegularization
+from .contact_wrench import ContactWrench
+from .dynamics import DifferentialDrive, FloatingBaseDynamics
+from .frame import Frame
+from .joint_limits import JointLimits, acceleration_bounds
+from .posture import Posture, _posture_rhs
+from .torque_limits import TorqueLimits
+from .velocity_frames import frame_motion_rows, relative_rotation
+from .velocity_stack import _matrix, _pointer, _vector
+
+__all__ = ["TorquePlan", "torque_plan"]
+
+#: the address table's header: sizes, then pinocchio's J and M, the layout's J_f
+_NX, _NV, _NJ, _NF, _J, _M, _JF = range(7)
+_HEAD = 7
+#: record kinds (``rec[r, 0]``)
+_FRAME, _COM, _POSTURE, _DYN, _TAU, _LIM, _WRENCH, _FRICTION = range(8)
+#: a contact's per-cycle item (its records are a _FRAME and a _FRICTION)
+_CONTACT = 100
+#: a record's columns: kind, first address in ``at``, first int in ``iv``, first float in
+#: ``fx``, first value in ``cv``, rows, a flag (a 6-D contact; the limits' ``stop``), the √w
+#: slot in ``fx`` (−1: weight 1), a count (the frame's support row; the limits' extra coordinates)
+_W = 9
+
+
+@nb.njit(cache=True)
+def _scale(at, a, m, nx, w):
+    """The buffer's block (addresses at[a], at[a+1]) ← √w × the slot's scratch (at[a+2], at[a+3])."""
+    dA, db = nb.carray(_pointer(at[a]), (m, nx)), _vector(at[a + 1], m)
+    sA, sb = nb.carray(_pointer(at[a + 2]), (m, nx)), _vector(at[a + 3], m)
+    for i in range(m):
+        for j in range(nx):
+            dA[i, j] = sA[i, j] * w
+        db[i] = sb[i] * w
+
+
+@nb.njit(cache=True)
+def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
+    """Every record's rows (module docstring) into the row buffer, in one pass."""
+    nx, nv, nj, nf = at[_NX], at[_NV], at[_NJ], at[_NF]
+    J = _matrix(at[_J], 6, nj)
+    M = _matrix(at[_M], nv, nv)
+    Jf = nb.carray(_pointer(at[_JF]), (nf, nv)) if nf else np.zeros((0, nv))
+    scratch = np.empty(12)
+    for r in range(rec.shape[0]):
+        kind, a, i, f, c, m, flag, w = rec[r, 0], rec[r, 1], rec[r, 2], rec[r, 3], rec[r, 4], rec[r, 5], \
+            rec[r, 6], rec[r, 7]
+        s = a + 2 if w >= 0 else a                 # where the task's rows are written: its scratch, or its block
+        if kind == _FRAME:                         # e (6), p_t (3), ẍ_d (6), ẋ_d (6) in cv; K_p, K_d in fx
+            A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
+            views = (sup[rec[r, 8]], _matrix(at[a + 4], 3, 3), _vector(at[a + 5], 3), _matrix(at[a + 6], 3, 3),
+                     _matrix(at[a + 7], 3, 3), _vector(at[a + 8], 3), _vector(at[a + 9], 6),
+                     _vector(at[a + 10], 6), scratch)
+            frame_motion_rows(A, b, J, views, cv[c + 6:c + 9], cv[c:c + 6], iv[i:i + m], cv[c + 9:c + 15],
+                              fx[f:f + 6], fx[f + 6:f + 12], cv[c + 15:c + 21], flag != 0)
+        elif kind == _COM:                         # target, ẍ_d, ẋ_d (3 each) in cv; K_p, K_d in fx
+            A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
+            com = _vector(at[a + 4], 3)
+            err = np.empty(3)
+            for k in range(3):
+                err[k] = cv[c + k] - com[k]
+            motion_rows(A, b, _matrix(at[a + 5], 3, nv), iv[i:i + m], cv[c + 3:c + 6], fx[f:f + 3], err,
+                        fx[f + 3:f + 6], cv[c + 6:c + 9], _vector(at[a + 6], 3), _vector(at[a + 7], 3))
+        elif kind == _POSTURE:                     # b = K_p e − K_d q̇ on its unit rows (A constant)
+            _posture_rhs(_vector(at[s + 1], m), pe, v, iv[i:i + m], fx[f:f + m], fx[f + m:f + 2 * m])
+        elif kind == _DYN:
+            A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
+            dynamics_block(A, b, M, h, Jf, iv[i:i + m], nv, -1.0)
+        elif kind == _WRENCH:                      # b = the target (A constant)
+            b = _vector(at[s + 1], m)
+            for k in range(m):
+                b[k] = cv[c + k]
+        elif kind == _TAU:                         # C, l, u of −τ_max ≤ S_a(M q̈ + h − J_fᵀ f) ≤ τ_max
+            C, ha = nb.carray(_pointer(at[a]), (m, nx)), _vector(at[a + 3], m)
+            lo, hi = _vector(at[a + 1], m), _vector(at[a + 2], m)
+            dynamics_block(C, ha, M, h, Jf, iv[i:i + m], nv, 1.0)
+            for k in range(m):
+                lo[k] = fx[f + m + k] - ha[k]
+                hi[k] = fx[f + k] - ha[k]
+        elif kind == _LIM:                         # the box bounds of acceleration_bounds
+            ne = rec[r, 8]
+            lo, hi = acceleration_bounds(q, v, iv[i:i + m], iv[i + m:i + 2 * m], fx[f:f + m],
+                                         fx[f + m:f + 2 * m], fx[f + 2 * m:f + 3 * m], fx[f + 3 * m + ne],
+                                         fx[f + 3 * m + ne + 1], fx[f + 3 * m + ne + 2], fx[f + 3 * m + ne + 3],
+                                         iv[i + 2 * m:i + 2 * m + ne], fx[f + 3 * m:f + 3 * m + ne], flag != 0)
+            blo, bhi = _vector(at[a], m + ne), _vector(at[a + 1], m + ne)
+            for k in range(m + ne):
+                blo[k] = lo[k]
+                bhi[k] = hi[k]
+        else:                                      # _FRICTION: the task's C, l, u copied into the buffer
+            C, Ct = nb.carray(_pointer(at[a]), (m, nx)), nb.carray(_pointer(at[a + 3]), (m, nx))
+            lo, hi = _vector(at[a + 1], m), _vector(at[a + 2], m)
+            lot, hit = _vector(at[a + 4], m), _vector(at[a + 5], m)
+            for k in range(m):
+                for j in range(nx):
+                    C[k, j] = Ct[k, j]
+                lo[k] = lot[k]
+                hi[k] = hit[k]
+        if w >= 0:
+            _scale(at, a, m, nx, fx[w])
+
+
+def _address(x, order: str = "C") -> int:
+    """The data address of x, a float64 array laid out as the kernel reads it (``order`` "C":
+    row-major or a contiguous vector; "F": a column-major matrix, pinocchio's); ValueError else."""
+    ok = isinstance(x, np.ndarray) and x.dtype == np.float64
+    ok = ok and (x.flags.f_contiguous if order == "F" else x.flags.c_contiguous)
+    if not ok:
+        raise ValueError("an array is not laid out as the plan's kernel reads it")
+    return x.__array_interface__["data"][0]
+
+
+class _Gains:
+    """A task's K_p, K_d (``gain_vectors(dim)``) copied into ``fx`` at f and f + ``step`` when the
+    task's ``kp`` or ``kd`` object is replaced (this record keeps what it copied)."""
+
+    __slots__ = ("task", "dim", "f", "step", "kp", "kd")
+
+    def __init__(self, task, dim: int, f: int, step: int) -> None:
+        self.task, self.dim, self.f, self.step, self.kp, self.kd = task, dim, f, step, None, None
+
+    def copy(self, fx: np.ndarray) -> None:
+        t = self.task
+        kp, kd = t.gain_vectors(self.dim)
+        f, d = self.f, self.dim
+        fx[f:f + d] = kp
+        fx[f + self.step:f + self.step + d] = kd
+        self.kp, self.kd = t.kp, t.kd
+
+
+class TorquePlan:
+    """One stack structure's rows in one compiled call (module docstring): :meth:`write` each
+    cycle. Built by :func:`torque_plan`."""
+
+    def __init__(self, buffer, robot, layout) -> None:
+        self.buffer, self.robot, self.layout, self.data = buffer, robot, layout, robot.data
+        self.at: list[int] = [layout.nx, layout.nv, robot.data.J.shape[1], layout.nf,
+                              _address(robot.data.J, "F"), _address(robot.data.M, "F"), 0]
+        #: the objects whose data ``at`` points at, alive while the plan is
+        self.keep: list = [robot.data.J, robot.data.M]
+        if layout.nf:
+            self.at[_JF] = _address(layout.force_jacobian)
+            self.keep.append(layout.force_jacobian)
+        self.rec: list[list[int]] = []
+        self.iv: list[int] = []
+        self.fx: list[float] = []
+        self.ncv = 0
+        self.sup: list[np.ndarray] = []
+        #: (kind, task, weight it was planned with, its per-cycle state)
+        self.items: list[tuple] = []
+        self.rest: list[tuple] = []            # (task, buffer entry, slot): called through rows
+        self.gains: list[_Gains] = []
+        self.posture = None
+
+    # ------------------------------------------------------------------ building
+    def _record(self, kind: int, arrays: list, ints, floats: int, values: int, m: int, flag: int = 0,
+                w: float = 1.0, count: int = 0) -> list[int]:
+        """A record: its arrays' addresses (``(array, order)``), ints, ``floats`` zeros in fx
+        (+ √w when w ≠ 1), ``values`` zeros in cv."""
+        a, i, f, c = len(self.at), len(self.iv), len(self.fx), self.ncv
+        for x, order in arrays:
+            self.at.append(_address(x, order))
+            self.keep.append(x)
+        self.iv += [int(k) for k in ints]
+        self.fx += [0.0] * floats
+        ws = -1
+        if w != 1.0:
+            ws = len(self.fx)
+            self.fx.append(w)
+        self.ncv += values
+        r = [kind, a, i, f, c, m, flag, ws, count]
+        self.rec.append(r)
+        return r
+
+    @staticmethod
+    def _eq(entry, slot) -> list:
+        """A task's equality block (A, b) in the buffer and where it writes (its slot)."""
+        A, b, w = entry[1]
+        return [(A, "C"), (b, "C"), (slot.A, "C"), (slot.b, "C")] if w != 1.0 else \
+            [(A, "C"), (b, "C"), (A, "C"), (b, "C")]
+
+    def _frame(self, t, entry, slot, robot, fid: int, sel, dim: int, contact: bool) -> list[int]:
+        fa = robot.frame_arrays(fid)
+        sup, R, p, Ri, jRf, jpf, vj, aj, _ = fa.views
+        arrays = self._eq(entry, slot) + [(R, "F"), (p, "C"), (Ri, "F"), (jRf, "F"), (jpf, "C"), (vj, "C"),
+                                          (aj, "C")]
+        r = self._record(_FRAME, arrays, sel, 12, 21, len(sel), int(contact), entry[1][2], len(self.sup))
+        self.sup.append(sup)
+        g = _Gains(t, dim, r[3], 6)
+        self.gains.append(g)
+        return r
+
+    def add(self, t, entry, slot, robot, layout) -> bool:
+        """Plan task t (its buffer entry and slot); False: a task the plan does not write."""
+        kind = type(t)
+        w = entry[1][2] if entry[1] is not None else 1.0
+        if kind is Frame:
+            r = self._frame(t, entry, slot, robot, t._frame(robot), t._sel, 6, False)
+            self.items.append((_FRAME, t, t.weight, (r[4], np.zeros((3, 3)), robot.frame_arrays(t._fid))))
+        elif kind is Contact:
+            s = t._bound()
+            m = s.force_dim
+            if t._ineq is None and not t.bilateral:
+                return False
+            r = self._frame(t, entry, slot, robot, t._fid, t._zero_axes(m)[1], m, m == 6)
+            fr = None
+            if not t.bilateral:
+                C, lo, hi = entry[2]
+                self._record(_FRICTION, [(C, "C"), (lo, "C"), (hi, "C"), (t._ineq[1], "C"), (t._lo, "C"),
+                                         (t._hi, "C")], (), 0, 0, len(lo))
+                fr = t._ineq
+            self.items.append((_CONTACT, t, t.weight, (r[4], m, t.sliding, t.bilateral, fr, t.cop_margin,
+                                                           robot.frame_arrays(t._fid).placement)))
+        elif kind is CoM:
+            if not (len(t._sel) == 3 or (np.ndim(t.kp) == 0 and np.ndim(t.kd) == 0)):
+                return False
+            arrays = self._eq(entry, slot) + [(robot.com, "C"), (robot.com_jacobian, "F"),
+                                              (robot.com_velocity, "C"), (robot.com_drift, "C")]
+            r = self._record(_COM, arrays, t._sel, 6, 9, len(t._sel), 0, w)
+            self.gains.append(_Gains(t, 3, r[3], 3))
+            self.items.append((_COM, t, t.weight, r[4]))
+        elif kind is Posture:
+            idx = t._idx
+            if self.posture is not None or idx is None:
+                return False
+            r = self._record(_POSTURE, self._eq(entry, slot), idx, 2 * len(idx), 0, len(idx), 0, w)
+            self.gains.append(_Gains(t, len(idx), r[3], len(idx)))
+            self.posture = t
+            self.items.append((_POSTURE, t, t.weight, None))
+        elif kind is FloatingBaseDynamics:
+            if t._u is None:
+                return False
+            self._record(_DYN, self._eq(entry, slot), t._u, 0, 0, len(t._u), 0, w)
+            self.items.append((_DYN, t, t.weight, None))
+        elif kind is ContactWrench:
+            sl = layout.contact_slices.get(t.contact)
+            if sl is None:
+                return False
+            dim = sl.stop - sl.start
+            r = self._record(_WRENCH, self._eq(entry, slot), (), 0, dim, dim, 0, w)
+            self.items.append((_WRENCH, t, t.weight, (r[4], dim)))
+        elif kind is TorqueLimits:
+            buf = t._buf
+            if buf is None:
+                return False
+            C, lo, hi = entry[2]
+            r = self._record(_TAU, [(C, "C"), (lo, "C"), (hi, "C"), (buf[4], "C")], buf[1], 0, 0, len(buf[1]))
+            self.fx += [*buf[2], *buf[7]]          # τ_max, −τ_max of the task's rows
+            self.items.append((_TAU, t, t.weight, (buf, t.scale)))
+        elif kind is JointLimits:
+            if t._map is None:
+                return False
+            qi, vi, extra, _ = t._map
+            qmax, qmin, vmax, vmax_extra = t._lim
+            lo, hi = entry[3][0], entry[3][1]
+            ridx = len(self.rec)
+            r = self._record(_LIM, [(lo, "C"), (hi, "C")], [*qi, *vi, *extra], 0, 0, len(qi), 0, 1.0, len(extra))
+            self.fx += [*qmax, *qmin, *vmax, *vmax_extra, 0.0, 0.0, 0.0, 0.0]
+            self.items.append((_LIM, t, t.weight, [None, ridx, r[3] + 3 * len(qi) + len(extra)]))
+        elif kind is ContactRegularization or kind is DifferentialDrive:
+            self.rest.append((t, entry, slot))
+        else:
+            return False
+        return True
+
+    def finish(self) -> None:
+        """The tables as arrays, the gains copied in."""
+        self.at_ = np.array(self.at, dtype=np.int64)
+        self.rec_ = np.array(self.rec, dtype=np.int64).reshape(-1, _W)
+        self.iv_ = np.array(self.iv, dtype=np.int64)
+        self.fx_ = np.array(self.fx, dtype=float)
+        self.cv = np.zeros(self.ncv)
+        nv = self.layout.nv
+        self.sup_ = np.array(self.sup, dtype=np.bool_).reshape(-1, nv)
+        self.pe = np.zeros(0)
+        for g in self.gains:
+            g.copy(self.fx_)
+
+    # ------------------------------------------------------------------ each cycle
+    def write(self, robot, layout) -> bool:
+        """This cycle's rows into the buffer (module docstring); False: not written, the tasks
+        are to be called (a change the plan does not follow)."""
+        if robot is not self.robot or layout is not self.layout or robot.data is not self.data:
+            return False
+        for t, entry, slot in self.rest:
+            if not _put(entry, t.rows(robot, layout, slot), t):
+                return False
+        fx, cv = self.fx_, self.cv
+        for g in self.gains:
+            t = g.task
+            if t.kp is not g.kp or t.kd is not g.kd:
+                if type(t) is CoM and not (len(t._sel) == 3 or (np.ndim(t.kp) == 0 and np.ndim(t.kd) == 0)):
+                    return False                   # gains per selected axis: CoM.rows' other branch
+                g.copy(fx)
+        for kind, t, w, st in self.items:
+            if t.weight != w:
+                return False
+            if kind == _FRAME:
+                T = t._target
+                if T is None:
+                    return False
+                c = st[0]
+                if t._sel[-1] > 2:                 # log₃(R_d Rᵀ), pinocchio's (Frame.rows' bits)
+                    Re = st[1]
+                    relative_rotation(Re, T.rotation, st[2].views[1])
+                    cv[c + 3:c + 6] = pin.log3(Re)
+                cv[c + 6:c + 9] = T.translation
+                cv[c + 9:c + 15] = t.target_acceleration
+                cv[c + 15:c + 21] = t.target_velocity
+            elif kind == _CONTACT:             # a contact
+                ref = t.reference
+                c, m, sliding, bilateral, fr, cop, placement = st
+                if ref is None or t.sliding != sliding or t.bilateral != bilateral:
+                    return False
+                if m == 6:
+                    cv[c:c + 6] = pin.log6(placement.actInv(ref)).vector
+                else:
+                    cv[c + 6:c + 9] = ref.translation
+                if fr is not None:
+                    if t._ineq is not fr or t.cop_margin != cop:
+                        return False
+                    t._hi[-1] = t.fmax
+            elif kind == _COM:
+                T = t._target
+                if T is None:
+                    return False
+                cv[st:st + 3] = T
+                cv[st + 3:st + 6] = t.target_acceleration
+                cv[st + 6:st + 9] = t.target_velocity
+            elif kind == _WRENCH:
+                T = t._target
+                c, dim = st
+                if T is None or t._checked_dim != dim:
+                    return False
+                cv[c:c + dim] = T
+            elif kind == _TAU:
+                if t._buf is not st[0] or t.scale != st[1]:
+                    return False
+            elif kind == _LIM:
+                now = (t.margin, t.dt, t.horizon, t.max_acceleration, t.recovery)
+                if now != st[0]:
+                    f = st[2]
+                    fx[f:f + 4] = now[:4]
+                    self.rec_[st[1], 6] = int(now[4] == "stop")
+                    st[0] = now
+        pe = self.pe
+        post = self.posture
+        if post is not None:
+            if not post._checked or post._target is None:
+                return False
+            pe = robot.difference(robot.q, post._target)
+        _torque_rows(self.at_, self.rec_, self.iv_, fx, cv, self.sup_, robot.q, robot.v, robot.h, pe)
+        return True
+
+
+def torque_plan(groups: list, buffer, robot, layout) -> TorquePlan | None:
+    """The plan of a stack's rows (module docstring) for ``buffer`` (a
+    :class:`~wbc.problem.buffer.RowBuffer` its tasks have filled at least once, with their
+    slots), or None: a task the plan does not write, or an array not laid out as it reads.
+
+    Args:
+        groups: the tasks, level by level, as the buffer was built for.
+        buffer: the row buffer.
+        robot: the robot (its ``data`` held).
+        layout: the layout the buffer was filled with.
+    """
+    try:
+        plan = TorquePlan(buffer, robot, layout)
+        for tasks, entries, slots in zip(groups, buffer.plans, buffer.slots, strict=True):
+            for t, entry, slot in zip(tasks, entries, slots, strict=True):
+                if not plan.add(t, entry, slot, robot, layout):
+                    return None
+        plan.finish()
+    except ValueError:
+        return None
+    return plan
