@@ -381,11 +381,8 @@ class TorquePlan:
                 cv[st + 3:st + 6] = t.target_acceleration
                 cv[st + 6:st + 9] = t.target_velocity
             elif kind == _WRENCH:
-                T = t._target
                 c, dim = st
-                if T is None or t._checked_dim != dim:
-                    return False
-                cv[c:c + dim] = T
+                cv[c:c + dim] = t._ref(dim)       # the task's own check of a target set anew
             elif kind == _TAU:
                 if t._buf is not st[0] or t.scale != st[1]:
                     return False
@@ -399,9 +396,7 @@ class TorquePlan:
         pe = self.pe
         post = self.posture
         if post is not None:
-            if not post._checked or post._target is None:
-                return False
-            pe = robot.difference(robot.q, post._target)
+            pe = robot.difference(robot.q, post._q_ref(robot))
         _torque_rows(self.at_, self.rec_, self.iv_, fx, cv, self.sup_, robot.q, robot.v, robot.h, pe)
         return True
 

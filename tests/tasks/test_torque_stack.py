@@ -1,0 +1,136 @@
+"""The torque stack's rows in one compiled call (:mod:`wbc.tasks.torque_stack`): the plan's rows
+equal each task's own ``rows`` (every field, bit for bit) over random states, targets, gains and
+settings, for the bench's Talos stack (with its wrench targets), the tests' Talos stack (a hand
+of weight 0.5) and TIAGo (differential drive, a position and an orientation task); the tasks
+are not called while the plan runs; a change it does not follow is left to the tasks, and a
+stack with a task it does not know has no plan."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+import wbc
+from tests.controller.test_row_buffer_refill import _assert_fresh, _counting
+from tests.helpers.stacks import bench_stack, random_state, randomise_targets, talos_stack, tiago_stack
+from wbc.tasks import Frame
+
+CASES = {"talos_bench": ("talos", bench_stack), "talos_weighted": ("talos", talos_stack),
+         "tiago": ("tiago", tiago_stack)}
+
+
+def _cycle(ctrl, stack, robot, rng, calls: Counter):
+    """One random cycle (state, targets) through the controller; the tasks' calls counted."""
+    q, v = random_state(robot, rng, speed=1.0)
+    robot.update(q, v)
+    randomise_targets(stack, robot, rng)
+    calls.clear()
+    ctrl.solve(q, v)
+    return [ctrl._internal_constraints(ctrl.layout) + stack.levels[0]] + stack.levels[1:] + \
+        ([ctrl.lowest_tasks()] if ctrl.layout.nf and ctrl.lowest_tasks() else [])
+
+
+def _change(stack, k: int, rng) -> None:
+    """Settings the plan reads each cycle, changed between cycles: gains, a contact's f_max,
+    the joint limits' margin, deceleration and recovery (a small ā puts joints outside their
+    viable set, where ``recovery`` acts), the wrench targets, targets' velocities."""
+    for t in stack:
+        kind = t.kind
+        if kind in ("frame", "com", "posture") and k % 3 == 1:
+            t.set_gains(float(rng.uniform(5.0, 80.0)))
+        if kind == "frame":
+            t.target_velocity = rng.standard_normal(6)
+            t.target_acceleration = rng.standard_normal(6)
+        elif kind == "com":
+            t.target_velocity = rng.standard_normal(3)
+        elif kind == "contact":
+            t.fmax = float(rng.uniform(200.0, 900.0)) if k % 2 else np.inf
+            if k % 3 == 2:
+                t.set_gains(list(rng.uniform(1.0, 20.0, 6)))
+        elif kind == "joint_limits":
+            t.margin = float(rng.uniform(0.0, 0.05))
+            t.max_acceleration = float(rng.uniform(0.2, 2.0))     # joints outside the viable set
+            t.recovery = "stop" if k % 2 else "one_period"
+        elif kind == "contact_wrench":
+            t.target = rng.uniform(-50.0, 400.0, 6)
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_plans_rows_equal_the_tasks_rows(case):
+    """Twelve random cycles after the plan is built: the stack's levels equal the rows stacked
+    afresh and each task's own rows, while no task but the plan's ``rest`` (the contact
+    regularisation, the differential drive) is called."""
+    name, make = CASES[case]
+    robot = wbc.load_robot(name)
+    stack = make()
+    ctrl = wbc.Controller(robot, stack)
+    rng = np.random.default_rng(7)
+    calls: Counter = Counter()
+    for _ in range(2):
+        _cycle(ctrl, stack, robot, rng, calls)
+    _counting(stack, calls)
+    plan = stack._plan
+    assert plan is not None and plan[1] is not None and plan[0] is stack.row_buffer
+    for k in range(12):
+        _change(stack, k, rng)
+        groups = _cycle(ctrl, stack, robot, rng, calls)
+        assert stack._plan is plan                     # the same plan wrote the rows
+        assert not set(calls) - {"contact_regularization"}, calls
+        _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+
+
+@pytest.mark.parametrize("change", ["weight", "cop_margin", "sliding", "scale"])
+def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change):
+    """A weight, a contact's cop_margin or sliding, the torque limits' scale changed in place:
+    that cycle the tasks write the rows (each called), they equal the rows stacked afresh, and
+    a new plan writes them within two cycles (a rebuilt buffer is refilled once first)."""
+    robot = wbc.load_robot("talos")
+    stack = talos_stack()
+    ctrl = wbc.Controller(robot, stack)
+    rng = np.random.default_rng(3)
+    calls: Counter = Counter()
+    for _ in range(2):
+        _cycle(ctrl, stack, robot, rng, calls)
+    _counting(stack, calls)
+    first = stack._plan
+    if change == "weight":
+        stack["right_hand"].weight = 3.0
+    elif change == "cop_margin":
+        stack["left_foot_contact"].cop_margin = 0.1
+    elif change == "sliding":
+        stack["left_foot_contact"].sliding = True
+    else:
+        stack["torque_limits"].scale = 0.8
+    groups = _cycle(ctrl, stack, robot, rng, calls)
+    assert set(calls) >= {t.name for t in stack}, calls
+    _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+    for _ in range(2):                                 # a rebuilt buffer: refilled once, then planned
+        groups = _cycle(ctrl, stack, robot, rng, calls)
+        planned = not set(calls) - {"contact_regularization"}
+        _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+    assert stack._plan is not first and stack._plan[1] is not None
+    assert planned
+
+
+class _OwnFrame(Frame):
+    """A task class the plan does not know (a subclass of one it does)."""
+
+
+def test_a_stack_with_a_task_the_plan_does_not_know_has_no_plan():
+    """TIAGo's stack with its hand task of another class: no plan, every task called each
+    cycle, the rows equal the rows stacked afresh."""
+    robot = wbc.load_robot("tiago")
+    stack = wbc.Stack([[wbc.tasks.JointLimits(), wbc.tasks.TorqueLimits()], [_OwnFrame("hand", mask="position")],
+                       [wbc.tasks.Posture(kp=10.0)]])
+    ctrl = wbc.Controller(robot, stack)
+    rng = np.random.default_rng(1)
+    calls: Counter = Counter()
+    _counting(stack, calls)
+    for k in range(4):
+        groups = _cycle(ctrl, stack, robot, rng, calls)
+        if k:
+            assert stack._plan is not None and stack._plan[1] is None
+            assert set(calls) == {t.name for t in stack}, calls
+        _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
