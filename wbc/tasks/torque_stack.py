@@ -206,10 +206,10 @@ class TorquePlan:
         self.posture = None
 
     # ------------------------------------------------------------------ building
-    def _record(self, kind: int, arrays: list, ints, floats: int, values: int, m: int, flag: int = 0,
-                w: float = 1.0, count: int = 0) -> list[int]:
-        """A record: its arrays' addresses (``(array, order)``), ints, ``floats`` zeros in fx
-        (+ √w when w ≠ 1), ``values`` zeros in cv."""
+    def _record(self, kind: int, arrays: list, ints, sizes: tuple, w: float = 1.0) -> list[int]:
+        """A record: its arrays' addresses (``(array, order)``), ints, and ``sizes`` = (floats: zeros
+        in fx, values: zeros in cv, its rows m, its flag, its count); √w in fx when w ≠ 1."""
+        floats, values, m, flag, count = sizes
         a, i, f, c = len(self.at), len(self.iv), len(self.fx), self.ncv
         for x, order in arrays:
             self.at.append(_address(x, order))
@@ -237,7 +237,7 @@ class TorquePlan:
         sup, R, p, Ri, jRf, jpf, vj, aj, _ = fa.views
         arrays = self._eq(entry, slot) + [(R, "F"), (p, "C"), (Ri, "F"), (jRf, "F"), (jpf, "C"), (vj, "C"),
                                           (aj, "C")]
-        r = self._record(_FRAME, arrays, sel, 12, 21, len(sel), int(contact), entry[1][2], len(self.sup))
+        r = self._record(_FRAME, arrays, sel, (12, 21, len(sel), int(contact), len(self.sup)), entry[1][2])
         self.sup.append(sup)
         g = _Gains(t, dim, r[3], 6)
         self.gains.append(g)
@@ -260,7 +260,7 @@ class TorquePlan:
             if not t.bilateral:
                 C, lo, hi = entry[2]
                 self._record(_FRICTION, [(C, "C"), (lo, "C"), (hi, "C"), (t._ineq[1], "C"), (t._lo, "C"),
-                                         (t._hi, "C")], (), 0, 0, len(lo))
+                                         (t._hi, "C")], (), (0, 0, len(lo), 0, 0))
                 fr = t._ineq
             self.items.append((_CONTACT, t, t.weight, (r[4], m, t.sliding, t.bilateral, fr, t.cop_margin,
                                                            robot.frame_arrays(t._fid).placement)))
@@ -269,35 +269,35 @@ class TorquePlan:
                 return False
             arrays = self._eq(entry, slot) + [(robot.com, "C"), (robot.com_jacobian, "F"),
                                               (robot.com_velocity, "C"), (robot.com_drift, "C")]
-            r = self._record(_COM, arrays, t._sel, 6, 9, len(t._sel), 0, w)
+            r = self._record(_COM, arrays, t._sel, (6, 9, len(t._sel), 0, 0), w)
             self.gains.append(_Gains(t, 3, r[3], 3))
             self.items.append((_COM, t, t.weight, r[4]))
         elif kind is Posture:
             idx = t._idx
             if self.posture is not None or idx is None:
                 return False
-            r = self._record(_POSTURE, self._eq(entry, slot), idx, 2 * len(idx), 0, len(idx), 0, w)
+            r = self._record(_POSTURE, self._eq(entry, slot), idx, (2 * len(idx), 0, len(idx), 0, 0), w)
             self.gains.append(_Gains(t, len(idx), r[3], len(idx)))
             self.posture = t
             self.items.append((_POSTURE, t, t.weight, None))
         elif kind is FloatingBaseDynamics:
             if t._u is None:
                 return False
-            self._record(_DYN, self._eq(entry, slot), t._u, 0, 0, len(t._u), 0, w)
+            self._record(_DYN, self._eq(entry, slot), t._u, (0, 0, len(t._u), 0, 0), w)
             self.items.append((_DYN, t, t.weight, None))
         elif kind is ContactWrench:
             sl = layout.contact_slices.get(t.contact)
             if sl is None:
                 return False
             dim = sl.stop - sl.start
-            r = self._record(_WRENCH, self._eq(entry, slot), (), 0, dim, dim, 0, w)
+            r = self._record(_WRENCH, self._eq(entry, slot), (), (0, dim, dim, 0, 0), w)
             self.items.append((_WRENCH, t, t.weight, (r[4], dim)))
         elif kind is TorqueLimits:
             buf = t._buf
             if buf is None:
                 return False
             C, lo, hi = entry[2]
-            r = self._record(_TAU, [(C, "C"), (lo, "C"), (hi, "C"), (buf[4], "C")], buf[1], 0, 0, len(buf[1]))
+            r = self._record(_TAU, [(C, "C"), (lo, "C"), (hi, "C"), (buf[4], "C")], buf[1], (0, 0, len(buf[1]), 0, 0))
             self.fx += [*buf[2], *buf[7]]          # τ_max, −τ_max of the task's rows
             self.items.append((_TAU, t, t.weight, (buf, t.scale)))
         elif kind is JointLimits:
@@ -307,7 +307,7 @@ class TorquePlan:
             qmax, qmin, vmax, vmax_extra = t._lim
             lo, hi = entry[3][0], entry[3][1]
             ridx = len(self.rec)
-            r = self._record(_LIM, [(lo, "C"), (hi, "C")], [*qi, *vi, *extra], 0, 0, len(qi), 0, 1.0, len(extra))
+            r = self._record(_LIM, [(lo, "C"), (hi, "C")], [*qi, *vi, *extra], (0, 0, len(qi), 0, len(extra)))
             self.fx += [*qmax, *qmin, *vmax, *vmax_extra, 0.0, 0.0, 0.0, 0.0]
             self.items.append((_LIM, t, t.weight, [None, ridx, r[3] + 3 * len(qi) + len(extra)]))
         elif kind is ContactRegularization or kind is DifferentialDrive:
