@@ -11,10 +11,14 @@ joint limits in one compiled call (:mod:`wbc.tasks.velocity_stack`), the others 
 pass each (rows constant in the state were written at planning), the rows of a task of
 weight w ≠ 1 scaled by √w into its
 block, nothing allocated, no list or dict built. A writer that finds its task's rows
-changed shape (a contact made sliding) says so and the plan is rebuilt.
+changed shape (a contact made sliding) says so and the plan is rebuilt. Where the one call
+covers every task and the solver is the hierarchical QP, the cycle's rows and its equality-only
+step are a single compiled call (:meth:`VelocityPlan.fill_step`, :mod:`wbc.controller.velocity_step`).
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 import numpy as np
 
@@ -116,7 +120,7 @@ class VelocityPlan:
             np.multiply(sb, w, out=b)
         return True
 
-    def fill_step(self, solver, dt: float) -> tuple | bool | None:
+    def fill_step(self, solver, dt: float) -> tuple | Literal[False] | None:
         """:meth:`fill` and, where the one-call writer covers every task (no other writer: no
         weighted, collision or drive task) and ``solver`` offers the equality-only cascade
         (``equality_step``, ``equality_inputs``: the hierarchical QP), that cascade in the same
@@ -134,12 +138,13 @@ class VelocityPlan:
         if fused is not None and not self.rest and getattr(solver, "equality_step", None) is not None:
             entry = getattr(solver, "equality_inputs", None)
             inputs = None if entry is None else entry(self.problem)
-        if inputs is None:
+        if fused is None or inputs is None:
             return None if self.fill() else False
         args = fused.prepare()
         if args is None or args is False:       # this cycle by the writers, or plan again
             return None if args is None and all(write() for write in self.writers) else False
-        out = rows_and_step(fused.held, fused.robot.q, *args, inputs, self.step, dt)
+        post_e, margin, k = args
+        out = rows_and_step(fused.held, fused.robot.q, post_e, margin, k, inputs, self.step, dt)
         if out[0] == ROWS_LEFT:                 # this cycle by the writers
             return None if all(write() for write in self.writers) else False
         return out

@@ -38,6 +38,7 @@ writers instead; a task whose rows changed shape says so as its writer does (pla
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Literal
 
 import numba as nb
 import numpy as np
@@ -193,7 +194,7 @@ class StackWriter:
 
     __slots__ = ("prepare", "held", "robot")
 
-    def __init__(self, prepare: Callable[[], tuple | bool | None], held: tuple, robot) -> None:
+    def __init__(self, prepare: Callable[[], tuple | Literal[False] | None], held: tuple, robot) -> None:
         #: () -> (post_e, margin, k), the arguments of this cycle after ``held`` and q; False plan
         #: again; None this cycle by the writers
         self.prepare = prepare
@@ -291,7 +292,7 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
     copied: list = [None] * len(gains)         # the kp each gain's slot of fx was copied from
     none = np.zeros(0)
 
-    def prepare() -> tuple | bool | None:
+    def prepare() -> tuple | Literal[False] | None:
         for i, (t, K, f, n) in enumerate(gains):
             if t.kp is not copied[i]:
                 fx[f:f + n] = K.get()
