@@ -26,12 +26,12 @@ from wbc.robot.loader import load_robot
 
 def split(ctrl, q) -> dict[str, int]:
     """One solve, step by step as ``VelocityController._solve`` takes them, each step timed (ns)."""
-    import math
     from functools import partial
 
     import pinocchio as pin
 
     from wbc.controller.velocity import VelocitySolution, _equality_diagnostics
+    from wbc.controller.velocity_step import ACCEPTED
 
     t, ns = {}, time.perf_counter_ns
     t0 = ns()
@@ -50,22 +50,20 @@ def split(ctrl, q) -> dict[str, int]:
     assert plan.matches(groups, key)
     t3 = ns()
     t["plan check"] = t3 - t2
-    assert plan.fill()              # the frames', contacts', CoM's, posture's, limits' rows in one call, the others'
+    out = plan.fill_step(ctrl.solver, ctrl.dt)    # the rows and the equality-only cascade in one call
+    assert out is not None and out is not False and out[0] == ACCEPTED, \
+        "the one call did not answer: the phases below are not the cycle's"
     t4 = ns()
-    t["rows (VelocityPlan.fill: wbc.tasks.velocity_stack's call, the other writers)"] = t4 - t3
-    got = ctrl.solver.equality_step(plan.problem)       # as the controller calls it (equality-only first)
-    assert got is not None, "the equality-only cascade did not answer: the phases below are not the cycle's"
-    t5 = ns()
-    t["solver (hqp: the equality-only cascade and the rows' values, HierarchicalQP.equality_step)"] = t5 - t4
+    t["rows and solver (VelocityPlan.fill_step: the Python checks, then one call: the rows, the equality-only "
+      "cascade, q̇'s finite check, the rows' values, q̇ dt)"] = t4 - t3
     nv = robot.nv
-    qd = got[0][:nv]
-    assert math.isfinite(qd.dot(qd))
+    qd = out[1][:nv]
     buf = plan.buffer
-    evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:3], plan.problem.levels,
-                       (got[3], len(buf.b), len(buf.lo)), (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
+    evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, out[2:4], plan.problem.levels,
+                       (out[4], len(buf.b), len(buf.lo)), (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
     t6 = ns()
-    t["bookkeeping (finite check, diagnostics closure)"] = t6 - t5
-    q_next = pin.integrate(robot.model, q, qd * ctrl.dt)
+    t["bookkeeping (diagnostics closure)"] = t6 - t4
+    q_next = pin.integrate(robot.model, q, plan.step)
     t7 = ns()
     t["integration (pin.integrate)"] = t7 - t6
     VelocitySolution.accepted(qd, q_next, robot.na, evaluate)

@@ -62,6 +62,7 @@ def test_one_call_covers_the_stack_and_writes_the_writers_rows(talos):
 @pytest.mark.parametrize("change", ["hand target replaced", "hand target in place", "hand velocity in place",
                                     "hand velocity replaced", "hand gain", "com target in place",
                                     "com target replaced", "com velocity in place", "com gain", "posture target",
+                                    "posture target in place",
                                     "posture gain", "foot reference replaced", "foot reference in place",
                                     "foot gain", "limit margin", "limit horizon",
                                     "gain changed on a cycle of the writers"])
@@ -95,6 +96,8 @@ def test_a_change_between_cycles_is_this_cycles(talos, change):
         com.set_gains(33.0)
     elif change == "posture target":
         post.target = pin.integrate(robot.model, robot.q_default, 0.05 * np.ones(robot.nv))
+    elif change == "posture target in place":      # read where it is by the call (its error q_d − q there)
+        post.target[7:] += 0.05
     elif change == "posture gain":
         post.set_gains(12.0)
     elif change == "foot reference replaced":
@@ -118,3 +121,18 @@ def test_a_change_between_cycles_is_this_cycles(talos, change):
     fused, ref = _both(plan)
     _same(fused, ref, change)
     assert any(not np.array_equal(x, y) for x, y in zip(fused, before)), change
+
+
+def test_posture_error_in_the_call_only_on_vector_space_joints():
+    """The posture's error is computed in the call (q_d − q) only where pinocchio's difference is
+    that subtraction: a continuous (unbounded revolute, two coordinates) joint is left to pinocchio."""
+    from wbc.tasks.velocity_stack import _vector_space_coordinates
+
+    model = pin.Model()
+    wheel = model.addJoint(0, pin.JointModelRUBZ(), pin.SE3.Identity(), "wheel")
+    arm = model.addJoint(wheel, pin.JointModelRX(), pin.SE3.Identity(), "arm")
+    model.addJoint(arm, pin.JointModelPY(), pin.SE3.Identity(), "slide")
+    assert _vector_space_coordinates(model, np.array([1, 2])) == [2, 3]
+    assert _vector_space_coordinates(model, np.array([0, 1])) is None
+    q0, q1 = pin.neutral(model), pin.randomConfiguration(model, -np.ones(4), np.ones(4))
+    assert np.array_equal(pin.difference(model, q0, q1)[1:], q1[2:] - q0[2:])

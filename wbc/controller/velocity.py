@@ -43,6 +43,7 @@ from wbc.controller.options import ControllerOptions
 from wbc.controller.solution import NO_REPORT, Solution, SolutionReport, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.velocity_plan import VelocityPlan
+from wbc.controller.velocity_step import ACCEPTED, NOT_FINITE
 from wbc.errors import ConfigError, SolverError
 from wbc.problem.buffer import row_values
 from wbc.problem.result import SolveResult
@@ -240,11 +241,23 @@ class VelocityController:
         groups = self.groups()
         plan = self._plan
         key = (self.stack.version, len(groups), *map(len, groups))
-        if plan is None or not plan.matches(groups, key) or not plan.fill():
+        out = None
+        if plan is None or not plan.matches(groups, key) or (out := plan.fill_step(self.solver, self.dt)) is False:
             plan = self._plan = VelocityPlan(groups, key, robot, self.dt, self.gain, self.margin)
+            out = None
         self.levels = plan.levels
         nv = robot.nv
-        if not plan.collision_rows:
+        if out is not None:
+            # the rows and the equality-only cascade were one compiled call (VelocityPlan.fill_step): its
+            # code says accepted (q̇ finite, q̇ dt in plan.step), not finite, or not accepted
+            code = out[0]
+            if code == ACCEPTED:
+                return self._accepted(q, out[1][:nv], plan, out[1:], plan.step)
+            if code == NOT_FINITE:
+                res = SolveResult(out[1], equality_levels(out[2], out[3], plan.problem.levels), True, 0, "")
+            else:
+                res = _solve_planned(self.solver, plan.problem, False)
+        elif not plan.collision_rows:
             # the equality-only cascade alone (the common cycle), its diagnostics built when read; else (not
             # accepted, or another solver) the solver's planned entry, which would not try it again
             step = getattr(self.solver, "equality_step", None)
@@ -252,7 +265,7 @@ class VelocityController:
             if got is not None:
                 qd = got[0][:nv]
                 if math.isfinite(qd.dot(qd)) or np.all(np.isfinite(qd)):
-                    return self._accepted(q, qd, plan, got)
+                    return self._accepted(q, qd, plan, got, qd * self.dt)
                 res = SolveResult(got[0], equality_levels(got[1], got[2], plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, step is None)
@@ -283,17 +296,18 @@ class VelocityController:
                                 # by position: a named tuple built by keywords costs ~1 µs more a cycle
                                 SolutionReport(res.qp_count, relaxed, False, False, 0.0, None, None, evaluate))
 
-    def _accepted(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan, got: tuple) -> VelocitySolution:
+    def _accepted(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan, got: tuple, step: np.ndarray
+                  ) -> VelocitySolution:
         """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got``: its
         x, ints, floats and the rows' values at x, :meth:`wbc.solvers.hqp.HierarchicalQP.equality_step`,
         the plan's problem's rows being the buffer's: :func:`row_values` of ``buf`` at q̇, computed in
-        the solver's call): what :meth:`_solve` builds from the same run's SolveResult (status "ok",
+        the solver's call; ``step`` = q̇ dt, m and rad): what :meth:`_solve` builds from the same run's SolveResult (status "ok",
         no QP, nothing relaxed, no message), its levels' records decoded only when the diagnostics
         are read."""
         buf = plan.buffer
         evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:3], plan.problem.levels,
                            (got[3], len(buf.b), len(buf.lo)), (self.sacrifice_tol, self.sacrifice_rel))
-        return VelocitySolution.accepted(qd, pin.integrate(self.robot.model, q, qd * self.dt), self.robot.na, evaluate)
+        return VelocitySolution.accepted(qd, pin.integrate(self.robot.model, q, step), self.robot.na, evaluate)
 
     def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):
         """The solve again with the collision rows re-linearised where the command breaks them

@@ -11,10 +11,14 @@ joint limits in one compiled call (:mod:`wbc.tasks.velocity_stack`), the others 
 pass each (rows constant in the state were written at planning), the rows of a task of
 weight w ≠ 1 scaled by √w into its
 block, nothing allocated, no list or dict built. A writer that finds its task's rows
-changed shape (a contact made sliding) says so and the plan is rebuilt.
+changed shape (a contact made sliding) says so and the plan is rebuilt. Where the one call
+covers every task and the solver is the hierarchical QP, the cycle's rows and its equality-only
+step are a single compiled call (:meth:`VelocityPlan.fill_step`, :mod:`wbc.controller.velocity_step`).
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 import numpy as np
 
@@ -24,6 +28,8 @@ from wbc.problem.rows import Layout, Rows
 from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.velocity import velocity_writer
 from wbc.tasks.velocity_stack import stack_writer
+
+from .velocity_step import ROWS_LEFT, rows_and_step
 
 _NO_INDEX = np.zeros(0, dtype=np.int64)
 
@@ -78,6 +84,8 @@ class VelocityPlan:
         #: it does not cover; None: every writer, one call each
         self.stack_write, self.rest = stack_writer(self.writers, [t for tasks in groups for t in tasks], buf, robot)
         self.levels = buf.levels
+        #: q̇ dt of the last cycle the rows and the step were one call (fill_step), nv
+        self.step = np.zeros(nv)
         self.problem = Problem(buf.levels, Layout(nv=nv), np.eye(nv), np.zeros(nv), _NO_INDEX, margin=margin,
                                rows=buf.stacked)
         self.fill()
@@ -111,3 +119,32 @@ class VelocityPlan:
             np.multiply(sA, w, out=A)
             np.multiply(sb, w, out=b)
         return True
+
+    def fill_step(self, solver, dt: float) -> tuple | Literal[False] | None:
+        """:meth:`fill` and, where the one-call writer covers every task (no other writer: no
+        weighted, collision or drive task) and ``solver`` offers the equality-only cascade
+        (``equality_step``, ``equality_inputs``: the hierarchical QP), that cascade in the same
+        compiled call (:func:`wbc.controller.velocity_step.rows_and_step`). Returns False (plan
+        again) or None (the rows written, nothing solved: the caller's solve) as :meth:`fill`
+        does, else ``rows_and_step``'s (code, x, ints, floats, values), with :attr:`step` ← q̇ dt
+        (s) for code ACCEPTED.
+
+        Args:
+            solver: the controller's solver.
+            dt: the control period (s).
+        """
+        fused = self.stack_write
+        inputs = None
+        if fused is not None and not self.rest and getattr(solver, "equality_step", None) is not None:
+            entry = getattr(solver, "equality_inputs", None)
+            inputs = None if entry is None else entry(self.problem)
+        if fused is None or inputs is None:
+            return None if self.fill() else False
+        args = fused.prepare()
+        if args is None or args is False:       # this cycle by the writers, or plan again
+            return None if args is None and all(write() for write in self.writers) else False
+        post_e, margin, k = args
+        out = rows_and_step(fused.held, fused.robot.q, post_e, margin, k, inputs, self.step, dt)
+        if out[0] == ROWS_LEFT:                 # this cycle by the writers
+            return None if all(write() for write in self.writers) else False
+        return out

@@ -97,11 +97,23 @@ class PlannedEntry:
         common cycle: its diagnostics are worked out only when read). None also where
         :meth:`solve_planned` would not try it (:attr:`equality_first` False, a subclass that
         solves otherwise)."""
+        args = self.equality_inputs(problem)
+        if args is None:
+            return None
+        done, x, ints, floats, values = equality_step_values(*args)
+        return (x, ints, floats, values) if done else None
+
+    def equality_inputs(self: Any, problem: Problem) -> tuple | None:
+        """The arguments of :func:`~wbc.solvers.kernels.equality_run.equality_step_values` (and of
+        :func:`~wbc.solvers.kernels.equality_run.equality_cascade`) for ``problem`` as
+        :meth:`equality_step` passes them: ``(eq, ineq, x0, hints, settings)``, built once per rows
+        object and setting (:meth:`_planned_args`), or None where :meth:`equality_step` would not try
+        the equality-only cascade. For a caller that runs it inside its own compiled call (the
+        velocity plan's rows and step, :mod:`wbc.controller.velocity_step`): the same run."""
         if not (self.equality_first and _plain(self)):
             return None
         got, x0 = self._planned_args(problem)
-        done, x, ints, floats, values = equality_step_values(got[3], got[4], x0, self._hints, got[5])
-        return (x, ints, floats, values) if done else None
+        return got[3], got[4], x0, self._hints, got[5]
 
     def _planned_args(self: Any, problem: Problem) -> tuple[tuple, np.ndarray]:
         """(the compiled run's arguments for this rows object, level list and solver setting,

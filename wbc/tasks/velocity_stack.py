@@ -24,8 +24,11 @@ What is held and what is read each cycle.
   (``data.J``, each frame's placement, the CoM, J_com) and the buffer's are fixed for the
   plan's life; a target's address is written again when the task's target object is replaced
   (checked by identity every cycle), and a target changed in place is read as it is now.
-- Passed each cycle: q, the posture's error (pinocchio's ``difference``, the task's own
-  ``error``) and the joint-limit task's margin and gain.
+- Passed each cycle: q, the joint-limit task's margin and gain, and the posture's error
+  (pinocchio's ``difference``, the task's own ``error``) unless every joint it drives is a
+  vector space of one coordinate (bounded revolute, prismatic: ``difference`` is q_d − q there),
+  when the call computes it from q and the posture's target, held by address as the others'
+  (the same subtraction, bit for bit).
 
 A cycle the call cannot write (a target not set yet or not a contiguous float64 array, a
 contact's logarithm near a half turn, a rate-limited joint-limit task) is written by the
@@ -35,6 +38,7 @@ writers instead; a task whose rows changed shape says so as its writer does (pla
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Literal
 
 import numba as nb
 import numpy as np
@@ -114,10 +118,16 @@ def _stack_rows(at, ix, fx, support, q, post_e, margin, k):
         _motion_rows(A[r0:r0 + m], b[r0:r0 + m], _matrix(at[_JCOM], 3, nj), ix[c + 2:c + 2 + m],
                      _vector(at[s + 1], 3), fx[f:f + 3], ec)
     c = ix[_POST_I]
-    if c >= 0:                                # (first row, rows); K: b = K e on its unit rows
+    if c >= 0:                                # (first row, rows, in place, q indices); K: b = K e on its unit rows
         r0, m, f = ix[c], ix[c + 1], ix[_POST_F]
-        for i in range(m):
-            b[r0 + i] = fx[f + i] * post_e[i]
+        if post_e.shape[0] == m:
+            for i in range(m):
+                b[r0 + i] = fx[f + i] * post_e[i]
+        else:                                 # e = q_d ⊖ q = q_d − q on vector-space joints (pinocchio's difference)
+            q_d = _vector(at[_FRAMES + _PER_FRAME * nf + 2], q.shape[0])
+            for i in range(m):
+                j = ix[c + 3 + i]
+                b[r0 + i] = fx[f + i] * (q_d[j] - q[j])
     c = ix[_LIM_I]
     if c >= 0:                                # (first bound, joints, their q indices); q_max, q_min, v_max
         r0, n, f = ix[c], ix[c + 1], ix[_LIM_F]
@@ -125,6 +135,26 @@ def _stack_rows(at, ix, fx, support, q, post_e, margin, k):
         _joint_velocity_bounds(lo[r0:r0 + n], hi[r0:r0 + n], q, ix[c + 2:c + 2 + n], fx[f:f + n],
                                fx[f + n:f + 2 * n], fx[f + 2 * n:f + 3 * n], margin, k)
     return True
+
+
+#: pinocchio's joints whose ``difference`` is q₁ − q₀ on one coordinate (a vector space of dimension 1)
+_VECTOR_JOINTS = frozenset(f"JointModel{k}{a}" for k in "RP" for a in "XYZ") | {"JointModelRevoluteUnaligned",
+                                                                              "JointModelPrismaticUnaligned"}
+
+
+def _vector_space_coordinates(model, idx: np.ndarray) -> list[int] | None:
+    """The configuration index of each velocity index in ``idx`` when every one is a joint of one
+    coordinate whose ``difference`` is the plain q₁ − q₀ (:data:`_VECTOR_JOINTS`: bounded
+    revolute, prismatic), so that the posture's error q_d ⊖ q is q_d[j] − q[j] (the same
+    subtraction, bit for bit); else None (its error by pinocchio, in Python)."""
+    out = []
+    for i in idx:
+        jid = next((j for j in range(1, model.njoints) if model.idx_vs[j] <= i < model.idx_vs[j] + model.nvs[j]), 0)
+        joint = model.joints[jid]
+        if jid == 0 or joint.nq != 1 or joint.nv != 1 or joint.shortname() not in _VECTOR_JOINTS:
+            return None
+        out.append(int(model.idx_qs[jid]))
+    return out
 
 
 def _first_row(view: np.ndarray, base: np.ndarray) -> int:
@@ -155,12 +185,33 @@ def _hold(at: np.ndarray, keep: list, slot: int, x, owner=None, size: int = 0) -
     return True
 
 
-#: a stack writer: True written, False plan again, None this cycle by the writers
-StackWriter = Callable[[], "bool | None"]
+class StackWriter:
+    """The covered tasks' rows in one call (:func:`stack_writer`): ``write()`` (True written, False
+    plan again, None this cycle by the writers), or in two steps, :meth:`prepare` (this cycle's
+    Python checks: the gains, the targets' addresses, the posture's error) then :func:`_stack_rows`
+    of :attr:`held`, ``robot.q`` and what :meth:`prepare` returned (the velocity plan's call that
+    also solves, :mod:`wbc.controller.velocity_step`)."""
+
+    __slots__ = ("prepare", "held", "robot")
+
+    def __init__(self, prepare: Callable[[], tuple | Literal[False] | None], held: tuple, robot) -> None:
+        #: () -> (post_e, margin, k), the arguments of this cycle after ``held`` and q; False plan
+        #: again; None this cycle by the writers
+        self.prepare = prepare
+        #: (at, ix, fx, support): the tables :func:`_stack_rows` reads, held for the plan's life
+        self.held = held
+        self.robot = robot
+
+    def __call__(self) -> bool | None:
+        got = self.prepare()
+        if got is None or got is False:
+            return got
+        at, ix, fx, support = self.held
+        return True if _stack_rows(at, ix, fx, support, self.robot.q, *got) else None
 
 
 def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[StackWriter | None, list[Writer]]:
-    """(write, the writers it does not cover): ``write()`` writes the covered tasks' rows in one
+    """(write, the writers it does not cover): ``write()`` (a :class:`StackWriter`) writes the covered tasks' rows in one
     call (module docstring) and returns True, False when a task's rows changed shape (plan
     again, as a writer says), None when this cycle is for the writers (every writer is then to be
     called). ``write`` is None when no frame or contact is covered (the writers as they are).
@@ -196,7 +247,7 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
     A, b, lo, hi, nv = buffer.A, buffer.b, buffer.lo, buffer.hi, buffer.A.shape[1]
     data = robot.data
     nf = len(frames)
-    at = np.zeros(_FRAMES + _PER_FRAME * nf + 2, dtype=np.int64)
+    at = np.zeros(_FRAMES + _PER_FRAME * nf + 3, dtype=np.int64)
     at[:_A] = len(b), len(lo), nv, data.J.shape[1]
     keep: list = [None] * len(at)              # what each address is of, alive while it is in ``at``
     for slot, x in ((_A, A), (_B, b), (_LO, lo), (_HI, hi), (_J, data.J), (_COM, data.com[0]), (_JCOM, data.Jcom)):
@@ -216,6 +267,8 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
         _hold(at, keep, _FRAMES + _PER_FRAME * i + 1, s[6])
     contact = [s[0] == "contact" for s in frames]
     com_slot = _FRAMES + _PER_FRAME * nf
+    post_slot = com_slot + 2
+    post_q: list[int] | None = None
     if com is not None:
         com_task, cA, _, csel, cK, _, _, cm = com[1:]
         ints[_COM_I], ints[_COM_F] = len(ints), len(floats)
@@ -225,7 +278,9 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
     if posture is not None:
         post_task, pA, _, pK, pm = posture[1:]
         ints[_POST_I], ints[_POST_F] = len(ints), len(floats)
-        ints += [_first_row(pA, A), pm]
+        post_idx = post_task.coordinates(robot)
+        post_q = _vector_space_coordinates(robot.model, post_idx)
+        ints += [_first_row(pA, A), pm, int(post_q is not None), *(post_q or ())]
         gains.append((post_task, pK, len(floats), pm))
         floats += [0.0] * pm
     if limits is not None:
@@ -237,7 +292,7 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
     copied: list = [None] * len(gains)         # the kp each gain's slot of fx was copied from
     none = np.zeros(0)
 
-    def write() -> bool | None:
+    def prepare() -> tuple | Literal[False] | None:
         for i, (t, K, f, n) in enumerate(gains):
             if t.kp is not copied[i]:
                 fx[f:f + n] = K.get()
@@ -258,10 +313,13 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
             if v is not keep[j + 2] and not _hold(at, keep, j + 2, v, size=6):
                 return None
         post_e = none
-        if posture is not None:
-            post_e = post_task.error(robot)
-            if len(post_e) != pm:
-                return False
+        if posture is not None:               # its error in the call (q_d held) where its joints allow
+            if post_q is None or post_task.coordinates(robot) is not post_idx or (
+                    (q_d := post_task._q_ref(robot)) is not keep[post_slot]
+                    and not _hold(at, keep, post_slot, q_d, size=robot.nq)):
+                post_e = post_task.error(robot)
+                if len(post_e) != pm:
+                    return False
         if com is not None:
             if len(com_task.axes) != cm:
                 return False
@@ -277,8 +335,6 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
             if lim_task.rate_limit:
                 return None
             margin, k = lim_task.margin, min(1.0 / lim_task.horizon, 1.0 / dt)
-        if not _stack_rows(at, ix, fx, support, robot.q, post_e, margin, k):
-            return None
-        return True
+        return post_e, margin, k
 
-    return write, rest
+    return StackWriter(prepare, (at, ix, fx, support), robot), rest
