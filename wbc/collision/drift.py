@@ -51,15 +51,22 @@ def curvature_drift(cm, robot, ks: np.ndarray) -> np.ndarray:
 def _three_distances(cm, robot, ks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """d(q), d(q ⊕ εv), d(q ⊖ εv) of the pairs ``ks`` (m; ε = ``cm.drift_step`` s), three coal passes on the model's
     own finite-difference data."""
-    model, gm, gd, data = robot.model, cm.geometry_model, cm.fd_geometry_data, cm.fd_data
     eps = cm.drift_step
+    d0, dp, dm = _distances(cm, robot, ks, (0.0, eps, -eps))
+    return d0, dp, dm
+
+
+def _distances(cm, robot, ks: np.ndarray, steps: tuple[float, ...]) -> list[np.ndarray]:
+    """d(q ⊕ s v) of the pairs ``ks`` (m) for each step s (s) of ``steps``, one coal pass each on the model's own
+    finite-difference data (s = 0: d(q))."""
+    model, gm, gd, data = robot.model, cm.geometry_model, cm.fd_geometry_data, cm.fd_data
     ds = []
-    for step in (0.0, eps, -eps):
+    for step in steps:
         q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
         ds.append(cm.pair_distances(ks, gd))
-    return ds[0], ds[1], ds[2]
+    return ds
 
 
 def rigid_drift(cm, robot, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray) -> np.ndarray:
@@ -114,17 +121,23 @@ def point_drift(cm, robot, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.
 
 
 def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(the exact drift, :func:`curvature_drift` (k,; m/s²); the jump of ḋ (k,; m/s, ≤ 0) at a switch of the closest
+    """(the exact drift, :func:`curvature_drift` (k,; m/s²); the jump of ḋ (k,; m/s, ≤ 0) at switches of the closest
     features within the next ε (``cm.drift_step``) along q̈ = 0; the pieces' curvature a (k,; m/s²)), from the same
-    three coal passes and ḋ = J_d q̇ (``d_dot``): the one-sided differences a± = ±2 [d(q ⊕ ±εv) − d(q) ∓ ḋ ε] / ε²
-    (their mean is the exact drift), a = max(a₊, a₋) and Δ̂ = −ε/2 · max(0, a₋ − a₊).
+    three coal passes, two more at ±s (s = ``cm.switch_step``, None: none) and ḋ = J_d q̇ (``d_dot``): the one-sided
+    differences a±(ε) = ±2 [d(q ⊕ ±εv) − d(q) ∓ ḋ ε] / ε² (their mean is the exact drift) and a±(s) alike,
+    a = max(a₊(ε), a₋(ε), a₊(s), a₋(s)) and Δ̂ = −ε/2 · max(0, a − a₊(ε)).
 
     Between hulls the distance is the minimum over feature pairs: where another pair becomes the closest, ḋ drops by
     Δ < 0 (a concave kink; a faceted round surface sliding past another is a staircase of them, every 4-5 ms at
-    0.5 m/s on Talos). A kink only lowers the one-sided difference of its side (by 2 |Δ| (ε − |τ|)/ε² for a switch at
-    τ), so the larger of the two is the pieces' curvature where the switches are on one side (and no more than it
-    where they are on both). A switch ahead (τ ∈ [0, ε)) gives Δ̂ = Δ (ε − τ)/ε, which tends to Δ as it nears; one
-    already passed is in ḋ, and gives Δ̂ = 0; a smooth distance gives a = d̈ + ε |d⃛|/3, Δ̂ = O(ε² d⃛).
+    0.5 m/s on Talos). Since d is never above the current features' distance f (equal at q), every one-sided
+    difference is at most f's (f'' at some point of its interval): a kink only lowers the difference of its side (by
+    2 |Δ| (σ − |τ|)/σ² for a switch at τ within the step σ), so the largest of them is the current features' curvature
+    (to the differences' own O(σ d⃛)), never above it. With ε alone, switches on both sides of the ±10 ms window
+    (Talos's upper arm past the torso: a₊(ε), a₋(ε) = −4 to −7 m/s² where the pieces curve at +1.7 to +2.6) lower both;
+    at s = 1 ms at most one side holds a switch unless two fall within 2 ms. With the switches ahead at τᵢ ∈ [0, ε),
+    a − a₊(ε) = (2/ε) Σ |Δᵢ| (ε − τᵢ)/ε, so Δ̂ = Σ Δᵢ (ε − τᵢ)/ε, which tends to Δ as a switch nears; switches already
+    passed are in ḋ and count for nothing; a smooth distance gives a = d̈ + ε |d⃛|/3, Δ̂ = O(ε² d⃛). Without s this is
+    max(a₊(ε), a₋(ε)) and Δ̂ = −ε/2 · max(0, a₋(ε) − a₊(ε)), bit for bit.
 
     Args:
         cm: the :class:`~wbc.collision.model.CollisionModel`.
@@ -137,4 +150,9 @@ def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarra
     central = (-2.0 * d0 + dp + dm) / (eps * eps)
     ahead = 2.0 * (dp - d0 - d_dot * eps) / (eps * eps)
     behind = 2.0 * (dm - d0 + d_dot * eps) / (eps * eps)
-    return central, -0.5 * eps * np.maximum(behind - ahead, 0.0), np.maximum(ahead, behind)
+    a = np.maximum(ahead, behind)
+    s = cm.switch_step
+    if s:
+        sp, sm = _distances(cm, robot, ks, (s, -s))
+        a = np.maximum(a, np.maximum(2.0 * (sp - d0 - d_dot * s) / (s * s), 2.0 * (sm - d0 + d_dot * s) / (s * s)))
+    return central, -0.5 * eps * np.maximum(a - ahead, 0.0), a
