@@ -94,13 +94,27 @@ def test_switches_on_both_sides_lower_both_long_differences_not_the_short_ones()
     assert jump[0] == pytest.approx(-0.05 * (EPS - 0.004) / EPS, rel=1e-6)
 
 
+def test_a_switch_at_the_point_itself_is_seen_through_by_the_second_differences_ahead():
+    # a switch 0.1 µs ahead (ḋ still the old features' slope: a₊(s) ≈ −2 · 0.05/s) and one 0.2 ms behind (a₋(s), c₋
+    # lowered): the one-sided differences all read far below f₁'' = 2, c₊ (centred at +s, the new features) reads it
+    robot = _Robot(0.0, 1.0)
+    cm = _Model(robot, lambda x: min(f1(x) + 0.05 * (x + 2e-4), f1(x), f1(x) - 0.05 * (x - 1e-7)))
+    cm.switch_step = 2.5e-4
+    _, jump, a = switch_jump(cm, robot, np.array([0]), np.array([0.03]))
+    assert 2.0 - 0.1 <= a[0] <= 2.0 + 1e-6
+    assert jump[0] == pytest.approx(-0.05, rel=0.01)            # the switch ahead, whole: Δ (ε − τ)/ε
+    cm.switch_step = None
+    _, _, a = switch_jump(cm, robot, np.array([0]), np.array([0.03]))
+    assert a[0] < -4.0
+
+
 @pytest.mark.parametrize("tau", [-0.0005, 0.0, 0.0005, 0.003])
 def test_the_short_differences_never_exceed_the_current_features_curvature(tau):
     # a switch anywhere near (even within the short step): a is at most f₁'' (d ≤ f₁, equal at x = 0), never above
     robot = _Robot(0.0, 1.0)
     slope = 0.03 - (0.05 if tau < 0 else 0.0)        # a switch passed is in ḋ: the current features are f₂
     cm = _Model(robot, lambda x: min(f1(x), f1(x) - 0.05 * (x - tau)))
-    cm.switch_step = 1e-3
+    cm.switch_step = 2.5e-4
     _, _, a = switch_jump(cm, robot, np.array([0]), np.array([slope]))
     assert a[0] <= 2.0 + 1e-6
 

@@ -123,18 +123,21 @@ def point_drift(cm, robot, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.
 def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the exact drift, :func:`curvature_drift` (k,; m/s²); the jump of ḋ (k,; m/s, ≤ 0) at switches of the closest
     features within the next ε (``cm.drift_step``) along q̈ = 0; the pieces' curvature a (k,; m/s²)), from the same
-    three coal passes, two more at ±s (s = ``cm.switch_step``, None: none) and ḋ = J_d q̇ (``d_dot``): the one-sided
-    differences a±(ε) = ±2 [d(q ⊕ ±εv) − d(q) ∓ ḋ ε] / ε² (their mean is the exact drift) and a±(s) alike,
-    a = max(a₊(ε), a₋(ε), a₊(s), a₋(s)) and Δ̂ = −ε/2 · max(0, a − a₊(ε)).
+    three coal passes, four more at ±s, ±2s (s = ``cm.switch_step``, None: none) and ḋ = J_d q̇ (``d_dot``): the
+    one-sided differences a±(σ) = ±2 [d(q ⊕ ±σv) − d(q) ∓ ḋ σ] / σ² for σ = ε (their mean is the exact drift) and
+    σ = s, the second differences c± = [d(q) − 2 d(q ⊕ ±sv) + d(q ⊕ ±2sv)] / s² centred at ±s, a = the largest of
+    these six and Δ̂ = −ε/2 · max(0, a − a₊(ε)).
 
     Between hulls the distance is the minimum over feature pairs: where another pair becomes the closest, ḋ drops by
-    Δ < 0 (a concave kink; a faceted round surface sliding past another is a staircase of them, every 4-5 ms at
-    0.5 m/s on Talos). Since d is never above the current features' distance f (equal at q), every one-sided
-    difference is at most f's (f'' at some point of its interval): a kink only lowers the difference of its side (by
-    2 |Δ| (σ − |τ|)/σ² for a switch at τ within the step σ), so the largest of them is the current features' curvature
-    (to the differences' own O(σ d⃛)), never above it. With ε alone, switches on both sides of the ±10 ms window
-    (Talos's upper arm past the torso: a₊(ε), a₋(ε) = −4 to −7 m/s² where the pieces curve at +1.7 to +2.6) lower both;
-    at s = 1 ms at most one side holds a switch unless two fall within 2 ms. With the switches ahead at τᵢ ∈ [0, ε),
+    Δ < 0 (a concave kink; a faceted round surface sliding past another is a staircase of them, every 0.5-5 ms at
+    0.5 m/s on Talos). Since d is never above the distance f of the features closest at a point x (equal at x), a
+    difference whose base point (the one-sided ones: q, with f's slope ḋ) or middle point (c±: q ⊕ ±sv) is x is at most
+    f'' somewhere in its interval: a switch inside it only lowers it (a one-sided one by 2 |Δ| (σ − |τ|)/σ² for a
+    switch at τ), so a is the curvature of the features closest within 2s of q (to the differences' own O(σ d⃛)),
+    never above it. With ε alone, switches on both sides of the ±10 ms window (Talos's upper arm past the torso:
+    a₊(ε), a₋(ε) = −4 to −7 m/s² where the pieces curve at +1 to +2.6) lower both; the short ones are clean unless
+    switches fall inside (0, 2s) and (−2s, 0) both, and c± also where a switch is at q itself (ḋ then the old
+    features' slope: a±(s) ≈ 2Δ/s, −40 to −80 m/s², measured in MuJoCo). With the switches ahead at τᵢ ∈ [0, ε),
     a − a₊(ε) = (2/ε) Σ |Δᵢ| (ε − τᵢ)/ε, so Δ̂ = Σ Δᵢ (ε − τᵢ)/ε, which tends to Δ as a switch nears; switches already
     passed are in ḋ and count for nothing; a smooth distance gives a = d̈ + ε |d⃛|/3, Δ̂ = O(ε² d⃛). Without s this is
     max(a₊(ε), a₋(ε)) and Δ̂ = −ε/2 · max(0, a₋(ε) − a₊(ε)), bit for bit.
@@ -153,6 +156,9 @@ def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarra
     a = np.maximum(ahead, behind)
     s = cm.switch_step
     if s:
-        sp, sm = _distances(cm, robot, ks, (s, -s))
-        a = np.maximum(a, np.maximum(2.0 * (sp - d0 - d_dot * s) / (s * s), 2.0 * (sm - d0 + d_dot * s) / (s * s)))
+        p1, m1, p2, m2 = _distances(cm, robot, ks, (s, -s, 2.0 * s, -2.0 * s))
+        ss = s * s
+        short = (2.0 * (p1 - d0 - d_dot * s) / ss, 2.0 * (m1 - d0 + d_dot * s) / ss,
+                 (d0 - 2.0 * p1 + p2) / ss, (d0 - 2.0 * m1 + m2) / ss)
+        a = np.maximum(a, np.max(short, axis=0))
     return central, -0.5 * eps * np.maximum(a - ahead, 0.0), a

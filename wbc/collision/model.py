@@ -175,7 +175,7 @@ class CollisionModel:
         self.analytic_drift = self.switch_jump = False
         self.feature_drift: Any = None
         self.drift_step = 1e-2
-        #: ``switch_jump``'s short step (s; two more coal passes; None: none): :func:`wbc.collision.drift.switch_jump`
+        #: ``switch_jump``'s short step (s; four more coal passes; None: none): :func:`wbc.collision.drift.switch_jump`
         self.switch_step: float | None = 2.5e-4
         self.fd_data = model.createData()
         self.fd_geometry_data = pin.GeometryData(gm)
