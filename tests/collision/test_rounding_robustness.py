@@ -12,7 +12,9 @@ inside its safe set.
 The scenario as bundled keeps the damper and takes those rows' drift as ``drift: switching``: the upper arm's
 "curvature" was the staircase of its hull features' switches, read by the ±10 ms second difference as −4 to −8 m/s²
 (switches already passed included); with ``switching`` a switch that leaves the pair in its safe set is a jump of
-ḋ, not an acceleration (the second test: over five seeds it relaxes a third or less of the exact drift's cycles, not none).
+ḋ, not an acceleration, and the pieces' curvature is the largest one-sided difference over ±10 ms and ±0.25 ms
+(switches on both sides of the ±10 ms window lowered both long ones): the second test (``slow``), no relaxed cycle
+on seeds 1-8 where the exact drift relaxes tens.
 
 Each seed's run checks the scenario's criteria over the crossing (the first 2.5 s, own simulator): no relaxed
 level, no solver failure, no fall, every monitored pair ≥ d_s − 1 mm on the simulator's true state. Not the whole
@@ -82,26 +84,30 @@ def test_the_crossing_holds_under_rounding_perturbations(seed):
 
 
 #: the perturbation seeds of the damper's comparison
-SEEDS = (1, 2, 3, 4, 5)
+SEEDS = (1, 2, 3, 4, 5, 6, 7, 8)
 
 
-def test_switching_drift_relaxes_far_fewer_crossing_cycles_than_the_exact_drift():
+@pytest.mark.slow
+def test_switching_drift_holds_the_crossing_on_every_seed_where_the_exact_drift_relaxes():
     # the scenario as bundled: the critically damped damper (pole_ratio 1) with ``drift: switching``, whose rows take
-    # the hull features' switches at the crossing as jumps of ḋ. Same seeds, first 2.5 s, own simulator: the exact
-    # drift relaxed 56 cycles in all (22, 5, 6, 2, 21) on pinocchio 4.1 and 58 (7, 2, 6, 21, 22) on 3.8, switching
-    # 17 (4, 3, 0, 5, 5) and 7 (0, 0, 3, 2, 2) (benchmarks/collisions.md). Not zero: where switches fall on both sides
-    # of the ±10 ms window both one-sided differences are low and a = max(a₊, a₋) still reads −4 to −5 m/s². Which
-    # seed relaxes is a rounding lottery (another BLAS or pinocchio wins others), so the test compares the totals.
+    # the hull features' switches at the crossing as jumps of ḋ and the pieces' curvature as the largest of the
+    # one-sided differences over ±10 ms and ±0.25 ms and the second differences centred at ±0.25 ms
+    # (wbc.collision.drift.switch_jump). First 2.5 s, own simulator: the exact drift relaxed 56 cycles in all over
+    # seeds 1-5 (22, 5, 6, 2, 21) on pinocchio 4.1 and 58 (7, 2, 6, 21, 22) on 3.8; switching with the ±10 ms
+    # differences alone 17 (4, 3, 0, 5, 5) and 7 (0, 0, 3, 2, 2), where switches fell on both sides of the window
+    # (a = −4 to −7 m/s², the pieces curving at +1 to +2.6); with the short ones none on seeds 1-8 on either version
+    # (benchmarks/collisions.md, hands4). Which seed relaxes without them is a rounding lottery, so nothing is
+    # asserted of that; the exact drift's total shows that the crossing still exercises the defect.
     sc = load_config("talos_hands_cross")
     task = next(t for t in sc.stack if t.kind == "collision_avoidance")
-    assert task.pole_ratio == 1.0 and task.drift == "switching"
+    assert task.pole_ratio == 1.0 and task.drift == "switching" and task.model.switch_step
     relaxed = {}
-    for drift in ("switching", "exact"):
-        relaxed[drift] = 0
-        for seed in SEEDS:
+    for drift, seeds in (("switching", SEEDS), ("exact", SEEDS[:5])):
+        relaxed[drift] = []
+        for seed in seeds:
             m, safety = _run(seed, "pinocchio", 2.5, drift=drift)
             assert not m["fell"] and m["solver_failures"] == 0
             assert m["collision_distance_min"] >= safety - 1e-3, m["collision_closest"]
-            relaxed[drift] += m["relaxed_cycles"]
-    assert relaxed["exact"] >= 20, relaxed           # the crossing still exercises the defect
-    assert relaxed["switching"] <= relaxed["exact"] / 2, relaxed
+            relaxed[drift].append(m["relaxed_cycles"])
+    assert sum(relaxed["exact"]) >= 20, relaxed           # the crossing still exercises the defect
+    assert sum(relaxed["switching"]) == 0, relaxed

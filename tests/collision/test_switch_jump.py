@@ -35,6 +35,7 @@ class _Model:
         self.fd_geometry_data = pin.GeometryData(self.geometry_model)
         self.fd_data = robot.model.createData()
         self.drift_step, self.dist = EPS, dist
+        self.switch_step: float | None = None
 
     def pair_distances(self, ks, gd):
         return np.array([self.dist(self.fd_data.oMi[1].translation[0]) for _ in ks])
@@ -73,6 +74,49 @@ def test_a_smooth_third_derivative_is_a_small_error():
     jump, a = _jump(lambda x: 0.02 - x ** 3, 0.0, v=0.5)
     assert a == pytest.approx(2 * EPS * 0.5 ** 3, rel=1e-6)
     assert jump == pytest.approx(-2 * EPS ** 2 * 0.5 ** 3, rel=1e-6)
+
+
+def _staircase(x):
+    """f₁ between two switches, 4 ms behind and 4 ms ahead (x = v t at v = 1 m/s), ḋ dropping by 50 mm/s at each."""
+    return min(f1(x) + 0.05 * (x + 0.004), f1(x), f1(x) - 0.05 * (x - 0.004))
+
+
+def test_switches_on_both_sides_lower_both_long_differences_not_the_short_ones():
+    # with ε alone both one-sided differences read −4 m/s² (the staircase hands3 left: switches on both sides of the
+    # ±10 ms window); the ±1 ms ones see none and give f₁'' = +2, and Δ̂ is the switch ahead's jump, −0.05 (ε − τ)/ε
+    robot = _Robot(0.0, 1.0)
+    cm = _Model(robot, _staircase)
+    _, jump, a = switch_jump(cm, robot, np.array([0]), np.array([0.03]))
+    assert a[0] == pytest.approx(-4.0, rel=1e-6) and jump[0] == 0.0          # without the short step
+    cm.switch_step = 1e-3
+    _, jump, a = switch_jump(cm, robot, np.array([0]), np.array([0.03]))
+    assert a[0] == pytest.approx(2.0, rel=1e-6)
+    assert jump[0] == pytest.approx(-0.05 * (EPS - 0.004) / EPS, rel=1e-6)
+
+
+def test_a_switch_at_the_point_itself_is_seen_through_by_the_second_differences_ahead():
+    # a switch 0.1 µs ahead (ḋ still the old features' slope: a₊(s) ≈ −2 · 0.05/s) and one 0.2 ms behind (a₋(s), c₋
+    # lowered): the one-sided differences all read far below f₁'' = 2, c₊ (centred at +s, the new features) reads it
+    robot = _Robot(0.0, 1.0)
+    cm = _Model(robot, lambda x: min(f1(x) + 0.05 * (x + 2e-4), f1(x), f1(x) - 0.05 * (x - 1e-7)))
+    cm.switch_step = 2.5e-4
+    _, jump, a = switch_jump(cm, robot, np.array([0]), np.array([0.03]))
+    assert 2.0 - 0.1 <= a[0] <= 2.0 + 1e-6
+    assert jump[0] == pytest.approx(-0.05, rel=0.01)            # the switch ahead, whole: Δ (ε − τ)/ε
+    cm.switch_step = None
+    _, _, a = switch_jump(cm, robot, np.array([0]), np.array([0.03]))
+    assert a[0] < -4.0
+
+
+@pytest.mark.parametrize("tau", [-0.0005, 0.0, 0.0005, 0.003])
+def test_the_short_differences_never_exceed_the_current_features_curvature(tau):
+    # a switch anywhere near (even within the short step): a is at most f₁'' (d ≤ f₁, equal at x = 0), never above
+    robot = _Robot(0.0, 1.0)
+    slope = 0.03 - (0.05 if tau < 0 else 0.0)        # a switch passed is in ḋ: the current features are f₂
+    cm = _Model(robot, lambda x: min(f1(x), f1(x) - 0.05 * (x - tau)))
+    cm.switch_step = 2.5e-4
+    _, _, a = switch_jump(cm, robot, np.array([0]), np.array([slope]))
+    assert a[0] <= 2.0 + 1e-6
 
 
 def test_its_drift_is_the_exact_drift_bit_for_bit():

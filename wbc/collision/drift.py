@@ -51,15 +51,22 @@ def curvature_drift(cm, robot, ks: np.ndarray) -> np.ndarray:
 def _three_distances(cm, robot, ks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """d(q), d(q ⊕ εv), d(q ⊖ εv) of the pairs ``ks`` (m; ε = ``cm.drift_step`` s), three coal passes on the model's
     own finite-difference data."""
-    model, gm, gd, data = robot.model, cm.geometry_model, cm.fd_geometry_data, cm.fd_data
     eps = cm.drift_step
+    d0, dp, dm = _distances(cm, robot, ks, (0.0, eps, -eps))
+    return d0, dp, dm
+
+
+def _distances(cm, robot, ks: np.ndarray, steps: tuple[float, ...]) -> list[np.ndarray]:
+    """d(q ⊕ s v) of the pairs ``ks`` (m) for each step s (s) of ``steps``, one coal pass each on the model's own
+    finite-difference data (s = 0: d(q))."""
+    model, gm, gd, data = robot.model, cm.geometry_model, cm.fd_geometry_data, cm.fd_data
     ds = []
-    for step in (0.0, eps, -eps):
+    for step in steps:
         q = robot.q if step == 0.0 else pin.integrate(model, robot.q, step * robot.v)
         pin.forwardKinematics(model, data, q)
         pin.updateGeometryPlacements(model, data, gm, gd)
         ds.append(cm.pair_distances(ks, gd))
-    return ds[0], ds[1], ds[2]
+    return ds
 
 
 def rigid_drift(cm, robot, ks: np.ndarray, P1: np.ndarray, P2: np.ndarray, N: np.ndarray) -> np.ndarray:
@@ -114,17 +121,26 @@ def point_drift(cm, robot, jid: np.ndarray, P: np.ndarray, N: np.ndarray) -> np.
 
 
 def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(the exact drift, :func:`curvature_drift` (k,; m/s²); the jump of ḋ (k,; m/s, ≤ 0) at a switch of the closest
+    """(the exact drift, :func:`curvature_drift` (k,; m/s²); the jump of ḋ (k,; m/s, ≤ 0) at switches of the closest
     features within the next ε (``cm.drift_step``) along q̈ = 0; the pieces' curvature a (k,; m/s²)), from the same
-    three coal passes and ḋ = J_d q̇ (``d_dot``): the one-sided differences a± = ±2 [d(q ⊕ ±εv) − d(q) ∓ ḋ ε] / ε²
-    (their mean is the exact drift), a = max(a₊, a₋) and Δ̂ = −ε/2 · max(0, a₋ − a₊).
+    three coal passes, four more at ±s, ±2s (s = ``cm.switch_step``, None: none) and ḋ = J_d q̇ (``d_dot``): the
+    one-sided differences a±(σ) = ±2 [d(q ⊕ ±σv) − d(q) ∓ ḋ σ] / σ² for σ = ε (their mean is the exact drift) and
+    σ = s, the second differences c± = [d(q) − 2 d(q ⊕ ±sv) + d(q ⊕ ±2sv)] / s² centred at ±s, a = the largest of
+    these six and Δ̂ = −ε/2 · max(0, a − a₊(ε)).
 
     Between hulls the distance is the minimum over feature pairs: where another pair becomes the closest, ḋ drops by
-    Δ < 0 (a concave kink; a faceted round surface sliding past another is a staircase of them, every 4-5 ms at
-    0.5 m/s on Talos). A kink only lowers the one-sided difference of its side (by 2 |Δ| (ε − |τ|)/ε² for a switch at
-    τ), so the larger of the two is the pieces' curvature where the switches are on one side (and no more than it
-    where they are on both). A switch ahead (τ ∈ [0, ε)) gives Δ̂ = Δ (ε − τ)/ε, which tends to Δ as it nears; one
-    already passed is in ḋ, and gives Δ̂ = 0; a smooth distance gives a = d̈ + ε |d⃛|/3, Δ̂ = O(ε² d⃛).
+    Δ < 0 (a concave kink; a faceted round surface sliding past another is a staircase of them, every 0.5-5 ms at
+    0.5 m/s on Talos). Since d is never above the distance f of the features closest at a point x (equal at x), a
+    difference whose base point (the one-sided ones: q, with f's slope ḋ) or middle point (c±: q ⊕ ±sv) is x is at most
+    f'' somewhere in its interval: a switch inside it only lowers it (a one-sided one by 2 |Δ| (σ − |τ|)/σ² for a
+    switch at τ), so a is the curvature of the features closest within 2s of q (to the differences' own O(σ d⃛)),
+    never above it. With ε alone, switches on both sides of the ±10 ms window (Talos's upper arm past the torso:
+    a₊(ε), a₋(ε) = −4 to −7 m/s² where the pieces curve at +1 to +2.6) lower both; the short ones are clean unless
+    switches fall inside (0, 2s) and (−2s, 0) both, and c± also where a switch is at q itself (ḋ then the old
+    features' slope: a±(s) ≈ 2Δ/s, −40 to −80 m/s², measured in MuJoCo). With the switches ahead at τᵢ ∈ [0, ε),
+    a − a₊(ε) = (2/ε) Σ |Δᵢ| (ε − τᵢ)/ε, so Δ̂ = Σ Δᵢ (ε − τᵢ)/ε, which tends to Δ as a switch nears; switches already
+    passed are in ḋ and count for nothing; a smooth distance gives a = d̈ + ε |d⃛|/3, Δ̂ = O(ε² d⃛). Without s this is
+    max(a₊(ε), a₋(ε)) and Δ̂ = −ε/2 · max(0, a₋(ε) − a₊(ε)), bit for bit.
 
     Args:
         cm: the :class:`~wbc.collision.model.CollisionModel`.
@@ -137,4 +153,12 @@ def switch_jump(cm, robot, ks: np.ndarray, d_dot: np.ndarray) -> tuple[np.ndarra
     central = (-2.0 * d0 + dp + dm) / (eps * eps)
     ahead = 2.0 * (dp - d0 - d_dot * eps) / (eps * eps)
     behind = 2.0 * (dm - d0 + d_dot * eps) / (eps * eps)
-    return central, -0.5 * eps * np.maximum(behind - ahead, 0.0), np.maximum(ahead, behind)
+    a = np.maximum(ahead, behind)
+    s = cm.switch_step
+    if s:
+        p1, m1, p2, m2 = _distances(cm, robot, ks, (s, -s, 2.0 * s, -2.0 * s))
+        ss = s * s
+        short = (2.0 * (p1 - d0 - d_dot * s) / ss, 2.0 * (m1 - d0 + d_dot * s) / ss,
+                 (d0 - 2.0 * p1 + p2) / ss, (d0 - 2.0 * m1 + m2) / ss)
+        a = np.maximum(a, np.max(short, axis=0))
+    return central, -0.5 * eps * np.maximum(a - ahead, 0.0), a

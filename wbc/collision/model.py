@@ -58,8 +58,7 @@ class DistanceRows:
     ``pairs`` (k,) indices into :attr:`CollisionModel.pairs`; ``d`` (k,) distances (m, < 0 in penetration); ``d_dot``
     (k,) ḋ = J_d q̇ (m/s); ``J`` (k × nv) distance Jacobians (m per unit of q̇); ``drift`` (k,) J̇_d q̇ (m/s²);
     ``normal`` (k × 3) unit normals from 1 to 2; ``p1``, ``p2`` (k × 3) witness points (m, world); with
-    ``switch_jump`` (else None): ``jump`` (k,) ḋ's jump at a feature switch ahead (m/s,
-    :func:`~wbc.collision.drift.switch_jump`), ``local`` (k,) the closest features' pieces' J̇_d q̇ (m/s²)."""
+    ``switch_jump`` (else None): ``jump`` (k,) ḋ's jumps at feature switches ahead (m/s), ``local`` (k,) the pieces' J̇_d q̇."""
 
     pairs: np.ndarray
     d: np.ndarray
@@ -167,14 +166,15 @@ class CollisionModel:
                        if isinstance(g.geometry, coal.Halfspace)}
         self._cycle: Any = None
         self._rows: Any = None
-        #: J̇_d q̇ from the distance's exact second difference (:func:`wbc.collision.drift.curvature_drift`); False:
-        #: the witness points' rigid-body drift only (cheaper, blind to the surfaces' curvature)
+        #: J̇_d q̇ from the distance's exact second difference (:func:`.drift.curvature_drift`); False: rigid, cheaper
         self.exact_drift = True
-        #: J̇_d q̇ from the closest features' local models instead (:mod:`wbc.collision.feature_drift`; no coal pass),
-        #: with ``exact_drift``; opt-in (``drift: analytic``); ``switch_jump``: the rows' ``jump`` too (``switching``)
+        #: J̇_d q̇ from the closest features' local models (:mod:`.feature_drift`, ``drift: analytic``), with
+        #: ``exact_drift``; ``switch_jump``: the rows' ``jump`` too (``drift: switching``)
         self.analytic_drift = self.switch_jump = False
         self.feature_drift: Any = None
         self.drift_step = 1e-2
+        #: ``switch_jump``'s short step (s; four more coal passes; None: none): :func:`wbc.collision.drift.switch_jump`
+        self.switch_step: float | None = 2.5e-4
         self.fd_data = model.createData()
         self.fd_geometry_data = pin.GeometryData(gm)
         for req in self.fd_geometry_data.distanceRequests:

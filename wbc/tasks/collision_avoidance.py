@@ -54,9 +54,14 @@ them as J̇_d q̇ = −4 to −8 m/s², a switch already passed included: the da
 from a pair 10 mm above d_s while the joints that move it away were at their velocity bound (level 0 relaxed).
 A switch is a jump of ė, not an acceleration: it needs no braking if it leaves the pair in D (h + Δ ≥ 0), which
 the damper then keeps on the new features. With ``switching`` the same three coal passes also give the one-sided
-differences a± = ±2 [d(q ⊕ ±εv) − d ∓ ḋ ε]/ε² (ε = 10 ms; their mean is the exact drift): a switch only lowers the
-one on its side, so a = max(a₊, a₋) is the pieces' curvature and Δ̂ = −ε/2 · max(0, a₋ − a₊) the jump of a switch
-ahead (Δ (ε − τ)/ε at τ, tending to Δ as it nears; 0 for one passed, :func:`wbc.collision.drift.switch_jump`).
+differences a±(ε) = ±2 [d(q ⊕ ±εv) − d ∓ ḋ ε]/ε² (ε = 10 ms; their mean is the exact drift), and four more passes
+at ±s, ±2s (s = 0.25 ms) the same at s and the second differences centred at ±s: d is never above the distance of
+the features closest at a difference's base (or middle) point, so a switch inside its interval only lowers it, and
+a = the largest of the six is the pieces' curvature, never above it; Δ̂ = −ε/2 · max(0, a − a₊(ε)) the jumps of the
+switches ahead (Σ Δ (ε − τ)/ε, tending to Δ as one nears; 0 for one passed, :func:`wbc.collision.drift.switch_jump`).
+The short ones matter where switches fall on both sides of the ±10 ms window (every 0.5-5 ms on Talos's upper arm:
+a±(ε) both −4 to −7 m/s² while the pieces curve at +1 to +2.6, and level 0 relaxed in 0-8 cycles of each perturbed
+crossing).
 Where ḋ + Δ̂ + ω e ≥ 0 the row is the damper at the velocity after the switch with the pieces' drift, ë ≥
 −2ω (ė + Δ̂) − ω² e − a (never below the damper of the current features: Δ̂ ≤ 0); elsewhere (a switch that would
 take the pair out of D, e.g. at d_s) the exact drift's row, which brakes the switch ahead as before.
