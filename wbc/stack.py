@@ -257,10 +257,13 @@ class Stack:
                 # the known tasks' rows in one compiled call (wbc.tasks.torque_stack)
                 if plan[1].write(robot, layout):
                     return buf.levels
+                called = plan[1].called            # the tasks it called this cycle: not called again
                 plan = self._plan = None           # a change it does not follow: the tasks, then plan again
+            else:
+                called = {}
             # each task writes its equality rows into its slot of the buffer (for this call
             # only), and its other rows are put in as they come; rows: the structure changed
-            rows = buf.refill(robot, layout, groups)
+            rows = buf.refill(robot, layout, groups, called)
             if rows is None:
                 if plan is None or plan[0] is not buf:
                     self._plan = (buf, torque_plan(groups, buf, robot, layout))

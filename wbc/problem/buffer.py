@@ -114,7 +114,8 @@ class RowBuffer:
                     return False
         return True
 
-    def refill(self, robot, layout, groups: list[list[Task]]) -> list[list[Rows]] | None:
+    def refill(self, robot, layout, groups: list[list[Task]],
+               called: dict[tuple[int, int], Rows] | None = None) -> list[list[Rows]] | None:
         """Each task's rows of this cycle (``Task.rows`` with its slot) put in as it comes,
         one pass over the tasks (:meth:`fill`'s checks and copies, task by task): None when
         every task's rows are in; else (the structure is no longer the buffer's) every task's
@@ -124,16 +125,19 @@ class RowBuffer:
             robot: the :class:`~wbc.robot.model.RobotModel`, updated to this cycle's state.
             layout: this cycle's :class:`~wbc.problem.rows.Layout`.
             groups: the tasks, level by level (as the buffer was built for).
+            called: rows of this cycle already called, by (level, place): used, not called
+                again (a task's ``rows`` is called once a cycle); default none.
         """
         plans, all_slots, put = self.plans, self.slots, _put
+        done = called or {}
         ok = len(groups) == len(plans)
         rows: list[list[Rows]] = []
         for k, tasks in enumerate(groups):
             level: list[Rows] = []
             rows.append(level)
             if ok and len(tasks) == len(plans[k]):
-                for t, entry, out in zip(tasks, plans[k], all_slots[k]):
-                    r = t.rows(robot, layout, out)
+                for j, (t, entry, out) in enumerate(zip(tasks, plans[k], all_slots[k])):
+                    r = done[(k, j)] if (k, j) in done else t.rows(robot, layout, out)
                     level.append(r)
                     if not put(entry, r, t):
                         ok = False
@@ -144,7 +148,8 @@ class RowBuffer:
             # the structure changed: the level's other tasks called once each, in their slots
             slots = all_slots[k] if k < len(all_slots) else []
             for j in range(len(level), len(tasks)):
-                level.append(tasks[j].rows(robot, layout, slots[j] if j < len(slots) else None))
+                level.append(done[(k, j)] if (k, j) in done else
+                             tasks[j].rows(robot, layout, slots[j] if j < len(slots) else None))
         return None if ok else rows
 
 

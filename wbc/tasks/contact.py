@@ -271,8 +271,20 @@ class Contact(MotionTask):
         if self.bilateral:
             return Rows(A=A, b=b)
         C = self._friction_rows(layout)
-        self._hi[-1] = self.fmax
+        self.bound_normal_force()
         return Rows(A=A, b=b, C=C, lo=self._lo, hi=self._hi)
+
+    def bound_normal_force(self) -> None:
+        """This cycle's f_max (N) into the friction rows' last upper bound, f_z ≤ f_max (``rows``
+        does it, and :class:`~wbc.tasks.torque_stack.TorquePlan` in its place)."""
+        self._hi[-1] = self.fmax
+
+    def friction_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The friction rows' arrays C, l, u as ``rows`` last gave them (None: not built yet, or
+        bilateral): refilled in place while the layout and ``cop_margin`` hold."""
+        if self._ineq is None or self.bilateral:
+            return None
+        return self._ineq[1], self._lo, self._hi
 
     def _zero_axes(self, m: int) -> tuple[np.ndarray, np.ndarray]:
         got = self._za

@@ -36,9 +36,15 @@ What is held and what is read each cycle.
 A cycle the plan cannot write as the tasks would (a target not set yet, a weight, a
 ``cop_margin``, ``sliding``, a torque-limit ``scale`` changed, another robot, data or
 layout) returns False: the stack then calls the tasks (``RowBuffer.refill``, which sees a
-changed structure) and plans again. A stack with a task of another class (or a subclass)
-has no plan: its tasks are called as before. The contact regularisation and the
-differential drive keep their ``rows`` inside the plan (called first; cheap, idempotent).
+changed structure) and plans again.
+
+A task of another class (or a subclass; the collision avoidance, the contact regularisation,
+the differential drive, a force task) keeps its own ``rows``, called with its slot and put
+into its place by the buffer's ``_put`` (:attr:`TorquePlan.rest`), after every check above so
+that each task is called once a cycle: rows ``_put`` refuses (another shape) make the cycle
+the tasks' (False), with the rows already called kept in :attr:`TorquePlan.called` for
+``RowBuffer.refill``, which calls only the others. The collision task's rows are fixed in
+number (``max_rows``, the unused ones 0 ≤ 0·x ≤ 1), so its block keeps its place.
 """
 
 from __future__ import annotations
@@ -48,12 +54,12 @@ import numpy as np
 import pinocchio as pin
 
 from ..problem.buffer import _put
+from ..problem.rows import Rows
 from .base import dynamics_block, motion_rows
 from .com import CoM
 from .contact import Contact
-from .contact_regularization import ContactRegularization
 from .contact_wrench import ContactWrench
-from .dynamics import DifferentialDrive, FloatingBaseDynamics
+from .dynamics import FloatingBaseDynamics
 from .frame import Frame
 from .joint_limits import JointLimits, acceleration_bounds
 from .posture import Posture, _posture_rhs
@@ -201,7 +207,11 @@ class TorquePlan:
         self.sup: list[np.ndarray] = []
         #: (kind, task, weight it was planned with, its per-cycle state)
         self.items: list[tuple] = []
-        self.rest: list[tuple] = []            # (task, buffer entry, slot): called through rows
+        #: (task, buffer entry, slot, (level, place)): called through its rows, put by ``_put``
+        self.rest: list[tuple] = []
+        #: a failed :meth:`write`'s rows of the tasks it called, by (level, place): the stack
+        #: hands them to ``RowBuffer.refill``, which calls the others (each task once a cycle)
+        self.called: dict[tuple[int, int], Rows] = {}
         self.gains: list[_Gains] = []
         self.posture = None
 
@@ -243,8 +253,10 @@ class TorquePlan:
         self.gains.append(g)
         return r
 
-    def add(self, t, entry, slot, robot, layout) -> bool:
-        """Plan task t (its buffer entry and slot); False: a task the plan does not write."""
+    def add(self, t, entry, slot, robot, layout, where: tuple[int, int]) -> bool:
+        """Plan task t (its buffer entry and slot, ``where``: its level and place in it); False: a
+        task of a class the plan writes in a state it does not (a CoM with gains per selected
+        axis, a second posture, ...). A task of another class is called (:attr:`rest`)."""
         kind = type(t)
         w = entry[1][2] if entry[1] is not None else 1.0
         if kind is Frame:
@@ -253,15 +265,16 @@ class TorquePlan:
         elif kind is Contact:
             s = t._bound()
             m = s.force_dim
-            if t._ineq is None and not t.bilateral:
+            fa = t.friction_arrays()
+            if fa is None and not t.bilateral:
                 return False
             r = self._frame(t, entry, slot, robot, t._fid, t._zero_axes(m)[1], m, m == 6)
             fr = None
-            if not t.bilateral:
+            if fa is not None:
                 C, lo, hi = entry[2]
-                self._record(_FRICTION, [(C, "C"), (lo, "C"), (hi, "C"), (t._ineq[1], "C"), (t._lo, "C"),
-                                         (t._hi, "C")], (), (0, 0, len(lo), 0, 0))
-                fr = t._ineq
+                self._record(_FRICTION, [(C, "C"), (lo, "C"), (hi, "C"), (fa[0], "C"), (fa[1], "C"), (fa[2], "C")],
+                             (), (0, 0, len(lo), 0, 0))
+                fr = fa[0]
             self.items.append((_CONTACT, t, t.weight, (r[4], m, t.sliding, t.bilateral, fr, t.cop_margin,
                                                            robot.frame_arrays(t._fid).placement)))
         elif kind is CoM:
@@ -310,10 +323,8 @@ class TorquePlan:
             r = self._record(_LIM, [(lo, "C"), (hi, "C")], [*qi, *vi, *extra], (0, 0, len(qi), 0, len(extra)))
             self.fx += [*qmax, *qmin, *vmax, *vmax_extra, 0.0, 0.0, 0.0, 0.0]
             self.items.append((_LIM, t, t.weight, [None, ridx, r[3] + 3 * len(qi) + len(extra)]))
-        elif kind is ContactRegularization or kind is DifferentialDrive:
-            self.rest.append((t, entry, slot))
-        else:
-            return False
+        else:                                      # its own rows, put in its place (module docstring)
+            self.rest.append((t, entry, slot, where))
         return True
 
     def finish(self) -> None:
@@ -335,9 +346,7 @@ class TorquePlan:
         are to be called (a change the plan does not follow)."""
         if robot is not self.robot or layout is not self.layout or robot.data is not self.data:
             return False
-        for t, entry, slot in self.rest:
-            if not _put(entry, t.rows(robot, layout, slot), t):
-                return False
+        self.called = {}
         fx, cv = self.fx_, self.cv
         for g in self.gains:
             t = g.task
@@ -370,9 +379,10 @@ class TorquePlan:
                 else:
                     cv[c + 6:c + 9] = ref.translation
                 if fr is not None:
-                    if t._ineq is not fr or t.cop_margin != cop:
+                    fa = t.friction_arrays()
+                    if fa is None or fa[0] is not fr or t.cop_margin != cop:
                         return False
-                    t._hi[-1] = t.fmax
+                    t.bound_normal_force()
             elif kind == _COM:
                 T = t._target
                 if T is None:
@@ -393,6 +403,12 @@ class TorquePlan:
                     fx[f:f + 4] = now[:4]
                     self.rec_[st[1], 6] = int(now[4] == "stop")
                     st[0] = now
+        called = self.called
+        for t, entry, slot, where in self.rest:    # after every check: a False from here on is a refill
+            r = called[where] = t.rows(robot, layout, slot)
+            if not _put(entry, r, t):
+                return False
+        called.clear()
         pe = self.pe
         post = self.posture
         if post is not None:
@@ -414,9 +430,9 @@ def torque_plan(groups: list, buffer, robot, layout) -> TorquePlan | None:
     """
     try:
         plan = TorquePlan(buffer, robot, layout)
-        for tasks, entries, slots in zip(groups, buffer.plans, buffer.slots, strict=True):
-            for t, entry, slot in zip(tasks, entries, slots, strict=True):
-                if not plan.add(t, entry, slot, robot, layout):
+        for k, (tasks, entries, slots) in enumerate(zip(groups, buffer.plans, buffer.slots, strict=True)):
+            for j, (t, entry, slot) in enumerate(zip(tasks, entries, slots, strict=True)):
+                if not plan.add(t, entry, slot, robot, layout, (k, j)):
                     return None
         plan.finish()
     except ValueError:
