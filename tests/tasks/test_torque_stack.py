@@ -57,20 +57,26 @@ def _change(stack, k: int, rng) -> None:
             t.target = rng.uniform(-50.0, 400.0, 6)
 
 
+def _planned(name: str, stack, seed: int):
+    """(robot, stack, controller, rng, call counter) after two random cycles (the buffer filled
+    by the tasks, then planned), the tasks' ``rows`` counted from then on."""
+    robot = wbc.load_robot(name)
+    ctrl = wbc.Controller(robot, stack)
+    rng = np.random.default_rng(seed)
+    calls: Counter = Counter()
+    for _ in range(2):
+        _cycle(ctrl, stack, robot, rng, calls)
+    _counting(stack, calls)
+    return robot, stack, ctrl, rng, calls
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_the_plans_rows_equal_the_tasks_rows(case):
     """Twelve random cycles after the plan is built: the stack's levels equal the rows stacked
     afresh and each task's own rows, while no task but the plan's ``rest`` (the contact
     regularisation, the differential drive) is called."""
     name, make = CASES[case]
-    robot = wbc.load_robot(name)
-    stack = make()
-    ctrl = wbc.Controller(robot, stack)
-    rng = np.random.default_rng(7)
-    calls: Counter = Counter()
-    for _ in range(2):
-        _cycle(ctrl, stack, robot, rng, calls)
-    _counting(stack, calls)
+    robot, stack, ctrl, rng, calls = _planned(name, make(), 7)
     plan = stack._plan
     assert plan is not None and plan[1] is not None and plan[0] is stack.row_buffer
     for k in range(12):
@@ -86,14 +92,7 @@ def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change):
     """A weight, a contact's cop_margin or sliding, the torque limits' scale changed in place:
     that cycle the tasks write the rows (each called), they equal the rows stacked afresh, and
     a new plan writes them within two cycles (a rebuilt buffer is refilled once first)."""
-    robot = wbc.load_robot("talos")
-    stack = talos_stack()
-    ctrl = wbc.Controller(robot, stack)
-    rng = np.random.default_rng(3)
-    calls: Counter = Counter()
-    for _ in range(2):
-        _cycle(ctrl, stack, robot, rng, calls)
-    _counting(stack, calls)
+    robot, stack, ctrl, rng, calls = _planned("talos", talos_stack(), 3)
     first = stack._plan
     if change == "weight":
         stack["right_hand"].weight = 3.0
