@@ -38,7 +38,7 @@ import pinocchio as pin
 
 from ..robot.held_views import joint_rotations
 from .drift import curvature_drift
-from .feature_kernel import CAPSULE, HALFSPACE, HULL, SPHERE, UNSUPPORTED, feature_drift
+from .feature_kernel import CAPSULE, HALFSPACE, HULL, SPHERE, UNSUPPORTED, feature_drift, rows_and_drift
 
 __all__ = ["FeatureDrift"]
 
@@ -147,3 +147,29 @@ class FeatureDrift:
         if self.fallback:
             out[bad] = curvature_drift(cm, robot, ks[bad])
         return out
+
+    def held_rows(self, robot, table: np.ndarray, near: np.ndarray, influence: float) -> tuple:
+        """The cycle's rows read from the held result table after coal and their drift, one compiled call
+        (:func:`wbc.collision.feature_kernel.rows_and_drift`): what ``held_near_rows`` then :meth:`drift` give, bit for
+        bit, as (ks, d, P, NN, coef, jid, drift) (:func:`wbc.collision.row_kernels.near_rows`' fields; drift (m,) m/s²).
+
+        Args:
+            robot: the robot at the cycle's state (q, q̇).
+            table: the held (pairs × 7) table of the cycle's GeometryData (:mod:`wbc.collision.result_table`).
+            near: the pairs coal computed (c,), the broad phase's references ``d0``, ``moved`` updated here.
+            influence: the influence distance (m).
+        """
+        cm = self.cm
+        data, v = cm.fd_data, robot.v
+        pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, v)
+        R = self._rotations
+        if R is None:
+            R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
+        J, dJ = (data.J, data.dJ) if self._jacobians is None else self._jacobians
+        ks, d, P, NN, coef, jid, out, bad, self.fallback = rows_and_drift(
+            table, near, influence, cm._d0, cm._moved, cm.pairs, cm.joint_of, R, J, dJ, cm.support, v, self.kind,
+            self.radius, self.ends, self.vertices, self.neighbours, self.offset, self.count, self.hints, FEATURE_TOL,
+            MIN_DISTANCE, STEP)
+        if self.fallback:
+            out[bad] = curvature_drift(cm, robot, ks[bad])
+        return ks, d, P, NN, coef, jid, out

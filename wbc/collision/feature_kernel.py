@@ -13,6 +13,8 @@ import math
 import numba as nb
 import numpy as np
 
+from .row_kernels import _near_rows
+
 POINT, LINE, PLANE = 0, 1, 2
 HULL, SPHERE, CAPSULE, HALFSPACE, UNSUPPORTED = 0, 1, 2, 3, 4
 
@@ -240,3 +242,17 @@ def feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, 
         if not math.isfinite(out[i]):
             bad[i] = True
     return out, bad, np.count_nonzero(bad)
+
+
+@nb.njit(cache=True)
+def rows_and_drift(table, near, influence, d0, moved, pairs, joint_of, R, J, dJ, support, v, kind, radius, ends,
+                   vertices, neighbours, offset, count, hints, feature_tol, min_distance, h):
+    """The cycle's rows after coal and their analytic drift in one call: :func:`wbc.collision.row_kernels.held_near_rows`
+    (``table`` (pairs × 7) the held results of every pair, ``near`` the computed pairs, ``influence`` m, ``d0``,
+    ``moved`` the broad phase's references, updated) then :func:`feature_drift` on its rows (``R`` … ``h`` as
+    there), the same arithmetic as the two calls. Returns (ks, d, P, NN, coef, jid) as ``held_near_rows``, then
+    d̈ (m,; m/s²), the flag (m,) where the model does not apply and how many flags are set."""
+    ks, d, P, NN, coef, jid, geoms = _near_rows(table, True, near, influence, d0, moved, pairs, joint_of)
+    out, bad, nbad = feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, ends, vertices,
+                                   neighbours, offset, count, hints, feature_tol, min_distance, h)
+    return ks, d, P, NN, coef, jid, out, bad, nbad

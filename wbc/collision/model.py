@@ -45,6 +45,7 @@ from ..errors import RobotDefinitionError
 from .drift import curvature_drift, rigid_drift, switch_jump
 from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
+from .nearest import bounds_at, broad_gaps, smallest_distances
 from .result_table import ResultTable, proxy_rows
 from .row_kernels import broad_phase, held_near_rows, masked_pair_sum, near_rows, toggles
 from .shapes import Obstacle
@@ -198,6 +199,7 @@ class CollisionModel:
         self._d0 = np.full(len(self.pairs), -np.inf)
         self._moved = np.zeros(len(self.pairs))
         self._q_last: np.ndarray | None = None
+        self._held: Any = None                  # the cycle's GeometryData's _entry
         self._near_buf = np.zeros(len(self.pairs), dtype=np.int64)
         self._no_step = np.zeros(model.nv)
         self._rows_at_scratch = np.zeros((2, len(self.pairs)))
@@ -249,17 +251,6 @@ class CollisionModel:
     def pair_name(self, k: int) -> str:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"
-
-    def _broad_gaps(self, W: np.ndarray) -> np.ndarray:
-        """The broad phase's lower bound of each pair's distance (m)."""
-        diff = W[self._pa] - W[self._pb]
-        gaps = np.sqrt(np.einsum("ka,ka->k", diff, diff)) - self._rsum
-        for k in self._plane_pairs:
-            i, j = self.pairs[k]
-            (n, off), c, r = (self.planes[j], W[i], self.radii[i]) if j in self.planes else (self.planes[i], W[j],
-                                                                                              self.radii[j])
-            gaps[k] = n @ c - off - r
-        return gaps
 
     def _compute(self, ks: np.ndarray | None, gd: pin.GeometryData, cmap: np.ndarray | None) -> None:
         """Activate the pairs ``ks`` (None: all) of ``gd`` and run coal on them (pinocchio's ``computeDistances``)."""
@@ -347,46 +338,10 @@ class CollisionModel:
         pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
         return np.array([r.min_distance for r in self.pair_results(None, gd)])
 
-    def smallest_distances(self, q: np.ndarray, count: int, data: pin.Data,
-                           geometry_data: pin.GeometryData) -> tuple[np.ndarray, np.ndarray]:
-        """The ``count`` smallest distances over **all** monitored pairs at ``q`` (m), exactly, and their pair indices, nearest
-        first. Exact distances are computed in order of the broad phase's lower bound (bounding spheres: ‖c₁ − c₂‖ − ρ₁ −
-        ρ₂ ≤ d, also in penetration) until that bound exceeds the ``count``-th smallest distance found: no pair left out
-        can be nearer, so the result is the one all pairs would give, at a fraction of the cost.
-
-        Args:
-            q: the configuration (nq).
-            count: how many (≥ 1).
-            data: pinocchio data for the placements.
-            geometry_data: where the results go (:meth:`new_geometry_data`).
-        """
-        gd = geometry_data
-        bound = self.bounds_at(q, data, gd)
-        order = np.argsort(bound)
-        best_d: list[float] = []
-        best_k: list[int] = []
-        start, batch = 0, max(8, count)
-        while start < len(order):
-            if len(best_d) >= count and bound[order[start]] > sorted(best_d)[count - 1]:
-                break
-            ks = order[start:start + batch]
-            best_d.extend(r.min_distance for r in self.pair_results(ks, gd, self._check_map))
-            best_k.extend(ks.tolist())
-            start += batch
-            batch *= 2
-        d, k = np.array(best_d), np.array(best_k, dtype=np.int64)
-        first = np.argsort(d)[:count]
-        return d[first], k[first]
-
+    smallest_distances = smallest_distances     # the monitor's query (wbc.collision.nearest)
+    bounds_at = bounds_at
+    _broad_gaps = broad_gaps
     step_scale = step_scale         # the velocity command's step check (wbc.collision.step.step_scale)
-
-    def bounds_at(self, q: np.ndarray, data: pin.Data, gd: pin.GeometryData) -> np.ndarray:
-        """The placements at ``q`` (in ``data``, ``gd``) and every pair's broad-phase lower bound (m)."""
-        model = self.robot.model
-        pin.forwardKinematics(model, data, q)
-        pin.updateGeometryPlacements(model, data, self.geometry_model, gd)
-        H = np.array([M.homogeneous for M in gd.oMg])
-        return self._broad_gaps(np.einsum("kab,kb->ka", H[:, :3, :3], self.centres) + H[:, :3, 3])
 
     def new_geometry_data(self) -> pin.GeometryData:
         """A GeometryData of its own (placements and results apart from the control cycle's), with the same distance requests
@@ -413,8 +368,16 @@ class CollisionModel:
         return ks, d, P[:m], P[m:], NN[m:]
 
     def _near(self, influence: float, q: np.ndarray) -> tuple:
-        """The broad phase, coal on the pairs it keeps, and the rows of those within ``influence`` (m): ``near_rows``'
-        (ks, d, P, NN, coef, jid, geoms); one compiled call each side of coal (``broad_phase``, ``held_near_rows``).
+        """The broad phase, coal on the pairs it keeps (:meth:`_pass`), and the rows of those within ``influence`` (m):
+        ``near_rows``' (ks, d, P, NN, coef, jid, geoms), read by one compiled call (``held_near_rows``)."""
+        near, table, res = self._pass(influence, q)
+        if table.rows is not None:
+            return held_near_rows(table.rows, near, influence, self._d0, self._moved, self.pairs, self.joint_of)
+        return near_rows(proxy_rows(res, near), near, influence, self._d0, self._moved, self.pairs, self.joint_of)
+
+    def _pass(self, influence: float, q: np.ndarray) -> tuple[np.ndarray, ResultTable, list]:
+        """The broad phase and coal on the pairs it keeps: (those pairs, the cycle's result table, its proxies); one
+        compiled call before coal (``broad_phase``).
 
         The broad phase keeps the pairs whose lower bound (m) from their last exact distance d₀ and the joints' motion
         since is below ``influence``: along the geodesic from the last state q₀ to q = q₀ ⊕ δ, |ḋ| ≤ Σⱼ wₖⱼ |δⱼ|
@@ -423,21 +386,27 @@ class CollisionModel:
         ``influence``, whatever the order or size of the steps between calls (an infinite weight times a zero step
         gives NaN: that pair's bound is −∞ until it is computed again)."""
         gd = self.geometry_data
-        _, res, table, active = self._entry(gd)
-        add = self._q_last is not None
-        diff = pin.difference(self.robot.model, self._q_last, q) if add else self._no_step
-        self._q_last = q.copy()
+        held = self._held
+        if held is None or held[0] is not gd:
+            held = self._held = self._entry(gd)
+        _, res, table, active = held
+        q_last = self._q_last
+        if q_last is None:
+            diff, add = self._no_step, False
+            self._q_last = q.copy()
+        else:
+            diff, add = pin.difference(self.robot.model, q_last, q), True
+            q_last[:] = q
         n, n_on, n_off = broad_phase(self._weights_t, diff, self._moved, self._d0, influence, add, self._near_buf,
                                      active, self._on, self._off)
         near = self._near_buf[:n]
         self.computed = n
-        self._switch(gd, near, n_on, n_off, None)
+        if n_on or n_off:
+            self._switch(gd, near, n_on, n_off, None)
         pin.computeDistances(self.geometry_model, gd)
         if table.rows is None and not table.failed and n:
             table.confirm(near)
-        if table.rows is not None:
-            return held_near_rows(table.rows, near, influence, self._d0, self._moved, self.pairs, self.joint_of)
-        return near_rows(proxy_rows(res, near), near, influence, self._d0, self._moved, self.pairs, self.joint_of)
+        return near, table, res
 
     def distance_rows(self, robot, influence: float) -> DistanceRows:
         """The pairs closer than ``influence`` (m) at the robot's current cached state, with their distances, Jacobians
@@ -452,23 +421,40 @@ class CollisionModel:
             return self._rows
         model, data = robot.model, robot.data
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
-        ks, d, P, NN, coef, jid, geoms = self._near(influence, robot.q)
+        analytic = self.exact_drift and self.analytic_drift
+        near, table, res = self._pass(influence, robot.q)
+        drift: np.ndarray | None = None
+        if analytic and table.rows is not None and len(near):     # the rows and their drift in one compiled call
+            ks, d, P, NN, coef, jid, drift = self._features().held_rows(robot, table.rows, near, influence)
+        else:
+            ks, d, P, NN, coef, jid, geoms = (
+                held_near_rows(table.rows, near, influence, self._d0, self._moved, self.pairs, self.joint_of)
+                if table.rows is not None else
+                near_rows(proxy_rows(res, near), near, influence, self._d0, self._moved, self.pairs, self.joint_of))
         m = len(ks)
         P1, P2, N = P[:m], P[m:], NN[m:]
         J = self._jacobians(data, coef, jid)
-        drift, jump, local, d_dot = np.zeros(m), None, None, J @ robot.v
-        if m and self.exact_drift and self.analytic_drift:
-            if self.feature_drift is None:
-                from .feature_drift import FeatureDrift
-                self.feature_drift = FeatureDrift(self)
-            drift = self.feature_drift.drift(robot, ks, d, P, NN, jid, geoms)
+        jump, local, d_dot = None, None, J @ robot.v
+        if drift is not None:
+            pass
+        elif m and analytic:
+            drift = self._features().drift(robot, ks, d, P, NN, jid, geoms)
         elif m and self.exact_drift and self.switch_jump:     # drift: switching: the pieces' curvature in ``local``
             drift, jump, local = switch_jump(self, robot, ks, d_dot)
         elif m:
             drift = curvature_drift(self, robot, ks) if self.exact_drift else rigid_drift(self, robot, ks, P1, P2, N)
+        else:
+            drift = np.zeros(0)
         rows = DistanceRows(ks, d, d_dot, J, drift, N, P1, P2, jump, local)
         self._cycle, self._rows = key, rows
         return rows
+
+    def _features(self) -> Any:
+        """The analytic drift's :class:`~wbc.collision.feature_drift.FeatureDrift`, made once."""
+        if self.feature_drift is None:
+            from .feature_drift import FeatureDrift
+            self.feature_drift = FeatureDrift(self)
+        return self.feature_drift
 
     def _jacobians(self, data: pin.Data, coef: np.ndarray, jid: np.ndarray) -> np.ndarray:
         """J_d (k × nv) from each side's coefficients [n_s; p_s × n_s] (2k × 6, first sides then second,

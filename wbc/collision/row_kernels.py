@@ -59,9 +59,31 @@ def _bound(weights_t, step, take_abs, moved, d0, influence, add, near):
 def broad_phase(weights_t, diff, moved, d0, influence, add, near, active, on, off):
     """One call before coal: :func:`moved_bound` on the joints' motion |``diff``| (``diff``: the last
     ``pin.difference``, its absolute value taken here), then :func:`toggles` of the kept pairs ``near[:n]`` against
-    ``active``. Returns (n kept, how many to activate into ``on``, how many to deactivate into ``off``)."""
-    n = _bound(weights_t, diff, True, moved, d0, influence, add, near)
-    n_on, n_off = toggles(active, near[:n], on, off)
+    ``active``, in the same pass over the pairs (the kept pairs come in increasing order, so the switches are those
+    :func:`toggles` gives, in its order, without its (pairs,) scratch). Returns (n kept, how many to activate into
+    ``on``, how many to deactivate into ``off``)."""
+    nv, npairs = weights_t.shape
+    if add:
+        for j in range(nv):
+            sj = abs(diff[j])
+            for k in range(npairs):
+                moved[k] += weights_t[j, k] * sj
+    n = 0
+    n_on = 0
+    n_off = 0
+    for k in range(npairs):
+        b = d0[k] - moved[k]
+        if math.isnan(b) or b < influence:
+            near[n] = k
+            n += 1
+            if not active[k]:
+                on[n_on] = k
+                n_on += 1
+                active[k] = True
+        elif active[k]:
+            off[n_off] = k
+            n_off += 1
+            active[k] = False
     return n, n_on, n_off
 
 
@@ -167,3 +189,4 @@ def toggles(active, ks, on, off):
             n_off += 1
         active[k] = want[k]
     return n_on, n_off
+
