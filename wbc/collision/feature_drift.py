@@ -166,10 +166,11 @@ class FeatureDrift:
         if R is None:
             R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
         J, dJ = (data.J, data.dJ) if self._jacobians is None else self._jacobians
-        ks, d, P, NN, coef, jid, out, bad, self.fallback = rows_and_drift(
+        ks, d, P, NN, coef, jid, out, self.fallback = rows_and_drift(
             table, near, influence, cm._d0, cm._moved, cm.pairs, cm.joint_of, R, J, dJ, cm.support, v, self.kind,
             self.radius, self.ends, self.vertices, self.neighbours, self.offset, self.count, self.hints, FEATURE_TOL,
             MIN_DISTANCE, STEP)
-        if self.fallback:
+        if self.fallback:                   # the pairs the model does not apply to: NaN (rows_and_drift)
+            bad = np.isnan(out)
             out[bad] = curvature_drift(cm, robot, ks[bad])
         return ks, d, P, NN, coef, jid, out

@@ -251,8 +251,12 @@ def rows_and_drift(table, near, influence, d0, moved, pairs, joint_of, R, J, dJ,
     (``table`` (pairs × 7) the held results of every pair, ``near`` the computed pairs, ``influence`` m, ``d0``,
     ``moved`` the broad phase's references, updated) then :func:`feature_drift` on its rows (``R`` … ``h`` as
     there), the same arithmetic as the two calls. Returns (ks, d, P, NN, coef, jid) as ``held_near_rows``, then
-    d̈ (m,; m/s²), the flag (m,) where the model does not apply and how many flags are set."""
+    d̈ (m,; m/s²), NaN where the model does not apply (:func:`feature_drift`'s flags: its d̈ is finite elsewhere), and
+    how many."""
     ks, d, P, NN, coef, jid, geoms = _near_rows(table, True, near, influence, d0, moved, pairs, joint_of)
     out, bad, nbad = feature_drift(ks, geoms, d, P, NN, R, J, dJ, support, jid, v, kind, radius, ends, vertices,
                                    neighbours, offset, count, hints, feature_tol, min_distance, h)
-    return ks, d, P, NN, coef, jid, out, bad, nbad
+    for i in range(len(out)):
+        if bad[i]:
+            out[i] = np.nan
+    return ks, d, P, NN, coef, jid, out, nbad

@@ -47,12 +47,12 @@ from .hulls import bounding_sphere, convex_hull, hull_vertices
 from .motion import motion_weights
 from .nearest import bounds_at, broad_gaps, smallest_distances
 from .result_table import ResultTable, proxy_rows
-from .row_kernels import broad_phase, held_near_rows, masked_pair_sum, near_rows, toggles
+from .row_kernels import broad_phase, held_near_rows, masked_pair_sum, near_rows, toggles, weight_spans
 from .shapes import Obstacle
 from .step import step_scale
 
 
-@dataclass
+@dataclass(slots=True)
 class DistanceRows:
     """The near pairs of one cycle, level-independent (:mod:`wbc.collision.model`).
 
@@ -196,6 +196,7 @@ class CollisionModel:
         self._plane_pairs = np.flatnonzero(~np.isfinite(self._rsum))
         # the pairs' bound from their last exact distance and the joints' motion since (_near)
         self._weights_t = np.ascontiguousarray(motion_weights(model, gm, self.pairs, spheres).T)   # (nv × pairs)
+        self._spans = weight_spans(self._weights_t)
         self._d0 = np.full(len(self.pairs), -np.inf)
         self._moved = np.zeros(len(self.pairs))
         self._q_last: np.ndarray | None = None
@@ -397,8 +398,8 @@ class CollisionModel:
         else:
             diff, add = pin.difference(self.robot.model, q_last, q), True
             q_last[:] = q
-        n, n_on, n_off = broad_phase(self._weights_t, diff, self._moved, self._d0, influence, add, self._near_buf,
-                                     active, self._on, self._off)
+        n, n_on, n_off = broad_phase(self._weights_t, self._spans, diff, self._moved, self._d0, influence, add,
+                                     self._near_buf, active, self._on, self._off)
         near = self._near_buf[:n]
         self.computed = n
         if n_on or n_off:

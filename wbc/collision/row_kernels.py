@@ -56,9 +56,11 @@ def _bound(weights_t, step, take_abs, moved, d0, influence, add, near):
 
 
 @nb.njit(cache=True)
-def broad_phase(weights_t, diff, moved, d0, influence, add, near, active, on, off):
+def broad_phase(weights_t, spans, diff, moved, d0, influence, add, near, active, on, off):
     """One call before coal: :func:`moved_bound` on the joints' motion |``diff``| (``diff``: the last
-    ``pin.difference``, its absolute value taken here), then :func:`toggles` of the kept pairs ``near[:n]`` against
+    ``pin.difference``, its absolute value taken here), joint j's sum over the pairs ``spans[j, 0]`` to
+    ``spans[j, 1]`` − 1 only (:func:`weight_spans`: its weights are 0 outside, and moved + 0 |δⱼ| is moved, so the same
+    bits with ~40 % fewer terms on Talos), then :func:`toggles` of the kept pairs ``near[:n]`` against
     ``active``, in the same pass over the pairs (the kept pairs come in increasing order, so the switches are those
     :func:`toggles` gives, in its order, without its (pairs,) scratch). Returns (n kept, how many to activate into
     ``on``, how many to deactivate into ``off``)."""
@@ -66,7 +68,7 @@ def broad_phase(weights_t, diff, moved, d0, influence, add, near, active, on, of
     if add:
         for j in range(nv):
             sj = abs(diff[j])
-            for k in range(npairs):
+            for k in range(spans[j, 0], spans[j, 1]):
                 moved[k] += weights_t[j, k] * sj
     n = 0
     n_on = 0
@@ -190,3 +192,15 @@ def toggles(active, ks, on, off):
         active[k] = want[k]
     return n_on, n_off
 
+
+
+def weight_spans(weights_t: np.ndarray) -> np.ndarray:
+    """Per joint j (row of ``weights_t``, nv × pairs), the pairs [first, last + 1) between its first and last non-zero
+    weight ((nv × 2); [0, 0) for a joint with none): :func:`broad_phase`'s range for it. A weight that is not 0 (a
+    positive, infinite or NaN one) is inside its joint's range."""
+    out = np.zeros((weights_t.shape[0], 2), dtype=np.int64)
+    for j, row in enumerate(weights_t):
+        idx = np.flatnonzero(row != 0.0)
+        if len(idx):
+            out[j] = idx[0], idx[-1] + 1
+    return out
