@@ -68,8 +68,11 @@ def broad_phase(weights_t, spans, diff, moved, d0, influence, add, near, active,
     if add:
         for j in range(nv):
             sj = abs(diff[j])
-            for k in range(spans[j, 0], spans[j, 1]):
-                moved[k] += weights_t[j, k] * sj
+            lo, hi = spans[j, 0], spans[j, 1]
+            mj = moved[lo:hi]                   # views from 0: indices known ≥ 0, so the loop is vectorised
+            wj = weights_t[j, lo:hi]
+            for k in range(hi - lo):
+                mj[k] += wj[k] * sj
     n = 0
     n_on = 0
     n_off = 0
