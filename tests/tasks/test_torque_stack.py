@@ -107,12 +107,15 @@ def test_the_plans_rows_equal_the_tasks_rows(case):
     assert stack._plan[1].fills_forces == (ctrl.layout.nf > 0 and not stack._plan[1].rest)
 
 
+@pytest.mark.parametrize("make", [talos_stack, bench_stack])
 @pytest.mark.parametrize("change", ["weight", "cop_margin", "sliding", "scale"])
-def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change):
+def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change, make):
     """A weight, a contact's cop_margin or sliding, the torque limits' scale changed in place:
     that cycle the tasks write the rows (each called), they equal the rows stacked afresh, and
-    a new plan writes them within two cycles (a rebuilt buffer is refilled once first)."""
-    robot, stack, ctrl, rng, calls = _planned("talos", talos_stack(), 3)
+    a new plan writes them within two cycles (a rebuilt buffer is refilled once first). The
+    bench's stack (no regularisation: J_f left to the plan by the layout) has J_f refilled
+    by ``assemble`` that cycle."""
+    robot, stack, ctrl, rng, calls = _planned("talos", make(), 3)
     first = stack._plan
     if change == "weight":
         stack["right_hand"].weight = 3.0
