@@ -352,6 +352,8 @@ class TorquePlan:
 
     def finish(self) -> None:
         """The tables as arrays, the gains copied in."""
+        if self.rest or self.jf_rows != self.layout.nf:
+            self.front, self.jf_rows = [], 0       # J_f stays the layout's refill (a rest task may read it)
         self.at_ = np.array(self.at, dtype=np.int64)
         self.rec_ = np.array(self.front + self.rec, dtype=np.int64).reshape(-1, _W)
         self.iv_ = np.array(self.iv, dtype=np.int64)
