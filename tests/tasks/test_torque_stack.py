@@ -17,6 +17,7 @@ from tests.controller.test_row_buffer_refill import _assert_fresh, _counting
 from tests.helpers.stacks import bench_stack, random_state, randomise_targets, talos_stack, tiago_stack
 from wbc.tasks import Frame
 
+
 def go2_stack():
     """Go2 on its four point feet: contacts and limits / CoM / posture (J_f's world-aligned rows)."""
     feet = [wbc.tasks.Contact(f) for f in ("fl_foot", "fr_foot", "rl_foot", "rr_foot")]
