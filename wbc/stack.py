@@ -307,8 +307,11 @@ class Stack:
 
 def _refill_forces(robot, layout: Layout, parts: list) -> None:
     """Each contact's rows of J_f from pinocchio (``Contact.force_jacobian``), in place."""
+    Jf = layout.force_jacobian
+    if Jf is None:                                 # no contact: no blocks
+        return
     for c, rows in parts:
-        layout.force_jacobian[rows] = c.force_jacobian(robot)
+        Jf[rows] = c.force_jacobian(robot)
 
 
 def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:
