@@ -57,6 +57,8 @@ class Stack:
         self._row_buffer: RowBuffer | None = None
         #: (the buffer it is for, its plan or None: no plan for it) of :func:`torque_plan`
         self._plan: tuple[RowBuffer, TorquePlan | None] | None = None
+        #: (robot, layout, blocks) of a J_f refill :meth:`layout` left to the plan (``deferred``)
+        self._forces_due: tuple | None = None
         for lvl in levels:
             self.levels.append(_as_level(lvl))
         self._check_names()
@@ -66,6 +68,7 @@ class Stack:
         arrays do not have."""
         state = self.__dict__.copy()
         state["_plan"] = None
+        state["_forces_due"] = None
         return state
 
     def _check_names(self) -> None:
@@ -197,21 +200,33 @@ class Stack:
         return "Stack(" + " / ".join("[" + ", ".join(t.name for t in lvl) + "]" for lvl in self.levels) + ")"
 
     # ------------------------------------------------------------ per cycle
-    def layout(self, robot) -> Layout:
+    def layout(self, robot, deferred: bool = False) -> Layout:
         """Force variables: one block per contact task, in stack order. The Layout is
         reused (its J_f refilled) while the stack's structure is unchanged: like the
         levels, it is valid until the next call.
 
         Args:
             robot: the :class:`~wbc.robot.model.RobotModel`, updated to this cycle's state.
+            deferred: for a caller whose next use of J_f is :meth:`assemble`'s (the controller's
+                cycle): when the stack's torque plan writes J_f in its compiled call
+                (:attr:`~wbc.tasks.torque_stack.TorquePlan.fills_forces`), J_f is left for it
+                (the same bits: pinocchio's frame Jacobian written out), and :meth:`assemble`
+                refills it from pinocchio if the plan does not run that cycle. Default False:
+                J_f refilled here.
         """
         key = (self.version, id(robot))
         got = self._layout
         if got is not None and got[0] == key:
             layout, parts = got[1], got[2]
-            for c, rows in parts:
-                layout.force_jacobian[rows] = c.force_jacobian(robot)
+            plan = self._plan
+            if deferred and plan is not None and plan[1] is not None and plan[0] is self._row_buffer \
+                    and plan[1].layout is layout and plan[1].fills_forces:
+                self._forces_due = (robot, layout, parts)
+                return layout
+            self._forces_due = None
+            _refill_forces(robot, layout, parts)
             return layout
+        self._forces_due = None
         contacts = self.contacts()
         slices, jacs, parts, k = {}, [], [], robot.nv
         for c in contacts:
@@ -256,11 +271,13 @@ class Stack:
             if plan is not None and plan[0] is buf and plan[1] is not None:
                 # the known tasks' rows in one compiled call (wbc.tasks.torque_stack)
                 if plan[1].write(robot, layout):
+                    self._forces_due = None        # J_f written by the plan's call
                     return buf.levels
                 called = plan[1].called            # the tasks it called this cycle: not called again
                 plan = self._plan = None           # a change it does not follow: the tasks, then plan again
             else:
                 called = {}
+            self._due_forces()
             # each task writes its equality rows into its slot of the buffer (for this call
             # only), and its other rows are put in as they come; rows: the structure changed
             rows = buf.refill(robot, layout, groups, called)
@@ -269,15 +286,32 @@ class Stack:
                     self._plan = (buf, torque_plan(groups, buf, robot, layout))
                 return buf.levels
         else:
+            self._due_forces()
             rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
         buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key)
         buf.fill(groups, rows)
         return buf.levels
 
+    def _due_forces(self) -> None:
+        """The J_f refill :meth:`layout` left to a plan that did not run (before any task's rows)."""
+        due = self._forces_due
+        if due is not None:
+            self._forces_due = None
+            _refill_forces(*due)
+
     @property
     def row_buffer(self) -> RowBuffer | None:
         """The buffer behind the levels of the last :meth:`assemble`."""
         return self._row_buffer
+
+
+def _refill_forces(robot, layout: Layout, parts: list) -> None:
+    """Each contact's rows of J_f from pinocchio (``Contact.force_jacobian``), in place."""
+    Jf = layout.force_jacobian
+    if Jf is None:                                 # no contact: no blocks
+        return
+    for c, rows in parts:
+        Jf[rows] = c.force_jacobian(robot)
 
 
 def assemble_level(k: int, tasks: list[Task], robot, layout: Layout) -> Level:

@@ -17,8 +17,26 @@ from tests.controller.test_row_buffer_refill import _assert_fresh, _counting
 from tests.helpers.stacks import bench_stack, random_state, randomise_targets, talos_stack, tiago_stack
 from wbc.tasks import Frame
 
+
+def go2_stack():
+    """Go2 on its four point feet: contacts and limits / CoM / posture (J_f's world-aligned rows)."""
+    feet = [wbc.tasks.Contact(f) for f in ("fl_foot", "fr_foot", "rl_foot", "rr_foot")]
+    return wbc.Stack([[wbc.tasks.JointLimits(), wbc.tasks.TorqueLimits(), *feet], [wbc.tasks.CoM(kp=50.0)],
+                      [wbc.tasks.Posture(kp=10.0)]])
+
+
 CASES = {"talos_bench": ("talos", bench_stack), "talos_weighted": ("talos", talos_stack),
-         "tiago": ("tiago", tiago_stack)}
+         "tiago": ("tiago", tiago_stack), "go2": ("go2", go2_stack)}
+
+
+def _assert_forces(ctrl, stack, robot) -> None:
+    """The layout's J_f is this state's, bit for bit: each contact's ``force_jacobian`` from
+    pinocchio (written by the plan's call when it runs, ``Stack.layout(deferred=True)``)."""
+    layout = ctrl.layout
+    for c in stack.contacts():
+        sl = layout.contact_slices[c.name]
+        rows = layout.force_jacobian[sl.start - layout.nv:sl.stop - layout.nv]
+        assert np.array_equal(rows, c.force_jacobian(robot)), c.name
 
 
 def _cycle(ctrl, stack, robot, rng, calls: Counter):
@@ -48,7 +66,7 @@ def _change(stack, k: int, rng) -> None:
         elif kind == "contact":
             t.fmax = float(rng.uniform(200.0, 900.0)) if k % 2 else np.inf
             if k % 3 == 2:
-                t.set_gains(list(rng.uniform(1.0, 20.0, 6)))
+                t.set_gains(list(rng.uniform(1.0, 20.0, t.force_dim)))
         elif kind == "joint_limits":
             t.margin = float(rng.uniform(0.0, 0.05))
             t.max_acceleration = float(rng.uniform(0.2, 2.0))     # joints outside the viable set
@@ -85,14 +103,20 @@ def test_the_plans_rows_equal_the_tasks_rows(case):
         assert stack._plan is plan                     # the same plan wrote the rows
         assert not set(calls) - {"contact_regularization"}, calls
         _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+        _assert_forces(ctrl, stack, robot)
+    # J_f left to the plan where nothing else reads it first (a regularisation in ``rest`` may)
+    assert stack._plan[1].fills_forces == (not stack._plan[1].rest)
 
 
+@pytest.mark.parametrize("make", [talos_stack, bench_stack])
 @pytest.mark.parametrize("change", ["weight", "cop_margin", "sliding", "scale"])
-def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change):
+def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change, make):
     """A weight, a contact's cop_margin or sliding, the torque limits' scale changed in place:
     that cycle the tasks write the rows (each called), they equal the rows stacked afresh, and
-    a new plan writes them within two cycles (a rebuilt buffer is refilled once first)."""
-    robot, stack, ctrl, rng, calls = _planned("talos", talos_stack(), 3)
+    a new plan writes them within two cycles (a rebuilt buffer is refilled once first). The
+    bench's stack (no regularisation: J_f left to the plan by the layout) has J_f refilled
+    by ``assemble`` that cycle."""
+    robot, stack, ctrl, rng, calls = _planned("talos", make(), 3)
     first = stack._plan
     if change == "weight":
         stack["right_hand"].weight = 3.0
@@ -105,6 +129,7 @@ def test_a_change_the_plan_does_not_follow_is_left_to_the_tasks(change):
     groups = _cycle(ctrl, stack, robot, rng, calls)
     assert set(calls) >= {t.name for t in stack}, calls
     _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+    _assert_forces(ctrl, stack, robot)                 # J_f refilled by assemble, the plan not run
     for _ in range(2):                                 # a rebuilt buffer: refilled once, then planned
         groups = _cycle(ctrl, stack, robot, rng, calls)
         planned = not set(calls) - {"contact_regularization"}

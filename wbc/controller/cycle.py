@@ -324,7 +324,7 @@ class Controller:
         t = clock and clock.lap(None, 0.0)
         robot.update(q, v, external_torque)
         t = clock and clock.lap("update", t)
-        layout = self.stack.layout(robot)
+        layout = self.stack.layout(robot, deferred=True)      # J_f: by assemble's plan, or refilled there
         lowest, weights_of = self._lowest()
         levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),
                                      lowest if layout.nf else ())

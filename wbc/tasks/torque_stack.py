@@ -64,7 +64,7 @@ from .frame import Frame
 from .joint_limits import JointLimits, acceleration_bounds
 from .posture import Posture, _posture_rhs
 from .torque_limits import TorqueLimits
-from .velocity_frames import frame_motion_rows, relative_rotation
+from .velocity_frames import _jacobian_rows, frame_motion_rows, relative_rotation
 from .velocity_stack import _matrix, _pointer, _vector
 
 __all__ = ["TorquePlan", "torque_plan"]
@@ -73,7 +73,7 @@ __all__ = ["TorquePlan", "torque_plan"]
 _NX, _NV, _NJ, _NF, _J, _M, _JF = range(7)
 _HEAD = 7
 #: record kinds (``rec[r, 0]``)
-_FRAME, _COM, _POSTURE, _DYN, _TAU, _LIM, _WRENCH, _FRICTION = range(8)
+_FRAME, _COM, _POSTURE, _DYN, _TAU, _LIM, _WRENCH, _FRICTION, _FORCE = range(9)
 #: a contact's per-cycle item (its records are a _FRAME and a _FRICTION)
 _CONTACT = 100
 #: a record's columns: kind, first address in ``at``, first int in ``iv``, first float in
@@ -105,7 +105,11 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
         kind, a, i, f, c, m, flag, w = rec[r, 0], rec[r, 1], rec[r, 2], rec[r, 3], rec[r, 4], rec[r, 5], \
             rec[r, 6], rec[r, 7]
         s = a + 2 if w >= 0 else a                 # where the task's rows are written: its scratch, or its block
-        if kind == _FRAME:                         # e (6), p_t (3), ẍ_d (6), ẋ_d (6) in cv; K_p, K_d in fx
+        if kind == _FORCE:                         # a contact's rows of J_f (the first records: _DYN, _TAU read J_f)
+            row0 = iv[i]
+            _jacobian_rows(Jf[row0:row0 + m], J, sup[rec[r, 8]], _matrix(at[a], 3, 3), _vector(at[a + 1], 3),
+                           iv[i + 1:i + 1 + m], flag != 0)
+        elif kind == _FRAME:                       # e (6), p_t (3), ẍ_d (6), ẋ_d (6) in cv; K_p, K_d in fx
             A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
             views = (sup[rec[r, 8]], _matrix(at[a + 4], 3, 3), _vector(at[a + 5], 3), _matrix(at[a + 6], 3, 3),
                      _matrix(at[a + 7], 3, 3), _vector(at[a + 8], 3), _vector(at[a + 9], 6),
@@ -214,6 +218,9 @@ class TorquePlan:
         self.called: dict[tuple[int, int], Rows] = {}
         self.gains: list[_Gains] = []
         self.posture = None
+        #: the J_f records (:meth:`_force_rows`), run before the others; the rows of J_f they cover
+        self.front: list[list[int]] = []
+        self.jf_rows = 0
 
     # ------------------------------------------------------------------ building
     def _record(self, kind: int, arrays: list, ints, sizes: tuple, w: float = 1.0) -> list[int]:
@@ -253,6 +260,21 @@ class TorquePlan:
         self.gains.append(g)
         return r
 
+    def _force_rows(self, t, robot, layout, d: int, local: bool) -> None:
+        """A record of contact t's d rows of the layout's J_f (``Contact.force_jacobian``: its frame
+        Jacobian, local for a surface, the linear rows world-aligned for a point, by the frame
+        rows' kernel), kept apart in :attr:`front`: the first records of the call."""
+        sl = layout.contact_slices.get(t.name)
+        if sl is None or sl.stop - sl.start != d:
+            return
+        fa = robot.frame_arrays(t._fid)
+        sup, R, p = fa.views[:3]
+        self._record(_FORCE, [(R, "F"), (p, "C")], [sl.start - layout.nv, *range(d)],
+                     (0, 0, d, int(local), len(self.sup)))
+        self.front.append(self.rec.pop())
+        self.sup.append(sup)
+        self.jf_rows += d
+
     def add(self, t, entry, slot, robot, layout, where: tuple[int, int]) -> bool:
         """Plan task t (its buffer entry and slot, ``where``: its level and place in it); False: a
         task of a class the plan writes in a state it does not (a CoM with gains per selected
@@ -277,6 +299,7 @@ class TorquePlan:
                 fr = fa[0]
             self.items.append((_CONTACT, t, t.weight, (r[4], m, t.sliding, t.bilateral, fr, t.cop_margin,
                                                            robot.frame_arrays(t._fid).placement)))
+            self._force_rows(t, robot, layout, m, s.kind == "surface")
         elif kind is CoM:
             if not (len(t._sel) == 3 or (np.ndim(t.kp) == 0 and np.ndim(t.kd) == 0)):
                 return False
@@ -329,16 +352,28 @@ class TorquePlan:
 
     def finish(self) -> None:
         """The tables as arrays, the gains copied in."""
+        if self.rest or self.jf_rows != self.layout.nf:
+            self.front, self.jf_rows = [], 0       # J_f stays the layout's refill (a rest task may read it)
         self.at_ = np.array(self.at, dtype=np.int64)
-        self.rec_ = np.array(self.rec, dtype=np.int64).reshape(-1, _W)
+        self.rec_ = np.array(self.front + self.rec, dtype=np.int64).reshape(-1, _W)
         self.iv_ = np.array(self.iv, dtype=np.int64)
         self.fx_ = np.array(self.fx, dtype=float)
         self.cv = np.zeros(self.ncv)
         nv = self.layout.nv
         self.sup_ = np.array(self.sup, dtype=np.bool_).reshape(-1, nv)
         self.pe = np.zeros(0)
+        for kind, _, _, st in self.items:
+            if kind == _LIM:                       # its record's row, after the J_f records
+                st[1] += len(self.front)
         for g in self.gains:
             g.copy(self.fx_)
+
+    @property
+    def fills_forces(self) -> bool:
+        """Whether :meth:`write` writes all of the layout's J_f before any row that reads it (every
+        contact planned, no task called through its own rows): ``Stack.layout(robot,
+        deferred=True)`` then leaves the refill to it."""
+        return not self.rest and self.jf_rows == self.layout.nf
 
     # ------------------------------------------------------------------ each cycle
     def write(self, robot, layout) -> bool:
