@@ -172,7 +172,8 @@ class FaultMonitor:
         fault = self.state_fault(q, v)
         sol = None
         if fault is None:
-            t0 = time.perf_counter()
+            budget = self.policy.solve_timeout
+            t0 = 0.0 if budget is None else time.perf_counter()     # timed only against a budget
             try:
                 sol = solve(q, v)
             except WbcError as exc:
@@ -182,11 +183,9 @@ class FaultMonitor:
             except Exception as exc:  # noqa: BLE001 (a back-end that threw: a fault, held and counted)
                 fault = ("solver_errors", f"the solver raised {type(exc).__name__}: {exc}")
             else:
-                elapsed = time.perf_counter() - t0
-                budget = self.policy.solve_timeout
                 if sol.status == "failed":
                     fault = ("solve_failures", f"solve failed: {sol.message}")
-                elif budget is not None and elapsed > budget:
+                elif budget is not None and (elapsed := time.perf_counter() - t0) > budget:
                     fault = ("solve_timeouts", f"the solve took {elapsed * 1e3:.3g} ms, over its budget of "
                                                f"{budget * 1e3:.3g} ms (answer discarded)")
                     sol = None

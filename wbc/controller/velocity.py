@@ -43,7 +43,7 @@ from wbc.controller.options import ControllerOptions
 from wbc.controller.solution import NO_REPORT, Solution, SolutionReport, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.velocity_plan import VelocityPlan
-from wbc.controller.velocity_step import ACCEPTED, NOT_FINITE
+from wbc.controller.velocity_step import ACCEPTED, NOT_FINITE, unpack
 from wbc.errors import ConfigError, SolverError
 from wbc.problem.buffer import row_values
 from wbc.problem.result import SolveResult
@@ -104,14 +104,17 @@ def _solve_planned(solver, problem, equalities_first: bool = True):
     return solver.solve(problem) if planned is None else planned(problem, equalities_first=equalities_first)
 
 
-def _equality_diagnostics(levels: list[Level], spans, records: tuple, solved: list[Level], values: tuple,
-                          tols: tuple) -> tuple:
+def _equality_diagnostics(plan: VelocityPlan, got: tuple, tols: tuple) -> tuple:
     """:func:`level_diagnostics` of an equality-only run's cycle (:meth:`VelocityController._accepted`):
-    its levels' records (ints, floats) decoded here, as the run's SolveResult would give them
+    ``got`` = (code, nf, X, ints) of :func:`~wbc.controller.velocity_step.rows_and_step`, X sliced
+    and the levels' records decoded here, as the run's SolveResult would give them
     (:func:`wbc.solvers.hqp_planned.equality_levels`); every inequality row enforced, none met
-    outside the cascade."""
-    return level_diagnostics(levels, spans, equality_levels(records[0], records[1], solved), values, (False, ()),
-                             tols)
+    outside the cascade. The plan's buffer, levels and spans are its structure's (fixed for the plan's
+    life); the rows' values are X's, taken at the cycle."""
+    buf = plan.buffer
+    _, floats, values = unpack(got[2], got[1], buf.A.shape[1])
+    return level_diagnostics(buf.levels, buf.spans, equality_levels(got[3], floats, plan.problem.levels),
+                             (values, len(buf.b), len(buf.lo)), (False, ()), tols)
 
 
 def _torque_fields(nv: int, na: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -252,9 +255,10 @@ class VelocityController:
             # code says accepted (q̇ finite, q̇ dt in plan.step), not finite, or not accepted
             code = out[0]
             if code == ACCEPTED:
-                return self._accepted(q, out[1][:nv], plan, out[1:], plan.step)
+                return self._accepted(q, out[2][:nv], plan, out, plan.step)
             if code == NOT_FINITE:
-                res = SolveResult(out[1], equality_levels(out[2], out[3], plan.problem.levels), True, 0, "")
+                x, floats, _ = unpack(out[2], out[1], nv)
+                res = SolveResult(x, equality_levels(out[3], floats, plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, False)
         elif not plan.collision_rows:
@@ -265,7 +269,8 @@ class VelocityController:
             if got is not None:
                 qd = got[0][:nv]
                 if math.isfinite(qd.dot(qd)) or np.all(np.isfinite(qd)):
-                    return self._accepted(q, qd, plan, got, qd * self.dt)
+                    return self._accepted(q, qd, plan, (ACCEPTED, len(got[2]), np.concatenate(got[:1] + got[2:]),
+                                                        got[1]), qd * self.dt)
                 res = SolveResult(got[0], equality_levels(got[1], got[2], plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, step is None)
@@ -298,15 +303,13 @@ class VelocityController:
 
     def _accepted(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan, got: tuple, step: np.ndarray
                   ) -> VelocitySolution:
-        """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got``: its
-        x, ints, floats and the rows' values at x, :meth:`wbc.solvers.hqp.HierarchicalQP.equality_step`,
-        the plan's problem's rows being the buffer's: :func:`row_values` of ``buf`` at q̇, computed in
-        the solver's call; ``step`` = q̇ dt, m and rad): what :meth:`_solve` builds from the same run's SolveResult (status "ok",
-        no QP, nothing relaxed, no message), its levels' records decoded only when the diagnostics
-        are read."""
-        buf = plan.buffer
-        evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:3], plan.problem.levels,
-                           (got[3], len(buf.b), len(buf.lo)), (self.sacrifice_tol, self.sacrifice_rel))
+        """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got`` =
+        (code, nf, X, ints) as :func:`~wbc.controller.velocity_step.rows_and_step` returns them:
+        X = [x, the run's nf float records, the rows' values at x], :func:`row_values` of the plan's
+        buffer at q̇; ``step`` = q̇ dt, m and rad): what :meth:`_solve` builds from the same run's
+        SolveResult (status "ok", no QP, nothing relaxed, no message), its levels' records decoded
+        and X sliced only when the diagnostics are read."""
+        evaluate = partial(_equality_diagnostics, plan, got, (self.sacrifice_tol, self.sacrifice_rel))
         return VelocitySolution.accepted(qd, pin.integrate(self.robot.model, q, step), self.robot.na, evaluate)
 
     def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):
