@@ -92,6 +92,7 @@ class VelocitySolution(Solution):
         return cls.ok_without_qp(_torque_fields(len(qd), na), qd, evaluate, qd=qd, q_next=q_next)
 
 
+_FLOAT = np.dtype(float)
 _ZEROS: dict[int, np.ndarray] = {}
 _ZERO_FIELDS: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
@@ -189,6 +190,11 @@ class VelocityController:
         self.faults = FaultMonitor(o.fault_policy())
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self.layout = Layout(nv=robot.nv)
+        #: the measured velocity when none is given: zeros, read-only
+        self._v0 = _zeros(robot.nv)
+        self._shapes = ((robot.nq,), (robot.nv,))
+        #: (q̈, τ, τ_full) of every solution: zeros (VelocitySolution.accepted's)
+        self._zero_fields = _torque_fields(robot.nv, robot.na)
         self._plan: VelocityPlan | None = None
         #: cycles whose command was re-solved with re-linearised collision rows
         self.corrections = 0
@@ -227,7 +233,7 @@ class VelocityController:
         """
         if external_torque is not None and np.any(external_torque):
             raise ConfigError("the velocity mode takes no external torque (no dynamics)", key="external_torque")
-        v = _zeros(self.robot.nv) if v is None else v
+        v = self._v0 if v is None else v
         return self.faults.cycle(q, v, self._solve, self._hold)
 
     def groups(self) -> list[list]:
@@ -239,9 +245,11 @@ class VelocityController:
 
     def _solve(self, q: np.ndarray, v: np.ndarray) -> VelocitySolution:
         robot = self.robot
-        q, v = robot.check_state(q, v, finite=False)
+        if not (type(q) is np.ndarray is type(v) and q.dtype is _FLOAT is v.dtype and q.shape == self._shapes[0]
+                and v.shape == self._shapes[1]):       # (check_state's common case: nothing to convert or refuse)
+            q, v = robot.check_state(q, v, finite=False)
         robot.update_kinematics(q, v)
-        groups = self.groups()
+        groups = self.stack.levels if self._diff_drive is None else self.groups()
         plan = self._plan
         key = (self.stack.version, len(groups), *map(len, groups))
         out = None
@@ -254,8 +262,12 @@ class VelocityController:
             # the rows and the equality-only cascade were one compiled call (VelocityPlan.fill_step): its
             # code says accepted (q̇ finite, q̇ dt in plan.step), not finite, or not accepted
             code = out[0]
-            if code == ACCEPTED:
-                return self._accepted(q, out[2][:nv], plan, out, plan.step)
+            if code == ACCEPTED:          # _accepted's solution, built here (one call less on the common cycle)
+                qd = out[2][:nv]
+                return VelocitySolution.ok_without_qp(
+                    self._zero_fields, qd, partial(_equality_diagnostics, plan, out, (self.sacrifice_tol,
+                                                                                      self.sacrifice_rel)),
+                    qd=qd, q_next=pin.integrate(robot.model, q, plan.step))
             if code == NOT_FINITE:
                 x, floats, _ = unpack(out[2], out[1], nv)
                 res = SolveResult(x, equality_levels(out[3], floats, plan.problem.levels), True, 0, "")
