@@ -57,7 +57,7 @@ def split(ctrl, q) -> dict[str, int]:
     t["rows and solver (VelocityPlan.fill_step: the Python checks, then one call: the rows, the equality-only "
       "cascade, q̇'s finite check, the rows' values, q̇ dt)"] = t4 - t3
     nv = robot.nv
-    qd = out[2][:nv]
+    qd = out[3][:nv]
     evaluate = partial(_equality_diagnostics, plan, out, (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
     t6 = ns()
     t["bookkeeping (diagnostics closure)"] = t6 - t4

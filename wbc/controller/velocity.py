@@ -107,14 +107,14 @@ def _solve_planned(solver, problem, equalities_first: bool = True):
 
 def _equality_diagnostics(plan: VelocityPlan, got: tuple, tols: tuple) -> tuple:
     """:func:`level_diagnostics` of an equality-only run's cycle (:meth:`VelocityController._accepted`):
-    ``got`` = (code, nf, X, ints) of :func:`~wbc.controller.velocity_step.rows_and_step`, X sliced
+    ``got`` = (code, nf, ni, X) of :func:`~wbc.controller.velocity_step.rows_and_step`, X sliced
     and the levels' records decoded here, as the run's SolveResult would give them
     (:func:`wbc.solvers.hqp_planned.equality_levels`); every inequality row enforced, none met
     outside the cascade. The plan's buffer, levels and spans are its structure's (fixed for the plan's
     life); the rows' values are X's, taken at the cycle."""
     buf = plan.buffer
-    _, floats, values = unpack(got[2], got[1], buf.A.shape[1])
-    return level_diagnostics(buf.levels, buf.spans, equality_levels(got[3], floats, plan.problem.levels),
+    _, floats, ints, values = unpack(got, buf.A.shape[1])
+    return level_diagnostics(buf.levels, buf.spans, equality_levels(ints, floats, plan.problem.levels),
                              (values, len(buf.b), len(buf.lo)), (False, ()), tols)
 
 
@@ -263,14 +263,14 @@ class VelocityController:
             # code says accepted (q̇ finite, q̇ dt in plan.step), not finite, or not accepted
             code = out[0]
             if code == ACCEPTED:          # _accepted's solution, built here (one call less on the common cycle)
-                qd = out[2][:nv]
+                qd = out[3][:nv]
                 return VelocitySolution.ok_without_qp(
                     self._zero_fields, qd, partial(_equality_diagnostics, plan, out, (self.sacrifice_tol,
                                                                                       self.sacrifice_rel)),
                     qd=qd, q_next=pin.integrate(robot.model, q, plan.step))
             if code == NOT_FINITE:
-                x, floats, _ = unpack(out[2], out[1], nv)
-                res = SolveResult(x, equality_levels(out[3], floats, plan.problem.levels), True, 0, "")
+                x, floats, ints, _ = unpack(out, nv)
+                res = SolveResult(x, equality_levels(ints, floats, plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, False)
         elif not plan.collision_rows:
@@ -281,8 +281,8 @@ class VelocityController:
             if got is not None:
                 qd = got[0][:nv]
                 if math.isfinite(qd.dot(qd)) or np.all(np.isfinite(qd)):
-                    return self._accepted(q, qd, plan, (ACCEPTED, len(got[2]), np.concatenate(got[:1] + got[2:]),
-                                                        got[1]), qd * self.dt)
+                    return self._accepted(q, qd, plan, (ACCEPTED, len(got[2]), len(got[1]),
+                                                        np.concatenate((got[0], got[2], got[1], got[3]))), qd * self.dt)
                 res = SolveResult(got[0], equality_levels(got[1], got[2], plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, step is None)
@@ -316,8 +316,8 @@ class VelocityController:
     def _accepted(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan, got: tuple, step: np.ndarray
                   ) -> VelocitySolution:
         """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got`` =
-        (code, nf, X, ints) as :func:`~wbc.controller.velocity_step.rows_and_step` returns them:
-        X = [x, the run's nf float records, the rows' values at x], :func:`row_values` of the plan's
+        (code, nf, ni, X) as :func:`~wbc.controller.velocity_step.rows_and_step` returns them:
+        X = [x, the run's nf float and ni int records, the rows' values at x], :func:`row_values` of the plan's
         buffer at q̇; ``step`` = q̇ dt, m and rad): what :meth:`_solve` builds from the same run's
         SolveResult (status "ok", no QP, nothing relaxed, no message), its levels' records decoded
         and X sliced only when the diagnostics are read."""

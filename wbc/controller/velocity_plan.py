@@ -132,7 +132,7 @@ class VelocityPlan:
         (:func:`wbc.controller.velocity_step.rows_and_step`, the solver's arrays held by address in
         tables built again when its planned rows or hints are other objects). Returns False (plan
         again) or None (the rows written, nothing solved: the caller's solve) as :meth:`fill`
-        does, else ``rows_and_step``'s (code, number of float records, X, ints), with :attr:`step`
+        does, else ``rows_and_step``'s (code, nf, ni, X), with :attr:`step`
         ← q̇ dt (s) for code ACCEPTED.
 
         Args:

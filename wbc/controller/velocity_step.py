@@ -27,8 +27,9 @@ the step, dt) and returning four arrays took 9.5 µs cold against 5.2 for four a
 and two arrays returned. So the solver's arrays and the plan's step are held by address in one
 int table ``sx`` (:func:`step_tables`, built again when the solver's planned rows or hints are
 other objects), the scalars in one float table ``sf``, and the call returns one float array
-``X`` = [x, the run's float records, the rows' values] and the run's int records: the same
-numbers (copies), sliced in Python (:func:`unpack`) only where they are read.
+``X`` = [x, the run's float records, its int records, the rows' values] and their counts: the
+same numbers (copies; the int records are small integers, exact as doubles), sliced in Python
+(:func:`unpack`) only where they are read.
 """
 
 from __future__ import annotations
@@ -72,16 +73,16 @@ def _int_pointer(typingctx, address):
 
 @nb.njit(cache=True)
 def rows_and_step(at, ix, fx, support, q, post_e, sx, sf):
-    """(code, number of float records, X, ints), code as in the module docstring: the rows by
+    """(code, nf, ni, X), code as in the module docstring: the rows by
     :func:`_stack_rows` (``at, ix, fx, support`` its tables, q, post_e, and the margin and k of
     ``sf``), then :func:`equality_cascade` of the solver's arrays held in ``sx`` and its settings
     in ``sf`` (:func:`step_tables`), then x[:nv] checked finite, the rows' values at x
-    (:func:`row_values`), and ``step`` ← x[:nv]·dt (m, rad; dt in s). X = [x, floats, values]
-    (``values`` empty unless code 3; X and ints empty for codes 0 and 1), ints the run's int records."""
+    (:func:`row_values`), and ``step`` ← x[:nv]·dt (m, rad; dt in s). X = [x, the run's nf float
+    records, its ni int records (as doubles: small integers, exact), the rows' values] (``values``
+    empty unless code 3; X empty for codes 0 and 1); :func:`unpack` slices it."""
     none = np.empty(0)
-    ints_none = np.empty(0, dtype=np.int64)
     if not _stack_rows(at, ix, fx, support, q, post_e, sf[_MARGIN], sf[_K]):
-        return ROWS_LEFT, 0, none, ints_none
+        return ROWS_LEFT, 0, 0, none
     ne, ni, n, L = sx[_NE], sx[_NI], sx[_NX], sx[_NL]
     A = nb.carray(_pointer(sx[_A]), (ne, n))
     b = _vector(sx[_B], ne)
@@ -94,24 +95,26 @@ def rows_and_step(at, ix, fx, support, q, post_e, sx, sf):
     done, x, ints, floats = equality_cascade((A, b, e_end), (C, lo, hi, i_end), _vector(sx[_X0], n), hints,
                                              settings)
     if not done:
-        return NOT_ACCEPTED, 0, none, ints_none
+        return NOT_ACCEPTED, 0, 0, none
     nv = sx[_NV]
-    nf = floats.shape[0]
+    nf, ni_ = floats.shape[0], ints.shape[0]
     code = ACCEPTED
     for i in range(nv):
         if not math.isfinite(x[i]):
             code = NOT_FINITE
             break
     values = row_values(A, b, C, lo, hi, x) if code == ACCEPTED else none
-    X = np.empty(n + nf + values.shape[0])
+    X = np.empty(n + nf + ni_ + values.shape[0])
     X[:n] = x
     X[n:n + nf] = floats
-    X[n + nf:] = values
+    for i in range(ni_):
+        X[n + nf + i] = ints[i]               # small integers (ranks, routes, counts): exact in a double
+    X[n + nf + ni_:] = values
     if code == ACCEPTED:
         step, dt = _vector(sx[_STEP], nv), sf[_DT]
         for i in range(nv):
             step[i] = x[i] * dt
-    return code, nf, X, ints
+    return code, nf, ni_, X
 
 
 def _address(x: np.ndarray, dtype, ndim: int) -> int:
@@ -147,6 +150,8 @@ def step_tables(planned: tuple, hints: np.ndarray, x0: np.ndarray, step: np.ndar
     return sx, sf
 
 
-def unpack(X: np.ndarray, nf: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(x, floats, values) of :func:`rows_and_step`'s X for n unknowns and nf float records (views)."""
-    return X[:n], X[n:n + nf], X[n + nf:]
+def unpack(got: tuple, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(x, floats, ints, values) of :func:`rows_and_step`'s answer ``got`` = (code, nf, ni, X) for n
+    unknowns: views of X, the int records converted back to int64 (exact: X holds them as doubles)."""
+    _, nf, ni, X = got
+    return X[:n], X[n:n + nf], X[n + nf:n + nf + ni].astype(np.int64), X[n + nf + ni:]
