@@ -298,8 +298,11 @@ class RobotModel:
 
     def update_kinematics(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         """The velocity-level cycle's pinocchio calls, once (:mod:`wbc.controller.velocity`):
-        ``computeJointJacobians(q)`` (its forward pass gives the placements), the frame
-        placements, and ``jacobianCenterOfMass`` (the CoM and J_com). No M, h, body velocities
+        ``jacobianCenterOfMass(q)`` (its forward pass gives the joint placements, its backward pass
+        the joint Jacobians ``data.J``, as ``computeJointJacobians(q)`` does, the same arithmetic:
+        bit for bit, ``tests/robot/test_update_kinematics.py``; then the CoM and J_com), and the frame
+        placements. One pass less than ``computeJointJacobians`` then ``jacobianCenterOfMass``,
+        which wrote ``data.J`` twice. No M, h, body velocities
         or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
         and ``frame_drift`` hold the last :meth:`update`'s values, not this state's.
 
@@ -310,9 +313,8 @@ class RobotModel:
         m, d = self.model, self.data
         self.q = q
         self.v = self._zero_v if v is None else v
-        pin.computeJointJacobians(m, d, q)
+        pin.jacobianCenterOfMass(m, d, q, False)
         pin.updateFramePlacements(m, d)
-        pin.jacobianCenterOfMass(m, d, False)
         self._cache.clear()
         self.cycle += 1
 
