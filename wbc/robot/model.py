@@ -298,12 +298,10 @@ class RobotModel:
 
     def update_kinematics(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         """The velocity-level cycle's pinocchio calls, once (:mod:`wbc.controller.velocity`):
-        ``jacobianCenterOfMass(q)`` (its forward pass gives the joint placements, its backward pass
-        the joint Jacobians ``data.J``, as ``computeJointJacobians(q)`` does, the same arithmetic:
-        bit for bit, ``tests/robot/test_update_kinematics.py``; then the CoM and J_com), and the frame
-        placements. One pass less than ``computeJointJacobians`` then ``jacobianCenterOfMass``,
-        which wrote ``data.J`` twice. No M, h, body velocities
-        or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
+        ``jacobianCenterOfMass(q)`` (the joint placements, the joint Jacobians ``data.J`` as
+        ``computeJointJacobians(q)`` gives them, bit for bit: ``tests/robot/test_update_kinematics.py``;
+        the CoM, J_com), then the frame placements: ``data.J`` written once, not twice. No M, h, body
+        velocities or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
         and ``frame_drift`` hold the last :meth:`update`'s values, not this state's.
 
         Args:
