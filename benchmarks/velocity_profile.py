@@ -57,10 +57,8 @@ def split(ctrl, q) -> dict[str, int]:
     t["rows and solver (VelocityPlan.fill_step: the Python checks, then one call: the rows, the equality-only "
       "cascade, q̇'s finite check, the rows' values, q̇ dt)"] = t4 - t3
     nv = robot.nv
-    qd = out[1][:nv]
-    buf = plan.buffer
-    evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, out[2:4], plan.problem.levels,
-                       (out[4], len(buf.b), len(buf.lo)), (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
+    qd = out[3][:nv]
+    evaluate = partial(_equality_diagnostics, plan, out, (ctrl.sacrifice_tol, ctrl.sacrifice_rel))
     t6 = ns()
     t["bookkeeping (diagnostics closure)"] = t6 - t4
     q_next = pin.integrate(robot.model, q, plan.step)

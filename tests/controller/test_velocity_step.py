@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from wbc import Controller, Stack
-from wbc.controller.velocity_step import ACCEPTED, NOT_FINITE
+from wbc.controller.velocity_step import ACCEPTED, NOT_ACCEPTED, NOT_FINITE
 from wbc.tasks import CoM, Contact, Frame, JointLimits, Posture
 
 
@@ -84,3 +84,41 @@ def test_a_non_finite_step_fails_the_cycle_and_is_counted(talos):
     assert a.status == "failed" and "non-finite solution" in a.message
     _same(a, b)
     assert fast.fault_counts() == ref.fault_counts() and fast.fault_counts()["solve_failures"] == 1
+
+
+def test_the_call_reads_the_solvers_settings_of_this_cycle(talos):
+    """The one call holds the solver's arrays and settings in tables (velocity_step.step_tables),
+    built again when the solver's planned rows are another object: a damping threshold changed
+    between two cycles (ε above every singular value of the hand's level: each would be damped,
+    which the equality-only cascade does not accept) is this cycle's, so the call answers
+    NOT_ACCEPTED and the hqp's full run gives the reference's solution; back to the default, the call
+    accepts again once the full run's route hints have lapsed (50 cycles). With tables kept from the
+    first cycle the call would accept the undamped step."""
+    from wbc.solvers.cascade import Damping
+
+    def levels():
+        return [[Contact("left_foot"), Contact("right_foot"), JointLimits()], [CoM(name="com")],
+                [Frame("right_hand", mask="position", name="hand")], [Posture()]]
+
+    fast, codes, ref = _pair(talos, levels)
+    q = talos.q_default.copy()
+    _same(fast.solve(q), ref.solve(q))
+    for c in (fast, ref):                               # a hand step to make (its target: where it is + 2 mm)
+        c.stack["hand"].target = c.stack["hand"].target.translation + np.array([0.002, 0.0, 0.0])
+    undamped = fast.solve(q)
+    _same(undamped, ref.solve(q))
+    assert codes[-1] == ACCEPTED
+    default = fast.solver.damping
+    for c in (fast, ref):
+        c.solver.damping = Damping(threshold=1e3, max_damping=1e-2)
+    a, b = fast.solve(q), ref.solve(q)
+    assert codes[-1] == NOT_ACCEPTED
+    _same(a, b)
+    assert not np.allclose(a.qd, undamped.qd)          # damped: another step
+    for c in (fast, ref):
+        c.solver.damping = default
+    for _ in range(60):                                 # (the full run's route hints hold it for 50 cycles)
+        _same(fast.solve(q), ref.solve(q))
+        if codes[-1] == ACCEPTED:
+            break
+    assert codes[-1] == ACCEPTED

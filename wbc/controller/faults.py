@@ -135,8 +135,10 @@ class FaultMonitor:
     def state_fault(self, q, v) -> tuple[str, str] | None:
         """(counter, message) of a non-finite or stale measured state, else None; a state
         of the wrong shape passes (the solve refuses it with its own error)."""
-        q = np.asarray(q, dtype=float)
-        v = np.asarray(v, dtype=float)
+        if not (type(q) is np.ndarray and q.dtype is _FLOAT):     # (a measured state usually is: no call)
+            q = np.asarray(q, dtype=float)
+        if not (type(v) is np.ndarray and v.dtype is _FLOAT):
+            v = np.asarray(v, dtype=float)
         last = self._last_state
         if q.ndim == 1 and v.ndim == 1 and (last is None or (last[0].shape == q.shape and last[1].shape == v.shape)):
             # a measured state's usual case in one compiled pass: finite, and equal to the last or not
@@ -169,10 +171,15 @@ class FaultMonitor:
         ``fault`` set (the counter's name, "" for an accepted cycle)."""
         if self.stopped:
             return self._stopped(hold(v, self.stopped))
-        fault = self.state_fault(q, v)
+        if (not self.policy.detect_stale and type(q) is np.ndarray is type(v) and q.dtype is _FLOAT is v.dtype
+                and q.ndim == 1 == v.ndim and _state_check(q, v, _NO_STATE, _NO_STATE, False)[0]):
+            fault = None            # state_fault's common case (finite, no stale detection) without its call
+        else:
+            fault = self.state_fault(q, v)
         sol = None
         if fault is None:
-            t0 = time.perf_counter()
+            budget = self.policy.solve_timeout
+            t0 = 0.0 if budget is None else time.perf_counter()     # timed only against a budget
             try:
                 sol = solve(q, v)
             except WbcError as exc:
@@ -182,11 +189,9 @@ class FaultMonitor:
             except Exception as exc:  # noqa: BLE001 (a back-end that threw: a fault, held and counted)
                 fault = ("solver_errors", f"the solver raised {type(exc).__name__}: {exc}")
             else:
-                elapsed = time.perf_counter() - t0
-                budget = self.policy.solve_timeout
                 if sol.status == "failed":
                     fault = ("solve_failures", f"solve failed: {sol.message}")
-                elif budget is not None and elapsed > budget:
+                elif budget is not None and (elapsed := time.perf_counter() - t0) > budget:
                     fault = ("solve_timeouts", f"the solve took {elapsed * 1e3:.3g} ms, over its budget of "
                                                f"{budget * 1e3:.3g} ms (answer discarded)")
                     sol = None

@@ -43,7 +43,7 @@ from wbc.controller.options import ControllerOptions
 from wbc.controller.solution import NO_REPORT, Solution, SolutionReport, solve_status
 from wbc.controller.solver_names import SOLVERS
 from wbc.controller.velocity_plan import VelocityPlan
-from wbc.controller.velocity_step import ACCEPTED, NOT_FINITE
+from wbc.controller.velocity_step import ACCEPTED, NOT_FINITE, unpack
 from wbc.errors import ConfigError, SolverError
 from wbc.problem.buffer import row_values
 from wbc.problem.result import SolveResult
@@ -92,6 +92,7 @@ class VelocitySolution(Solution):
         return cls.ok_without_qp(_torque_fields(len(qd), na), qd, evaluate, qd=qd, q_next=q_next)
 
 
+_FLOAT = np.dtype(float)
 _ZEROS: dict[int, np.ndarray] = {}
 _ZERO_FIELDS: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
@@ -104,14 +105,17 @@ def _solve_planned(solver, problem, equalities_first: bool = True):
     return solver.solve(problem) if planned is None else planned(problem, equalities_first=equalities_first)
 
 
-def _equality_diagnostics(levels: list[Level], spans, records: tuple, solved: list[Level], values: tuple,
-                          tols: tuple) -> tuple:
+def _equality_diagnostics(plan: VelocityPlan, got: tuple, tols: tuple) -> tuple:
     """:func:`level_diagnostics` of an equality-only run's cycle (:meth:`VelocityController._accepted`):
-    its levels' records (ints, floats) decoded here, as the run's SolveResult would give them
+    ``got`` = (code, nf, ni, X) of :func:`~wbc.controller.velocity_step.rows_and_step`, X sliced
+    and the levels' records decoded here, as the run's SolveResult would give them
     (:func:`wbc.solvers.hqp_planned.equality_levels`); every inequality row enforced, none met
-    outside the cascade."""
-    return level_diagnostics(levels, spans, equality_levels(records[0], records[1], solved), values, (False, ()),
-                             tols)
+    outside the cascade. The plan's buffer, levels and spans are its structure's (fixed for the plan's
+    life); the rows' values are X's, taken at the cycle."""
+    buf = plan.buffer
+    _, floats, ints, values = unpack(got, buf.A.shape[1])
+    return level_diagnostics(buf.levels, buf.spans, equality_levels(ints, floats, plan.problem.levels),
+                             (values, len(buf.b), len(buf.lo)), (False, ()), tols)
 
 
 def _torque_fields(nv: int, na: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -186,6 +190,11 @@ class VelocityController:
         self.faults = FaultMonitor(o.fault_policy())
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
         self.layout = Layout(nv=robot.nv)
+        #: the measured velocity when none is given: zeros, read-only
+        self._v0 = _zeros(robot.nv)
+        self._shapes = ((robot.nq,), (robot.nv,))
+        #: (q̈, τ, τ_full) of every solution: zeros (VelocitySolution.accepted's)
+        self._zero_fields = _torque_fields(robot.nv, robot.na)
         self._plan: VelocityPlan | None = None
         #: cycles whose command was re-solved with re-linearised collision rows
         self.corrections = 0
@@ -224,7 +233,7 @@ class VelocityController:
         """
         if external_torque is not None and np.any(external_torque):
             raise ConfigError("the velocity mode takes no external torque (no dynamics)", key="external_torque")
-        v = _zeros(self.robot.nv) if v is None else v
+        v = self._v0 if v is None else v
         return self.faults.cycle(q, v, self._solve, self._hold)
 
     def groups(self) -> list[list]:
@@ -236,9 +245,11 @@ class VelocityController:
 
     def _solve(self, q: np.ndarray, v: np.ndarray) -> VelocitySolution:
         robot = self.robot
-        q, v = robot.check_state(q, v, finite=False)
+        if not (type(q) is np.ndarray is type(v) and q.dtype is _FLOAT is v.dtype and q.shape == self._shapes[0]
+                and v.shape == self._shapes[1]):       # (check_state's common case: nothing to convert or refuse)
+            q, v = robot.check_state(q, v, finite=False)
         robot.update_kinematics(q, v)
-        groups = self.groups()
+        groups = self.stack.levels if self._diff_drive is None else self.groups()
         plan = self._plan
         key = (self.stack.version, len(groups), *map(len, groups))
         out = None
@@ -251,10 +262,15 @@ class VelocityController:
             # the rows and the equality-only cascade were one compiled call (VelocityPlan.fill_step): its
             # code says accepted (q̇ finite, q̇ dt in plan.step), not finite, or not accepted
             code = out[0]
-            if code == ACCEPTED:
-                return self._accepted(q, out[1][:nv], plan, out[1:], plan.step)
+            if code == ACCEPTED:          # _accepted's solution, built here (one call less on the common cycle)
+                qd = out[3][:nv]
+                return VelocitySolution.ok_without_qp(
+                    self._zero_fields, qd, partial(_equality_diagnostics, plan, out, (self.sacrifice_tol,
+                                                                                      self.sacrifice_rel)),
+                    qd=qd, q_next=pin.integrate(robot.model, q, plan.step))
             if code == NOT_FINITE:
-                res = SolveResult(out[1], equality_levels(out[2], out[3], plan.problem.levels), True, 0, "")
+                x, floats, ints, _ = unpack(out, nv)
+                res = SolveResult(x, equality_levels(ints, floats, plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, False)
         elif not plan.collision_rows:
@@ -265,7 +281,8 @@ class VelocityController:
             if got is not None:
                 qd = got[0][:nv]
                 if math.isfinite(qd.dot(qd)) or np.all(np.isfinite(qd)):
-                    return self._accepted(q, qd, plan, got, qd * self.dt)
+                    return self._accepted(q, qd, plan, (ACCEPTED, len(got[2]), len(got[1]),
+                                                        np.concatenate((got[0], got[2], got[1], got[3]))), qd * self.dt)
                 res = SolveResult(got[0], equality_levels(got[1], got[2], plan.problem.levels), True, 0, "")
             else:
                 res = _solve_planned(self.solver, plan.problem, step is None)
@@ -298,15 +315,13 @@ class VelocityController:
 
     def _accepted(self, q: np.ndarray, qd: np.ndarray, plan: VelocityPlan, got: tuple, step: np.ndarray
                   ) -> VelocitySolution:
-        """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got``: its
-        x, ints, floats and the rows' values at x, :meth:`wbc.solvers.hqp.HierarchicalQP.equality_step`,
-        the plan's problem's rows being the buffer's: :func:`row_values` of ``buf`` at q̇, computed in
-        the solver's call; ``step`` = q̇ dt, m and rad): what :meth:`_solve` builds from the same run's SolveResult (status "ok",
-        no QP, nothing relaxed, no message), its levels' records decoded only when the diagnostics
-        are read."""
-        buf = plan.buffer
-        evaluate = partial(_equality_diagnostics, buf.levels, buf.spans, got[1:3], plan.problem.levels,
-                           (got[3], len(buf.b), len(buf.lo)), (self.sacrifice_tol, self.sacrifice_rel))
+        """The solution of a cycle the equality-only cascade answered with a finite q̇ (``got`` =
+        (code, nf, ni, X) as :func:`~wbc.controller.velocity_step.rows_and_step` returns them:
+        X = [x, the run's nf float and ni int records, the rows' values at x], :func:`row_values` of the plan's
+        buffer at q̇; ``step`` = q̇ dt, m and rad): what :meth:`_solve` builds from the same run's
+        SolveResult (status "ok", no QP, nothing relaxed, no message), its levels' records decoded
+        and X sliced only when the diagnostics are read."""
+        evaluate = partial(_equality_diagnostics, plan, got, (self.sacrifice_tol, self.sacrifice_rel))
         return VelocitySolution.accepted(qd, pin.integrate(self.robot.model, q, step), self.robot.na, evaluate)
 
     def _corrected(self, q: np.ndarray, res, plan: VelocityPlan):

@@ -29,7 +29,7 @@ from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.velocity import velocity_writer
 from wbc.tasks.velocity_stack import stack_writer
 
-from .velocity_step import ROWS_LEFT, rows_and_step
+from .velocity_step import ROWS_LEFT, rows_and_step, step_tables
 
 _NO_INDEX = np.zeros(0, dtype=np.int64)
 
@@ -86,6 +86,10 @@ class VelocityPlan:
         self.levels = buf.levels
         #: q̇ dt of the last cycle the rows and the step were one call (fill_step), nv
         self.step = np.zeros(nv)
+        #: x₀ of the one call's cascade (zeros: the plan's problem has no x_ref), read only
+        self._x0 = np.zeros(nv)
+        #: (the solver's planned tuple, its hints, sx, sf) of fill_step's call (velocity_step.step_tables)
+        self._tables: tuple | None = None
         self.problem = Problem(buf.levels, Layout(nv=nv), np.eye(nv), np.zeros(nv), _NO_INDEX, margin=margin,
                                rows=buf.stacked)
         self.fill()
@@ -122,29 +126,40 @@ class VelocityPlan:
 
     def fill_step(self, solver, dt: float) -> tuple | Literal[False] | None:
         """:meth:`fill` and, where the one-call writer covers every task (no other writer: no
-        weighted, collision or drive task) and ``solver`` offers the equality-only cascade
-        (``equality_step``, ``equality_inputs``: the hierarchical QP), that cascade in the same
-        compiled call (:func:`wbc.controller.velocity_step.rows_and_step`). Returns False (plan
+        weighted, collision or drive task), the problem starts from x₀ = 0 (no ``x_ref``) and
+        ``solver`` offers the equality-only cascade (``equality_step``, ``equality_planned``: the
+        hierarchical QP), that cascade in the same compiled call
+        (:func:`wbc.controller.velocity_step.rows_and_step`, the solver's arrays held by address in
+        tables built again when its planned rows or hints are other objects). Returns False (plan
         again) or None (the rows written, nothing solved: the caller's solve) as :meth:`fill`
-        does, else ``rows_and_step``'s (code, x, ints, floats, values), with :attr:`step` ← q̇ dt
-        (s) for code ACCEPTED.
+        does, else ``rows_and_step``'s (code, nf, ni, X), with :attr:`step`
+        ← q̇ dt (s) for code ACCEPTED.
 
         Args:
             solver: the controller's solver.
             dt: the control period (s).
         """
         fused = self.stack_write
-        inputs = None
-        if fused is not None and not self.rest and getattr(solver, "equality_step", None) is not None:
-            entry = getattr(solver, "equality_inputs", None)
-            inputs = None if entry is None else entry(self.problem)
-        if fused is None or inputs is None:
+        planned = None
+        if fused is not None and not self.rest and self.problem.x_ref is None \
+                and getattr(solver, "equality_step", None) is not None:
+            entry = getattr(solver, "equality_planned", None)
+            planned = None if entry is None else entry(self.problem)
+        if fused is None or planned is None:
             return None if self.fill() else False
+        tables = self._tables
+        if tables is None or tables[0] is not planned[0] or tables[1] is not planned[1]:
+            got = planned[0]
+            tables = self._tables = (got, planned[1], *step_tables((got[3], got[4], got[5]), planned[1], self._x0,
+                                                                  self.step))
         args = fused.prepare()
         if args is None or args is False:       # this cycle by the writers, or plan again
             return None if args is None and all(write() for write in self.writers) else False
         post_e, margin, k = args
-        out = rows_and_step(fused.held, fused.robot.q, post_e, margin, k, inputs, self.step, dt)
+        sf = tables[3]
+        sf[0], sf[1], sf[2] = margin, k, dt
+        at, ix, fx, support = fused.held
+        out = rows_and_step(at, ix, fx, support, fused.robot.q, post_e, tables[2], sf)
         if out[0] == ROWS_LEFT:                 # this cycle by the writers
             return None if all(write() for write in self.writers) else False
         return out

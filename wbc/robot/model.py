@@ -298,9 +298,10 @@ class RobotModel:
 
     def update_kinematics(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         """The velocity-level cycle's pinocchio calls, once (:mod:`wbc.controller.velocity`):
-        ``computeJointJacobians(q)`` (its forward pass gives the placements), the frame
-        placements, and ``jacobianCenterOfMass`` (the CoM and J_com). No M, h, body velocities
-        or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
+        ``jacobianCenterOfMass(q)`` (the joint placements, the joint Jacobians ``data.J`` as
+        ``computeJointJacobians(q)`` gives them, bit for bit: ``tests/robot/test_update_kinematics.py``;
+        the CoM, J_com), then the frame placements: ``data.J`` written once, not twice. No M, h, body
+        velocities or drifts: after it, ``M``, ``h``, ``com_velocity``, ``com_drift``, ``frame_velocity``
         and ``frame_drift`` hold the last :meth:`update`'s values, not this state's.
 
         Args:
@@ -310,9 +311,8 @@ class RobotModel:
         m, d = self.model, self.data
         self.q = q
         self.v = self._zero_v if v is None else v
-        pin.computeJointJacobians(m, d, q)
+        pin.jacobianCenterOfMass(m, d, q, False)
         pin.updateFramePlacements(m, d)
-        pin.jacobianCenterOfMass(m, d, False)
         self._cache.clear()
         self.cycle += 1
 

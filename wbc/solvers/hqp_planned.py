@@ -115,9 +115,28 @@ class PlannedEntry:
         got, x0 = self._planned_args(problem)
         return got[3], got[4], x0, self._hints, got[5]
 
+    def equality_planned(self: Any, problem: Problem) -> tuple | None:
+        """The arguments :meth:`equality_inputs` gives, without the start x₀ (the caller's: zeros
+        or ``problem.x_ref``): ``(planned, hints)``, ``planned`` = (levels, rows, key, eq, ineq,
+        settings) the tuple kept in ``_planned`` (the same object while the rows object, the level
+        list and the solver's settings are unchanged: a caller that holds its arrays by address
+        compares it by identity), ``hints`` the route hints (one array for the solver's life); None
+        where :meth:`equality_step` would not try the equality-only cascade. For the velocity plan's
+        rows and step (:mod:`wbc.controller.velocity_step`), which holds x₀ itself."""
+        if not (self.equality_first and _plain(self)):
+            return None
+        return self._planned_rows(problem), self._hints
+
     def _planned_args(self: Any, problem: Problem) -> tuple[tuple, np.ndarray]:
         """(the compiled run's arguments for this rows object, level list and solver setting,
         built once and kept in ``_planned``; the start x₀: ``problem.x_ref`` or zeros)."""
+        got = self._planned_rows(problem)
+        x_ref = problem.x_ref
+        return got, np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
+
+    def _planned_rows(self: Any, problem: Problem) -> tuple:
+        """The compiled run's arguments for this rows object, level list and solver setting (the
+        tuple kept in ``_planned``, built again when one of them changed)."""
         levels = problem.levels
         d = self.damping
         margin = self.margin if problem.margin is None else problem.margin
@@ -130,8 +149,7 @@ class PlannedEntry:
                                    (rows.C, rows.lo, rows.hi, rows.i_end),
                                    (rows.rank_tol, rows.threshold, rows.max_damping, GRAM_MIN_RATIO, self.tol,
                                     self.certify, self.regularization, margin))
-        x_ref = problem.x_ref
-        return got, np.zeros(problem.layout.nx) if x_ref is None else np.array(x_ref, dtype=float)
+        return got
 
 
 
