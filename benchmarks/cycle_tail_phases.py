@@ -8,14 +8,16 @@ instructions every time) run right before and right after the solve. A probe slo
 median says the core itself ran slower at that moment (the host's frequency, a hyperthread
 sibling, interrupts), whatever wbc's code did.
 
-From cycle 10 on (the first cycles load kernels), for the cycles in the top 1 % of the solve's thread time (leaving out those preempted or right
-after a preemption): each phase's excess over its own median as a share of the cycle's excess,
-beside its share of the median cycle (equal shares: the whole cycle ran slower; one phase far
-above its share: that phase carries the tail), and the probes' slowdown in the tail cycles and
-in the others.
+From cycle 10 on (the first cycles load kernels), for the cycles in the top 1 % of the solve's
+thread time (leaving out those preempted or right after a preemption): each phase's excess over
+its own median as a share of the cycle's excess, beside its share of the median cycle (equal
+shares: the whole cycle ran slower; one phase far above its share: that phase carries the tail),
+and the probes' slowdown in the tail cycles and in the others. ``--minimum`` reads runs saved with
+``--save`` and gives each phase's spread of the per-cycle minimum over them (the work's own).
 
     PYTHONPATH=. python benchmarks/cycle_tail_phases.py [SCENARIO] [--cpu N] [--gc-freeze] [--save F.npz]
         (talos_reach, own simulator, hqp, one OpenBLAS thread; Linux)
+    PYTHONPATH=. python benchmarks/cycle_tail_phases.py --minimum A.npz B.npz C.npz
 """
 
 from __future__ import annotations
@@ -175,7 +177,8 @@ def main() -> None:
     share_tail = excess.sum(0) / excess.sum()
     load = os.getloadavg()[0]
     print(f"{a.scenario} load {load:.1f} cpu {a.cpu} gc_freeze {a.gc_freeze}: solve thread median {med_total:.1f} "
-          f"p99 {p99:.1f} ({p99 / med_total:.2f}×); not preempted {np.percentile(total[calm], 99) / np.median(total[calm]):.2f}×; "
+          f"p99 {p99:.1f} ({p99 / med_total:.2f}×); not preempted "
+          f"{np.percentile(total[calm], 99) / np.median(total[calm]):.2f}×; "
           f"{int(s.sum())} of {done - w} preempted; blocks allocated per solve median "
           f"{np.median(blocks[w:done]):.0f}; minor faults {int(flt[w:done].sum())}, collections {int(gcs[w:done].sum())}")
     print("  phase        median µs  share of median  share of tail excess  tail/median")
