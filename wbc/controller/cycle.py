@@ -41,6 +41,7 @@ import pinocchio as pin
 from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
+from wbc.controller.kernel_loading import load_alternates
 from wbc.controller.options import ControllerOptions
 from wbc.controller.singular import velocity_names
 from wbc.controller.solution import Solution, SolutionReport, solve_status
@@ -190,6 +191,8 @@ class Controller:
         #: an object with ``lap(phase, t0) -> t`` (the bench's phase timer) told the time of each
         #: phase of a cycle (update, rows, solve, finish); None: not timed
         self.phase_clock = None
+        #: the first accepted cycle also loads the kernels a later one may switch to (kernel_loading)
+        self._alternates_pending = True
         # bind every task to the robot now, so a wrong frame fails here, not mid-run
         for task in self.stack:
             task.bind(robot)
@@ -308,6 +311,9 @@ class Controller:
         sol = self.faults.cycle(q, v, solve, self._hold)
         if not sol.fault:           # accepted: what a later faulty cycle holds
             self._last_tau, self._last_forces = sol.tau_full.copy(), sol.forces
+            if self._alternates_pending:    # the kernels a later cycle may switch to, loaded now
+                self._alternates_pending = False
+                load_alternates()
         return sol
 
     def fault_counts(self) -> dict[str, int]:

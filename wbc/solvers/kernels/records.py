@@ -164,23 +164,35 @@ def decode(ints: np.ndarray, floats: np.ndarray, levels: list, start: int,
 
 #: cycles a level goes straight to the route it last needed before its first route is retried
 HINT_RETRY = 50
+#: the longest wait between two retries: a retry that needs the same route again doubles the
+#: wait (50, 100, ... cycles), so a level that keeps needing it costs a retry (its refused first
+#: route, ~50 µs on Talos) in a vanishing share of the cycles, not in one of every 51 (#26: 2 %
+#: of the cycles, which made the p99)
+HINT_RETRY_MAX = 800
 
 
 def hint_table(capacity: int = 32) -> np.ndarray:
     """An empty route-hint table (rows: call index, rows, free directions, route, cycles
-    left), kept by a solver across cycles (see :func:`hint_route`)."""
-    return np.zeros((capacity, 5), dtype=np.int64)
+    left, the wait it was set to), kept by a solver across cycles (see :func:`hint_route`)."""
+    return np.zeros((capacity, 6), dtype=np.int64)
 
 
 @nb.njit(cache=True)
 def hint_route(table, call, m, dof):
     """The route to try first for the level that is the cascade's ``call``-th step, with m
-    rows over ``dof`` free directions: the one it needed last time (for ``HINT_RETRY``
-    cycles, counted down here), else ``AUTO``."""
+    rows over ``dof`` free directions: the one it needed last time (for the hint's wait,
+    ``HINT_RETRY`` cycles doubled by each retry that needed it again up to ``HINT_RETRY_MAX``,
+    counted down here), else ``AUTO`` (a retry: the wait starts over if its first route does)."""
     for h in range(table.shape[0]):
-        if table[h, 4] > 0 and table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
-            table[h, 4] -= 1
-            return table[h, 3]
+        if table[h, 5] > 0 and table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
+            if table[h, 4] > 0:
+                table[h, 4] -= 1
+                return table[h, 3]
+            if table[h, 4] == 0:        # the hint's wait is over: a retry (-1 while it is tried)
+                table[h, 4] = -1
+            else:                       # the last retry's first route did: the wait starts over
+                table[h, 4], table[h, 5] = 0, 0
+            return AUTO
     return AUTO
 
 
@@ -192,14 +204,20 @@ def hint_record(table, call, m, dof, path, route):
     if route == path or route == first:
         return
     slot = 0
+    same = False
     for h in range(table.shape[0]):
         if table[h, 0] == call and table[h, 1] == m and table[h, 2] == dof:
             slot = h
+            same = True
             break
         if table[h, 4] < table[slot, 4]:
             slot = h
+    wait = HINT_RETRY
+    if same and table[slot, 3] == route and table[slot, 4] < 0:     # a retry that needed it again
+        wait = min(2 * table[slot, 5], HINT_RETRY_MAX)
     table[slot, 0] = call
     table[slot, 1] = m
     table[slot, 2] = dof
     table[slot, 3] = route
-    table[slot, 4] = HINT_RETRY
+    table[slot, 4] = wait
+    table[slot, 5] = wait

@@ -1,0 +1,38 @@
+"""Kernels a control cycle may switch to mid-run, loaded with the first cycle's.
+
+Numba loads (or compiles) a kernel at its first call. The first control cycle calls most of
+the kernels a run needs, but not those of a branch it did not take: the torque cycle runs the
+cascade with level 0 factored within its rows' profiles
+(:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix_profiled`) and switches to the plain run
+(:func:`~wbc.solvers.kernels.cascade_run.cascade_prefix`) only in a cycle where a level needs a
+back-end QP. Loading that kernel from numba's cache takes 70-80 ms of CPU (the whole cascade is
+inlined in it): ``talos_push`` spent 83 ms in its cycle 1067, the push's first QP, against a
+1 ms control period, and ``wbc bench --quick``'s "levels=7 hqp" point a 40 ms p99 for its one
+cycle that needed a QP (#26).
+
+:func:`load_alternates` loads every alternate for the argument types its kernel was called with
+(``Dispatcher.compile``: from the cache when there is one, compiled otherwise): the same machine
+code the later call would load, so nothing of the run's results changes, only when the time is
+spent (with the first cycle's, which loads or compiles the kernels anyway).
+"""
+
+from __future__ import annotations
+
+from wbc.solvers.kernels.cascade_run import cascade_prefix, cascade_prefix_profiled
+
+#: (a kernel the first cycle calls, the kernels taking the same arguments a later cycle may
+#: switch to)
+ALTERNATES = ((cascade_prefix_profiled, (cascade_prefix,)),)
+
+
+def load_alternates() -> int:
+    """Load each of :data:`ALTERNATES`' alternates for every signature its kernel has been
+    called with; returns the number of (kernel, signature) pairs loaded now (0: all were)."""
+    loaded = 0
+    for kernel, alternates in ALTERNATES:
+        for sig in kernel.signatures:
+            for alt in alternates:
+                if sig not in alt.signatures:
+                    alt.compile(sig)
+                    loaded += 1
+    return loaded
