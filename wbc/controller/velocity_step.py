@@ -38,12 +38,10 @@ import math
 
 import numba as nb
 import numpy as np
-from numba import types
-from numba.extending import intrinsic
 
 from wbc.problem.buffer import row_values
 from wbc.solvers.kernels.equality_run import equality_cascade
-from wbc.tasks.velocity_stack import _pointer, _stack_rows, _vector
+from wbc.tasks.velocity_stack import _stack_rows, _vector, float_pointer, int_pointer
 
 __all__ = ["ROWS_LEFT", "NOT_ACCEPTED", "NOT_FINITE", "ACCEPTED", "rows_and_step", "step_tables", "unpack"]
 
@@ -60,17 +58,6 @@ _MARGIN, _K, _DT, _GRAM_MIN_RATIO, _TOL, _REGULARIZATION, _QP_MARGIN = range(7)
 _SF = 7
 
 
-@intrinsic
-def _int_pointer(typingctx, address):
-    """The int64 pointer at an address (int64): a held int array's data."""
-    sig = types.CPointer(types.int64)(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-    return sig, codegen
-
-
 @nb.njit(cache=True)
 def rows_and_step(at, ix, fx, support, q, post_e, sx, sf):
     """(code, nf, ni, X), code as in the module docstring: the rows by
@@ -84,12 +71,12 @@ def rows_and_step(at, ix, fx, support, q, post_e, sx, sf):
     if not _stack_rows(at, ix, fx, support, q, post_e, sf[_MARGIN], sf[_K]):
         return ROWS_LEFT, 0, 0, none
     ne, ni, n, L = sx[_NE], sx[_NI], sx[_NX], sx[_NL]
-    A = nb.carray(_pointer(sx[_A]), (ne, n))
+    A = nb.carray(float_pointer(sx[_A]), (ne, n))
     b = _vector(sx[_B], ne)
-    C = nb.carray(_pointer(sx[_C]), (ni, n))
+    C = nb.carray(float_pointer(sx[_C]), (ni, n))
     lo, hi = _vector(sx[_LO], ni), _vector(sx[_HI], ni)
-    e_end, i_end = nb.carray(_int_pointer(sx[_E_END]), L), nb.carray(_int_pointer(sx[_I_END]), L)
-    hints = nb.carray(_int_pointer(sx[_HINTS]), (sx[_NH], sx[_HC]))
+    e_end, i_end = nb.carray(int_pointer(sx[_E_END]), L), nb.carray(int_pointer(sx[_I_END]), L)
+    hints = nb.carray(int_pointer(sx[_HINTS]), (sx[_NH], sx[_HC]))
     settings = (_vector(sx[_RANK_TOL], L), _vector(sx[_THRESHOLD], L), _vector(sx[_MAX_DAMPING], L),
                 sf[_GRAM_MIN_RATIO], sf[_TOL], sx[_CERTIFY] != 0, sf[_REGULARIZATION], sf[_QP_MARGIN])
     done, x, ints, floats = equality_cascade((A, b, e_end), (C, lo, hi, i_end), _vector(sx[_X0], n), hints,

@@ -19,7 +19,7 @@ scaled by √w into the buffer, as ``_put`` does (one product a coefficient: the
 
 What is held and what is read each cycle.
 
-- By address (one int64 table ``at``; :func:`~wbc.tasks.velocity_stack._pointer`), arrays
+- By address (one int64 table ``at``; :func:`~wbc.tasks.velocity_stack.float_pointer`), arrays
   fixed for the plan's life: the buffer's blocks and scratch slots, pinocchio's arrays
   (``data.J``, ``data.M``, each frame's placement, its joint's rotation, v and a, the CoM's
   arrays), the layout's J_f (refilled in place by ``Stack.layout``), a contact's friction
@@ -65,7 +65,7 @@ from .joint_limits import JointLimits, acceleration_bounds
 from .posture import Posture, _posture_rhs
 from .torque_limits import TorqueLimits
 from .velocity_frames import _jacobian_rows, frame_motion_rows, relative_rotation
-from .velocity_stack import _matrix, _pointer, _vector
+from .velocity_stack import _matrix, _vector, float_pointer
 
 __all__ = ["TorquePlan", "torque_plan"]
 
@@ -85,8 +85,8 @@ _W = 9
 @nb.njit(cache=True)
 def _scale(at, a, m, nx, w):
     """The buffer's block (addresses at[a], at[a+1]) ← √w × the slot's scratch (at[a+2], at[a+3])."""
-    dA, db = nb.carray(_pointer(at[a]), (m, nx)), _vector(at[a + 1], m)
-    sA, sb = nb.carray(_pointer(at[a + 2]), (m, nx)), _vector(at[a + 3], m)
+    dA, db = nb.carray(float_pointer(at[a]), (m, nx)), _vector(at[a + 1], m)
+    sA, sb = nb.carray(float_pointer(at[a + 2]), (m, nx)), _vector(at[a + 3], m)
     for i in range(m):
         for j in range(nx):
             dA[i, j] = sA[i, j] * w
@@ -99,7 +99,7 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
     nx, nv, nj, nf = at[_NX], at[_NV], at[_NJ], at[_NF]
     J = _matrix(at[_J], 6, nj)
     M = _matrix(at[_M], nv, nv)
-    Jf = nb.carray(_pointer(at[_JF]), (nf, nv)) if nf else np.zeros((0, nv))
+    Jf = nb.carray(float_pointer(at[_JF]), (nf, nv)) if nf else np.zeros((0, nv))
     scratch = np.empty(12)
     for r in range(rec.shape[0]):
         kind, a, i, f, c, m, flag, w = rec[r, 0], rec[r, 1], rec[r, 2], rec[r, 3], rec[r, 4], rec[r, 5], \
@@ -110,14 +110,14 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
             _jacobian_rows(Jf[row0:row0 + m], J, sup[rec[r, 8]], _matrix(at[a], 3, 3), _vector(at[a + 1], 3),
                            iv[i + 1:i + 1 + m], flag != 0)
         elif kind == _FRAME:                       # e (6), p_t (3), ẍ_d (6), ẋ_d (6) in cv; K_p, K_d in fx
-            A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
+            A, b = nb.carray(float_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
             views = (sup[rec[r, 8]], _matrix(at[a + 4], 3, 3), _vector(at[a + 5], 3), _matrix(at[a + 6], 3, 3),
                      _matrix(at[a + 7], 3, 3), _vector(at[a + 8], 3), _vector(at[a + 9], 6),
                      _vector(at[a + 10], 6), scratch)
             frame_motion_rows(A, b, J, views, cv[c + 6:c + 9], cv[c:c + 6], iv[i:i + m], cv[c + 9:c + 15],
                               fx[f:f + 6], fx[f + 6:f + 12], cv[c + 15:c + 21], flag != 0)
         elif kind == _COM:                         # target, ẍ_d, ẋ_d (3 each) in cv; K_p, K_d in fx
-            A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
+            A, b = nb.carray(float_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
             com = _vector(at[a + 4], 3)
             err = np.empty(3)
             for k in range(3):
@@ -127,14 +127,14 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
         elif kind == _POSTURE:                     # b = K_p e − K_d q̇ on its unit rows (A constant)
             _posture_rhs(_vector(at[s + 1], m), pe, v, iv[i:i + m], fx[f:f + m], fx[f + m:f + 2 * m])
         elif kind == _DYN:
-            A, b = nb.carray(_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
+            A, b = nb.carray(float_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
             dynamics_block(A, b, M, h, Jf, iv[i:i + m], nv, -1.0)
         elif kind == _WRENCH:                      # b = the target (A constant)
             b = _vector(at[s + 1], m)
             for k in range(m):
                 b[k] = cv[c + k]
         elif kind == _TAU:                         # C, l, u of −τ_max ≤ S_a(M q̈ + h − J_fᵀ f) ≤ τ_max
-            C, ha = nb.carray(_pointer(at[a]), (m, nx)), _vector(at[a + 3], m)
+            C, ha = nb.carray(float_pointer(at[a]), (m, nx)), _vector(at[a + 3], m)
             lo, hi = _vector(at[a + 1], m), _vector(at[a + 2], m)
             dynamics_block(C, ha, M, h, Jf, iv[i:i + m], nv, 1.0)
             for k in range(m):
@@ -151,7 +151,7 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
                 blo[k] = lo[k]
                 bhi[k] = hi[k]
         else:                                      # _FRICTION: the task's C, l, u copied into the buffer
-            C, Ct = nb.carray(_pointer(at[a]), (m, nx)), nb.carray(_pointer(at[a + 3]), (m, nx))
+            C, Ct = nb.carray(float_pointer(at[a]), (m, nx)), nb.carray(float_pointer(at[a + 3]), (m, nx))
             lo, hi = _vector(at[a + 1], m), _vector(at[a + 2], m)
             lot, hit = _vector(at[a + 4], m), _vector(at[a + 5], m)
             for k in range(m):

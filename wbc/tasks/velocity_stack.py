@@ -63,27 +63,37 @@ _HEADER = 7
 _FRAME_INTS = 9
 
 
-@intrinsic
-def _pointer(typingctx, address):
-    """The float64 pointer at an address (int64): a held array's data (module docstring)."""
-    sig = types.CPointer(types.float64)(types.int64)
+def _address_intrinsic(element, name: str):
+    """An intrinsic that turns an address (int64) into a pointer to ``element`` (a numba type): a held array's data
+    (module docstring), for ``nb.carray`` / ``nb.farray`` in a kernel."""
+    def typer(typingctx, address):
+        sig = types.CPointer(element)(types.int64)
 
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+        def codegen(context, builder, signature, args):
+            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
 
-    return sig, codegen
+        return sig, codegen
+
+    typer.__name__ = typer.__qualname__ = name
+    return intrinsic(typer)
+
+
+#: the float64 pointer at an address (int64)
+float_pointer = _address_intrinsic(types.float64, "float_pointer")
+#: the int64 pointer at an address (int64)
+int_pointer = _address_intrinsic(types.int64, "int_pointer")
 
 
 @nb.njit(cache=True)
 def _vector(address, n):
     """The n-vector of float64 at ``address``."""
-    return nb.carray(_pointer(address), n)
+    return nb.carray(float_pointer(address), n)
 
 
 @nb.njit(cache=True)
 def _matrix(address, rows, cols):
     """The rows × cols column-major (Eigen's, pinocchio's) matrix of float64 at ``address``."""
-    return nb.farray(_pointer(address), (rows, cols))
+    return nb.farray(float_pointer(address), (rows, cols))
 
 
 @nb.njit(cache=True)
@@ -93,7 +103,7 @@ def _stack_rows(at, ix, fx, support, q, post_e, margin, k):
     (the writers are to write this cycle) when a contact's logarithm is near a half turn
     (:func:`frame_rows`)."""
     ne, ni, nv, nj = at[_NE], at[_NI], at[_NV], at[_NJ]
-    A = nb.carray(_pointer(at[_A]), (ne, nv))
+    A = nb.carray(float_pointer(at[_A]), (ne, nv))
     b = _vector(at[_B], ne)
     J = _matrix(at[_J], 6, nj)
     e = np.zeros(6)
