@@ -40,16 +40,18 @@ def _same(a, b):
         assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
 
 
+def _ik_levels() -> list:
+    """The IK stack of these tests: feet and joint limits, CoM, the right hand's position, posture."""
+    return [[Contact("left_foot"), Contact("right_foot"), JointLimits()], [CoM(name="com")],
+            [Frame("right_hand", mask="position", name="hand")], [Posture()]]
+
+
 def test_a_nan_in_a_row_fails_the_cycle_and_is_counted(talos):
     """A CoM target turned NaN in place (read where it is by the rows' call): its rows are NaN,
     the cascade (compiled with fastmath: its own finite tests are not to be relied on) gives a
     NaN q̇, the call's finite check answers NOT_FINITE, and the cycle is held and counted as the
     reference's is; a finite target again is accepted in the one call."""
-    def levels():
-        return [[Contact("left_foot"), Contact("right_foot"), JointLimits()], [CoM(name="com")],
-                [Frame("right_hand", mask="position", name="hand")], [Posture()]]
-
-    fast, codes, ref = _pair(talos, levels)
+    fast, codes, ref = _pair(talos, _ik_levels)
     q = talos.q_default.copy()
     _same(fast.solve(q), ref.solve(q))
     assert codes[-1] == ACCEPTED
@@ -96,11 +98,7 @@ def test_the_call_reads_the_solvers_settings_of_this_cycle(talos):
     first cycle the call would accept the undamped step."""
     from wbc.solvers.cascade import Damping
 
-    def levels():
-        return [[Contact("left_foot"), Contact("right_foot"), JointLimits()], [CoM(name="com")],
-                [Frame("right_hand", mask="position", name="hand")], [Posture()]]
-
-    fast, codes, ref = _pair(talos, levels)
+    fast, codes, ref = _pair(talos, _ik_levels)
     q = talos.q_default.copy()
     _same(fast.solve(q), ref.solve(q))
     for c in (fast, ref):                               # a hand step to make (its target: where it is + 2 mm)

@@ -118,6 +118,17 @@ class FeatureDrift:
         J, dJ = cm.fd_data.J, cm.fd_data.dJ
         self._jacobians = None if J.flags.owndata or dJ.flags.owndata else (J, dJ)
 
+    def _time_variation(self, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """pinocchio's J̇ at the robot's state (``computeJointJacobiansTimeVariation`` on the model's own data), and
+        the joints' rotations R (njoints × 3 × 3), J and J̇ (6 × nv, world-aligned) the kernels read."""
+        data = self.cm.fd_data
+        pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, robot.v)
+        R = self._rotations
+        if R is None:
+            R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
+        J, dJ = (data.J, data.dJ) if self._jacobians is None else self._jacobians
+        return R, J, dJ
+
     def drift(self, robot, ks: np.ndarray, d: np.ndarray, P: np.ndarray, NN: np.ndarray, jid: np.ndarray,
               geoms: np.ndarray) -> np.ndarray:
         """J̇_d q̇ (k,; m/s²) of the pairs ``ks`` at the robot's state, from their witness points and normals, each side
@@ -135,12 +146,8 @@ class FeatureDrift:
         cm = self.cm
         if not len(ks):
             return np.zeros(0)
-        data, v = cm.fd_data, robot.v
-        pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, v)
-        R = self._rotations
-        if R is None:
-            R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
-        J, dJ = (data.J, data.dJ) if self._jacobians is None else self._jacobians
+        v = robot.v
+        R, J, dJ = self._time_variation(robot)
         out, bad, self.fallback = feature_drift(ks, geoms, d, P, NN, R, J, dJ, cm.support, jid, v, self.kind,
                                                 self.radius, self.ends, self.vertices, self.neighbours, self.offset,
                                                 self.count, self.hints, FEATURE_TOL, MIN_DISTANCE, STEP)
@@ -160,14 +167,11 @@ class FeatureDrift:
             influence: the influence distance (m).
         """
         cm = self.cm
-        data, v = cm.fd_data, robot.v
-        pin.computeJointJacobiansTimeVariation(robot.model, data, robot.q, v)
-        R = self._rotations
-        if R is None:
-            R = np.array([data.oMi[j].rotation for j in range(robot.model.njoints)])
-        J, dJ = (data.J, data.dJ) if self._jacobians is None else self._jacobians
+        v = robot.v
+        R, J, dJ = self._time_variation(robot)
+        d0, moved = cm.broad_references()
         ks, d, P, NN, coef, jid, out, self.fallback = rows_and_drift(
-            table, near, influence, cm._d0, cm._moved, cm.pairs, cm.joint_of, R, J, dJ, cm.support, v, self.kind,
+            table, near, influence, d0, moved, cm.pairs, cm.joint_of, R, J, dJ, cm.support, v, self.kind,
             self.radius, self.ends, self.vertices, self.neighbours, self.offset, self.count, self.hints, FEATURE_TOL,
             MIN_DISTANCE, STEP)
         if self.fallback:                   # the pairs the model does not apply to: NaN (rows_and_drift)

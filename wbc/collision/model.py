@@ -249,6 +249,12 @@ class CollisionModel:
             self._proxies[id(gd)] = entry
         return entry
 
+    def broad_references(self) -> tuple[np.ndarray, np.ndarray]:
+        """The broad phase's per-pair state, (d0, moved) (pairs,; m): each pair's last exact distance and the bound
+        on how far its geometries moved since. The rows' calls after coal update both in place for the pairs coal
+        computed (:func:`wbc.collision.row_kernels.held_near_rows`, the fused analytic call)."""
+        return self._d0, self._moved
+
     def pair_name(self, k: int) -> str:
         a, b = self.pairs[k]
         return f"{self.names[a]}/{self.names[b]}"
