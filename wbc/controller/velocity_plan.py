@@ -25,6 +25,7 @@ import numpy as np
 from wbc.problem.buffer import RowBuffer
 from wbc.problem.problem import Problem
 from wbc.problem.rows import Layout, Rows
+from wbc.tasks.base import TASK_CHANGES
 from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.velocity import velocity_writer
 from wbc.tasks.velocity_stack import stack_writer
@@ -52,6 +53,8 @@ class VelocityPlan:
         self.key = key
         self.groups = groups
         self.weights = [t.weight for tasks in groups for t in tasks]
+        #: TASK_CHANGES[0] when :meth:`matches` last found these weights
+        self._weights_seen = -1
         rows = []             # a first call of every task's rows, in arrays of their own: the structure
         for tasks in groups:
             rs = []
@@ -95,9 +98,14 @@ class VelocityPlan:
         self.fill()
 
     def matches(self, groups: list[list], key: tuple) -> bool:
-        """Whether this plan is still the stack's: the same structure key and task weights."""
+        """Whether this plan is still the stack's: the same structure key and task weights (these
+        compared again only after a task's watched attribute was assigned:
+        :data:`wbc.tasks.base.TASK_CHANGES`)."""
         if key != self.key:
             return False
+        count = TASK_CHANGES[0]
+        if count == self._weights_seen:
+            return True
         i = 0
         weights = self.weights
         for tasks in groups:
@@ -105,6 +113,7 @@ class VelocityPlan:
                 if t.weight != weights[i]:
                     return False
                 i += 1
+        self._weights_seen = count
         return True
 
     def fill(self) -> bool:

@@ -34,6 +34,35 @@ _GAIN_UNITS = {"kp": "1/s²", "kd": "1/s", "k_q": "N·m/rad"}
 #: tasks vanish below double precision (and the solvers' products overflow near 1e308)
 MAX_WEIGHT = 1e12
 
+#: ``TASK_CHANGES[0]``: bumped by every assignment of a task attribute a velocity cycle checks
+#: (a :class:`Watched` attribute: the weight, kp, the targets and their velocities, a contact's
+#: sliding and reference, a CoM's axes, the joint limits' settings; a target's setter; a
+#: posture's ``bind``), in any task of the process. A cycle's checks of those attributes
+#: (:func:`wbc.tasks.velocity_stack.stack_writer`, :meth:`wbc.controller.velocity_plan.VelocityPlan.matches`)
+#: run again only when it differs from the count at their last pass: once per change, not once
+#: per cycle. An array changed in place is not counted: the checks compare objects, and the cycle
+#: reads such an array as it is (as before).
+TASK_CHANGES = [0]
+
+
+class Watched:
+    """A task attribute whose every assignment (or deletion) bumps :data:`TASK_CHANGES`. It has no
+    ``__get__``: a read finds the value in the instance's ``__dict__`` as for a plain attribute
+    (the class that declares it must assign it in ``__init__``)."""
+
+    __slots__ = ("name",)
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __set__(self, obj, value) -> None:
+        obj.__dict__[self.name] = value
+        TASK_CHANGES[0] += 1
+
+    def __delete__(self, obj) -> None:
+        del obj.__dict__[self.name]
+        TASK_CHANGES[0] += 1
+
 
 def gain(task_name: str, key: str, value, dim: int | None = None) -> np.ndarray | float:
     """A non-negative scalar gain, or a vector of per-axis gains (``dim`` of them if given):
@@ -74,6 +103,7 @@ class Task(ABC):
     #: the record of the constructor's ``options`` (:class:`wbc.options.Options`; its fields
     #: also given one by one as keywords, and in a YAML mapping); None: no ``options``
     options_record: type[Options] | None = None
+    weight: float = Watched()  # type: ignore[assignment]  # a float in the instance (Watched: no __get__)
 
     def __init__(self, name: str, weight: float = 1.0) -> None:
         if not isinstance(name, str) or not name:
@@ -153,6 +183,8 @@ class MotionTask(Task):
         weight: relative weight inside its level (unitless, in (0, 1e12]); default 1.
         dim: the number of axes a vector gain must have; None: checked later (at ``bind``).
     """
+
+    kp: float | np.ndarray = Watched()  # type: ignore[assignment]  # as weight
 
     def __init__(self, name: str, kp, kd=None, weight: float = 1.0, dim: int | None = None) -> None:
         super().__init__(name, weight)

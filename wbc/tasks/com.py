@@ -8,7 +8,7 @@ from wbc.validation.schema import show
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
-from .base import MotionTask, as_vector, eq_rows, motion_rows
+from .base import TASK_CHANGES, MotionTask, Watched, as_vector, eq_rows, motion_rows
 
 _AXES = "xyz"
 
@@ -33,6 +33,8 @@ class CoM(MotionTask):
     """
 
     kind = "com"
+    target_velocity: np.ndarray = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
+    axes: str = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
 
     def __init__(self, kp: float = 100.0, kd=None, weight: float = 1.0, name: str = "com",
                  target=None, axes: str = "xyz") -> None:
@@ -54,6 +56,7 @@ class CoM(MotionTask):
     @target.setter
     def target(self, value) -> None:
         self._target = as_vector(self.name, "target", value, 3)
+        TASK_CHANGES[0] += 1
 
     def set_reference(self, position, velocity=None, acceleration=None) -> None:
         """Set position (m), velocity (m/s) and acceleration (m/s²) references at once."""

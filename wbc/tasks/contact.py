@@ -14,7 +14,7 @@ from wbc.validation.schema import boolean, number, text
 from ..errors import TaskDefinitionError
 from ..options import Options
 from ..problem.rows import ContactData, Layout, Rows, RowSlot
-from .base import MotionTask, eq_rows
+from .base import MotionTask, Watched, eq_rows
 from .velocity_frames import frame_motion_rows
 
 
@@ -154,6 +154,8 @@ class Contact(MotionTask):
     """
 
     kind = "contact"
+    sliding: bool = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
+    reference: pin.SE3 | None = Watched()  # (base.Watched: its assignments counted in TASK_CHANGES)
 
     options_record = ContactOptions
 
@@ -180,7 +182,7 @@ class Contact(MotionTask):
         self.mu = mu
         self.fmin = float(fmin)
         self.bilateral = bool(bilateral)
-        self.reference: pin.SE3 | None = None
+        self.reference = None
         #: upper bound on the normal force (N); ramped by the controller when the
         #: contact is made or released so the torques stay continuous
         self.fmax = np.inf

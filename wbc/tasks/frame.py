@@ -12,7 +12,7 @@ from wbc.validation.schema import found, is_number, matrix, show, suggest, text
 
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
-from .base import MotionTask, as_vector, eq_rows
+from .base import TASK_CHANGES, MotionTask, Watched, as_vector, eq_rows
 from .velocity_frames import frame_motion_rows, relative_rotation
 
 _MASKS = {
@@ -78,6 +78,7 @@ class Frame(MotionTask):
     """
 
     kind = "frame"
+    target_velocity: np.ndarray = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
 
     def __init__(self, frame: str, kp: float = 50.0, kd=None, weight: float = 1.0,
                  name: str | None = None, target=None, mask="pose") -> None:
@@ -138,6 +139,7 @@ class Frame(MotionTask):
     @target.setter
     def target(self, value) -> None:
         self._target = to_se3(self.name, value, self._target)
+        TASK_CHANGES[0] += 1
 
     @property
     def axes(self) -> np.ndarray:

@@ -9,7 +9,7 @@ from wbc.validation.schema import boolean, number
 
 from ..errors import TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
-from .base import Task
+from .base import Task, Watched
 
 #: what a joint outside its viable set is asked (:class:`JointLimits`' ``recovery``)
 RECOVERIES = ("one_period", "stop")
@@ -54,6 +54,9 @@ class JointLimits(Task):
     """
 
     kind = "joint_limits"
+    horizon: float = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
+    margin: float = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
+    rate_limit: bool = Watched()  # type: ignore[assignment]  # (base.Watched: its assignments counted in TASK_CHANGES)
 
     def __init__(self, dt: float = 1e-3, horizon: float = 0.1, max_acceleration: float = 30.0,
                  margin: float = 0.0, rate_limit: bool = False, name: str = "joint_limits",

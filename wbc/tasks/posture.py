@@ -10,7 +10,7 @@ from wbc.validation.schema import sequence, show, suggest, text, vector
 
 from ..errors import TargetError, TaskDefinitionError
 from ..problem.rows import Layout, Rows, RowSlot
-from .base import MotionTask, as_vector, eq_rows
+from .base import TASK_CHANGES, MotionTask, as_vector, eq_rows
 
 
 class Posture(MotionTask):
@@ -60,9 +60,11 @@ class Posture(MotionTask):
     def target(self, q) -> None:
         self._target = np.asarray(q, dtype=float).reshape(-1).copy()
         self._checked = False
+        TASK_CHANGES[0] += 1
 
     def bind(self, robot) -> None:
         self._idx = None
+        TASK_CHANGES[0] += 1                # its joints' indices and target anew
         self.check_gain_sizes(len(self._indices(robot)))
         if self._target is not None:
             self._target = as_vector(self.name, "target", self._target, robot.nq)

@@ -45,6 +45,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
+from .base import TASK_CHANGES
 from .velocity import Writer, _joint_velocity_bounds, _motion_rows
 from .velocity_frames import frame_rows
 
@@ -302,7 +303,7 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
     copied: list = [None] * len(gains)         # the kp each gain's slot of fx was copied from
     none = np.zeros(0)
 
-    def prepare() -> tuple | Literal[False] | None:
+    def check() -> tuple | Literal[False] | None:
         for i, (t, K, f, n) in enumerate(gains):
             if t.kp is not copied[i]:
                 fx[f:f + n] = K.get()
@@ -346,5 +347,20 @@ def stack_writer(writers: list[Writer], tasks: list, buffer, robot) -> tuple[Sta
                 return None
             margin, k = lim_task.margin, min(1.0 / lim_task.horizon, 1.0 / dt)
         return post_e, margin, k
+
+    passed: list = [-1, None]           # (TASK_CHANGES[0] when check() last passed whole, its answer)
+
+    def prepare() -> tuple | Literal[False] | None:
+        """check()'s answer, run again only after a task's watched attribute was assigned
+        (:data:`wbc.tasks.base.TASK_CHANGES`): every attribute it reads is one, or fixed for the
+        plan's life. Kept only when it passed whole with nothing computed from the state (the
+        posture's error in the call, not in Python)."""
+        count = TASK_CHANGES[0]
+        if passed[0] == count:
+            return passed[1]
+        got = check()
+        passed[0] = count if type(got) is tuple and got[0] is none else -1
+        passed[1] = got
+        return got
 
     return StackWriter(prepare, (at, ix, fx, support), robot), rest
