@@ -23,7 +23,12 @@ What is held and what is read each cycle.
   array (or the object it is a view of) kept alive beside its address. pinocchio's
   (``data.J``, each frame's placement, the CoM, J_com) and the buffer's are fixed for the
   plan's life; a target's address is written again when the task's target object is replaced
-  (checked by identity every cycle), and a target changed in place is read as it is now.
+  (checked by identity), and a target changed in place is read as it is now.
+- The Python checks (the gains, the targets' objects, a contact's sliding, a CoM's axes, the joint
+  limits' settings) run once per change, not once per cycle: every attribute they read is a
+  watched one (:class:`wbc.tasks.base.Watched`, or a target's setter), whose assignment bumps
+  :data:`wbc.tasks.base.TASK_CHANGES`; their answer is kept while the count stays (~5 µs a cycle
+  interleaved with other solvers, ``benchmarks/ik_peers.md``).
 - Passed each cycle: q, the joint-limit task's margin and gain, and the posture's error
   (pinocchio's ``difference``, the task's own ``error``) unless every joint it drives is a
   vector space of one coordinate (bounded revolute, prismatic: ``difference`` is q_d − q there),
