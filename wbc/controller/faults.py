@@ -93,19 +93,31 @@ def hold_torque(tau_good: np.ndarray, M: np.ndarray, v: np.ndarray, actuated: np
 
 
 @nb.njit(cache=True)
-def _state_check(q, v, last_q, last_v, has_last):
-    """(whether every entry of q and v is finite, whether (q, v) is stale: ``has_last``, v ≠ 0
-    and q, v equal entry by entry to ``last_q``, ``last_v`` (of the same sizes)). The same
-    decisions as ``np.isfinite(·).all()``, ``v.any()`` and ``np.array_equal`` in one pass."""
+def _finite(q, v):
+    """Whether every entry of q and v is finite (``np.isfinite(·).all()`` of both, one pass). Alone:
+    :meth:`FaultMonitor.cycle`'s common case (two arguments and a bool across, not five and a tuple:
+    ~1 µs less a cycle with cold caches)."""
     for x in q:
         if not math.isfinite(x):
-            return False, False
-    moving = False
+            return False
     for x in v:
         if not math.isfinite(x):
-            return False, False
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _state_check(q, v, last_q, last_v, has_last):
+    """(whether every entry of q and v is finite (:func:`_finite`), whether (q, v) is stale:
+    ``has_last``, v ≠ 0 and q, v equal entry by entry to ``last_q``, ``last_v`` (of the same
+    sizes)). The same decisions as ``np.isfinite(·).all()``, ``v.any()`` and ``np.array_equal``."""
+    if not _finite(q, v):
+        return False, False
+    moving = False
+    for x in v:
         if x != 0.0:
             moving = True
+            break
     if not (has_last and moving):
         return True, False
     for i in range(q.shape[0]):
@@ -172,7 +184,7 @@ class FaultMonitor:
         if self.stopped:
             return self._stopped(hold(v, self.stopped))
         if (not self.policy.detect_stale and type(q) is np.ndarray is type(v) and q.dtype is _FLOAT is v.dtype
-                and q.ndim == 1 == v.ndim and _state_check(q, v, _NO_STATE, _NO_STATE, False)[0]):
+                and q.ndim == 1 == v.ndim and _finite(q, v)):
             fault = None            # state_fault's common case (finite, no stale detection) without its call
         else:
             fault = self.state_fault(q, v)

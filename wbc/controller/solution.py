@@ -217,6 +217,13 @@ class Solution:
                         "saturated_torques": [], "singular_levels": [], "_evaluate": evaluate, **more}
         return sol
 
+    @staticmethod
+    def ok_base(zeros: tuple[np.ndarray, np.ndarray, np.ndarray]) -> dict:
+        """The attributes of an :meth:`ok_without_qp` solution that do not change from cycle to cycle
+        (the zero q̈, τ, τ_full of ``zeros`` and the constant ones), for a caller that keeps them and
+        adds a cycle's own (:meth:`wbc.controller.velocity.VelocitySolution.from_base`)."""
+        return {"qdd": zeros[0], "tau": zeros[1], "tau_full": zeros[2], **_OK_WITHOUT_QP}
+
     @property
     def conditions(self) -> tuple[str, ...]:
         """Every one of ``"relaxed"``, ``"degraded"``, ``"saturated"`` that holds, in that order;

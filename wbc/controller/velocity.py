@@ -89,7 +89,17 @@ class VelocitySolution(Solution):
         """``VelocitySolution(qd, q_next, na, "ok", "", SolutionReport(evaluate=evaluate))``: the same
         attributes (``tests/controller/test_velocity_accepted.py`` compares them), set in one step by
         :meth:`Solution.ok_without_qp` (the velocity mode's common cycle)."""
-        return cls.ok_without_qp(_torque_fields(len(qd), na), qd, evaluate, qd=qd, q_next=q_next)
+        return cls.from_base(cls.ok_base(_torque_fields(len(qd), na)), qd, q_next, evaluate)
+
+    @classmethod
+    def from_base(cls, base: dict, qd: np.ndarray, q_next: np.ndarray, evaluate) -> VelocitySolution:
+        """:meth:`accepted`'s solution from ``base`` = :meth:`Solution.ok_base` of its zero fields (kept by
+        the controller): the same attributes, one dict display a cycle (no keyword dict, no merge of
+        the constant ones)."""
+        sol = cls.__new__(cls)
+        sol.__dict__ = {**base, "forces": {}, "x": qd, "saturated_torques": [], "singular_levels": [],
+                        "_evaluate": evaluate, "qd": qd, "q_next": q_next}
+        return sol
 
 
 _FLOAT = np.dtype(float)
@@ -195,6 +205,8 @@ class VelocityController:
         self._shapes = ((robot.nq,), (robot.nv,))
         #: (q̈, τ, τ_full) of every solution: zeros (VelocitySolution.accepted's)
         self._zero_fields = _torque_fields(robot.nv, robot.na)
+        #: an accepted solution's constant attributes (VelocitySolution.from_base)
+        self._ok_base = Solution.ok_base(self._zero_fields)
         self._plan: VelocityPlan | None = None
         #: cycles whose command was re-solved with re-linearised collision rows
         self.corrections = 0
@@ -264,10 +276,9 @@ class VelocityController:
             code = out[0]
             if code == ACCEPTED:          # _accepted's solution, built here (one call less on the common cycle)
                 qd = out[3][:nv]
-                return VelocitySolution.ok_without_qp(
-                    self._zero_fields, qd, partial(_equality_diagnostics, plan, out, (self.sacrifice_tol,
-                                                                                      self.sacrifice_rel)),
-                    qd=qd, q_next=pin.integrate(robot.model, q, plan.step))
+                return VelocitySolution.from_base(self._ok_base, qd, pin.integrate(robot.model, q, plan.step),
+                                                  partial(_equality_diagnostics, plan, out,
+                                                          (self.sacrifice_tol, self.sacrifice_rel)))
             if code == NOT_FINITE:
                 x, floats, ints, _ = unpack(out, nv)
                 res = SolveResult(x, equality_levels(ints, floats, plan.problem.levels), True, 0, "")

@@ -30,7 +30,7 @@ from wbc.tasks.collision_avoidance import CollisionAvoidance
 from wbc.tasks.velocity import velocity_writer
 from wbc.tasks.velocity_stack import stack_writer
 
-from .velocity_step import ROWS_LEFT, rows_and_step, step_tables
+from .velocity_step import ROWS_LEFT, call_table, rows_and_step, step_tables
 
 _NO_INDEX = np.zeros(0, dtype=np.int64)
 
@@ -91,8 +91,12 @@ class VelocityPlan:
         self.step = np.zeros(nv)
         #: x₀ of the one call's cascade (zeros: the plan's problem has no x_ref), read only
         self._x0 = np.zeros(nv)
-        #: (the solver's planned tuple, its hints, sx, sf) of fill_step's call (velocity_step.step_tables)
+        #: (the solver's planned tuple, its hints, sx, sf, the call's table, the support as bytes) of fill_step's call
+        #: (velocity_step.step_tables, velocity_step.call_table)
         self._tables: tuple | None = None
+        #: (prepare's answer, dt) last written into the tables' sf
+        self._scalars: tuple | None = None
+        self._dt = 0.0
         self.problem = Problem(buf.levels, Layout(nv=nv), np.eye(nv), np.zeros(nv), _NO_INDEX, margin=margin,
                                rows=buf.stacked)
         self.fill()
@@ -159,16 +163,18 @@ class VelocityPlan:
         tables = self._tables
         if tables is None or tables[0] is not planned[0] or tables[1] is not planned[1]:
             got = planned[0]
-            tables = self._tables = (got, planned[1], *step_tables((got[3], got[4], got[5]), planned[1], self._x0,
-                                                                  self.step))
+            sx, sf = step_tables((got[3], got[4], got[5]), planned[1], self._x0, self.step)
+            tables = self._tables = (got, planned[1], sx, sf, *call_table(fused.held, sx, sf))
+            self._scalars = None
         args = fused.prepare()
         if args is None or args is False:       # this cycle by the writers, or plan again
             return None if args is None and all(write() for write in self.writers) else False
         post_e, margin, k = args
-        sf = tables[3]
-        sf[0], sf[1], sf[2] = margin, k, dt
-        at, ix, fx, support = fused.held
-        out = rows_and_step(at, ix, fx, support, fused.robot.q, post_e, tables[2], sf)
+        if args is not self._scalars or dt != self._dt:      # sf's margin, k, dt: written when prepare's answer is new
+            sf = tables[3]
+            sf[0], sf[1], sf[2] = margin, k, dt
+            self._scalars, self._dt = args, dt
+        out = rows_and_step(tables[4], fused.robot.q, post_e)
         if out[0] == ROWS_LEFT:                 # this cycle by the writers
             return None if all(write() for write in self.writers) else False
         return out

@@ -41,9 +41,10 @@ import numpy as np
 
 from wbc.problem.buffer import row_values
 from wbc.solvers.kernels.equality_run import equality_cascade
-from wbc.tasks.velocity_stack import _stack_rows, _vector, float_pointer, int_pointer
+from wbc.tasks.velocity_stack import _address_intrinsic, _stack_rows, _vector, float_pointer, int_pointer
 
-__all__ = ["ROWS_LEFT", "NOT_ACCEPTED", "NOT_FINITE", "ACCEPTED", "rows_and_step", "step_tables", "unpack"]
+__all__ = ["ROWS_LEFT", "NOT_ACCEPTED", "NOT_FINITE", "ACCEPTED", "call_table", "rows_and_step", "step_tables",
+           "unpack"]
 
 ROWS_LEFT, NOT_ACCEPTED, NOT_FINITE, ACCEPTED = range(4)
 
@@ -56,17 +57,31 @@ _SX = 21
 #: ``sf``'s slots: the joint-limit margin and gain k (the rows), dt, then the run's scalar settings
 _MARGIN, _K, _DT, _GRAM_MIN_RATIO, _TOL, _REGULARIZATION, _QP_MARGIN = range(7)
 _SF = 7
+#: the call's table (``held``, :func:`call_table`): the addresses (and sizes) of the rows' tables
+#: at, ix, fx, support (as bytes) and of sx, sf
+_AT, _AT_N, _IX, _IX_N, _FX, _FX_N, _SUP, _SUP_F, _SUP_V, _SXA, _SFA = range(11)
+_HELD = 11
+#: the uint8 pointer at an address (int64): the frames' support, held as bytes
+byte_pointer = _address_intrinsic(nb.types.uint8, "byte_pointer")
 
 
 @nb.njit(cache=True)
-def rows_and_step(at, ix, fx, support, q, post_e, sx, sf):
+def rows_and_step(held, q, post_e):
     """(code, nf, ni, X), code as in the module docstring: the rows by
     :func:`_stack_rows` (``at, ix, fx, support`` its tables, q, post_e, and the margin and k of
     ``sf``), then :func:`equality_cascade` of the solver's arrays held in ``sx`` and its settings
     in ``sf`` (:func:`step_tables`), then x[:nv] checked finite, the rows' values at x
     (:func:`row_values`), and ``step`` ← x[:nv]·dt (m, rad; dt in s). X = [x, the run's nf float
     records, its ni int records (as doubles: small integers, exact), the rows' values] (``values``
-    empty unless code 3; X empty for codes 0 and 1); :func:`unpack` slices it."""
+    empty unless code 3; X empty for codes 0 and 1); :func:`unpack` slices it. The tables at, ix,
+    fx, support, sx, sf are read at the addresses of ``held`` (:func:`call_table`): three arguments
+    cross instead of eight."""
+    at = nb.carray(int_pointer(held[_AT]), held[_AT_N])
+    ix = nb.carray(int_pointer(held[_IX]), held[_IX_N])
+    fx = _vector(held[_FX], held[_FX_N])
+    support = nb.carray(byte_pointer(held[_SUP]), (held[_SUP_F], held[_SUP_V]))
+    sx = nb.carray(int_pointer(held[_SXA]), _SX)
+    sf = _vector(held[_SFA], _SF)
     none = np.empty(0)
     if not _stack_rows(at, ix, fx, support, q, post_e, sf[_MARGIN], sf[_K]):
         return ROWS_LEFT, 0, 0, none
@@ -135,6 +150,25 @@ def step_tables(planned: tuple, hints: np.ndarray, x0: np.ndarray, step: np.ndar
     sf = np.zeros(_SF)
     sf[_GRAM_MIN_RATIO:] = gram_min_ratio, tol, regularization, margin
     return sx, sf
+
+
+def call_table(rows_held: tuple, sx: np.ndarray, sf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(held, support as bytes) for :func:`rows_and_step`: the addresses and sizes of the rows'
+    tables ``rows_held`` = (at, ix, fx, support) (:attr:`wbc.tasks.velocity_stack.StackWriter.held`)
+    and of ``sx``, ``sf`` (:func:`step_tables`). The support (bool) is copied as uint8 (the same
+    truth values; it is fixed for the plan's life). The arrays must stay alive and in place while
+    ``held`` is used (the caller holds them, and the copy returned)."""
+    at, ix, fx, support = rows_held
+    support8 = np.ascontiguousarray(support, dtype=np.uint8)
+    held = np.zeros(_HELD, dtype=np.int64)
+    held[_AT_N], held[_IX_N], held[_FX_N] = len(at), len(ix), len(fx)
+    held[_SUP_F], held[_SUP_V] = support8.shape
+    for slot, x, dt, nd in ((_AT, at, np.int64, 1), (_IX, ix, np.int64, 1), (_FX, fx, np.float64, 1),
+                            (_SUP, support8, np.uint8, 2), (_SXA, sx, np.int64, 1), (_SFA, sf, np.float64, 1)):
+        held[slot] = _address(x, dt, nd)
+    if len(sx) != _SX or len(sf) != _SF:
+        raise ValueError("the step's tables are not of their sizes")
+    return held, support8
 
 
 def unpack(got: tuple, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
