@@ -86,3 +86,29 @@ def test_a_stale_state_at_rest_and_in_motion():
     assert fm.state_fault(q, v) is None
     assert fm.state_fault(q.copy(), v.copy())[0] == "stale_cycles"
     assert fm.state_fault(q, np.array([0.0, 0.0, 0.0, 1e-300]))[0] == "stale_cycles"    # -0.0 == 0.0
+
+
+def test_the_cycles_common_check_decides_as_state_fault():
+    """FaultMonitor.cycle's common case (no stale detection, float vectors: ``faults._finite``
+    inline, not ``state_fault``): a state with a NaN or an infinity is held and counted as a state
+    fault without a solve, as ``state_fault`` decides, on the same random states."""
+    rng = np.random.default_rng(12)
+    fm = FaultMonitor(FaultPolicy(detect_stale=False, max_hold_cycles=10**6))
+    ref = FaultMonitor(FaultPolicy(detect_stale=False))
+    solved = []
+
+    def solve(q, v):
+        solved.append(1)
+        return type("S", (), {"status": "ok", "fault": ""})()
+
+    def hold(v, message):
+        return type("S", (), {"status": "failed", "message": message, "fault": ""})()
+
+    faults = 0
+    for q, v in _states(rng, 2000):
+        n = len(solved)
+        fm.cycle(q, v, solve, hold)
+        bad = ref.state_fault(q, v) is not None
+        assert (len(solved) == n) == bad
+        faults += bad
+    assert faults > 150 and fm.counts["state_faults"] == faults
