@@ -221,7 +221,11 @@ class Solution:
     def ok_base(zeros: tuple[np.ndarray, np.ndarray, np.ndarray]) -> dict:
         """The attributes of an :meth:`ok_without_qp` solution that do not change from cycle to cycle
         (the zero q̈, τ, τ_full of ``zeros`` and the constant ones), for a caller that keeps them and
-        adds a cycle's own (:meth:`wbc.controller.velocity.VelocitySolution.from_base`)."""
+        adds a cycle's own (:meth:`wbc.controller.velocity.VelocitySolution.from_base`).
+
+        Args:
+            zeros: (q̈, τ, τ_full), zero arrays for an output without accelerations or torques.
+        """
         return {"qdd": zeros[0], "tau": zeros[1], "tau_full": zeros[2], **_OK_WITHOUT_QP}
 
     @property

@@ -95,7 +95,14 @@ class VelocitySolution(Solution):
     def from_base(cls, base: dict, qd: np.ndarray, q_next: np.ndarray, evaluate) -> VelocitySolution:
         """:meth:`accepted`'s solution from ``base`` = :meth:`Solution.ok_base` of its zero fields (kept by
         the controller): the same attributes, one dict display a cycle (no keyword dict, no merge of
-        the constant ones)."""
+        the constant ones).
+
+        Args:
+            base: :meth:`Solution.ok_base` of the zero (q̈, τ, τ_full).
+            qd: the joint velocity q̇ (nv; m/s, rad/s), also the solution's ``x``.
+            q_next: the configuration after one period at q̇ (nq).
+            evaluate: called once when the residuals or diagnostics are first read.
+        """
         sol = cls.__new__(cls)
         sol.__dict__ = {**base, "forces": {}, "x": qd, "saturated_torques": [], "singular_levels": [],
                         "_evaluate": evaluate, "qd": qd, "q_next": q_next}
