@@ -1,8 +1,8 @@
 """A torque cycle's first back-end QP loads no kernel (:mod:`wbc.controller.kernel_loading`): the
 plain cascade run it switches to was loaded with the first cycle's kernels, not in the middle of
 the run (70-80 ms of CPU against a 1 ms period: ``talos_push``'s push, #26). Nor does the torque
-plan's first run (:meth:`wbc.tasks.torque_stack.TorquePlan.load_kernel`: loaded when the plan is
-made, 12-22 ms that were spent in the run's third cycle).
+plan's first run (:func:`wbc.tasks.torque_stack.load_rows_kernel`: loaded with the first cycle's
+kernels, 12-22 ms that were spent in the run's third cycle).
 
 Numba's loaded kernels are per process and other tests load them, so the run is made in a fresh
 interpreter: the bench's Talos stack over 7 levels, whose cycle 14 is its first with a QP."""
@@ -69,13 +69,13 @@ def test_the_first_qp_cycle_loads_no_kernel():
 
 def test_the_torque_plans_first_run_loads_no_kernel():
     """The bench's stack: its torque plan is made in cycle 1 (after the tasks filled the buffer in
-    cycle 0) and writes the rows from cycle 2 on; its kernel is loaded in cycle 1, and no cycle
-    after it loads one."""
+    cycle 0) and writes the rows from cycle 2 on; its kernel is loaded in cycle 0, with the others,
+    and no later cycle loads one."""
     env = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
     out = subprocess.run([sys.executable, "-c", SCRIPT, "plan"], cwd=ROOT, env=env, capture_output=True, text=True,
                          timeout=600, check=True)
     got = json.loads(out.stdout.strip().splitlines()[-1])
     assert got["plan"], "the stack has no torque plan: the case no longer tests its loading"
-    assert "wbc.tasks.torque_stack._torque_rows" in got["new"]["1"], got["new"]
-    later = {k: v for k, v in got["new"].items() if int(k) > 1 and v}
-    assert not later, f"kernels loaded after the plan was made: {later}"
+    assert "wbc.tasks.torque_stack._torque_rows" in got["new"]["0"], got["new"]
+    later = {k: v for k, v in got["new"].items() if int(k) > 0 and v}
+    assert not later, f"kernels loaded after the first cycle: {later}"

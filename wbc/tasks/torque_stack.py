@@ -67,7 +67,7 @@ from .torque_limits import TorqueLimits
 from .velocity_frames import _jacobian_rows, frame_motion_rows, relative_rotation
 from .velocity_stack import _matrix, _vector, float_pointer
 
-__all__ = ["TorquePlan", "torque_plan"]
+__all__ = ["TorquePlan", "load_rows_kernel", "torque_plan"]
 
 #: the address table's header: sizes, then pinocchio's J and M, the layout's J_f
 _NX, _NV, _NJ, _NF, _J, _M, _JF = range(7)
@@ -375,12 +375,7 @@ class TorquePlan:
         12-22 ms once a run, in a cycle of a 1 ms period (#26). True: loaded now, False: it was."""
         r = self.robot
         pe = self.pe if self.posture is None else np.zeros(r.nv)     # ``difference``'s: a vector
-        sig = tuple(nb.typeof(x) for x in (self.at_, self.rec_, self.iv_, self.fx_, self.cv, self.sup_, r.q, r.v,
-                                           r.h, pe))
-        if sig in _torque_rows.signatures:
-            return False
-        _torque_rows.compile(sig)
-        return True
+        return _load((self.at_, self.rec_, self.iv_, self.fx_, self.cv, self.sup_, r.q, r.v, r.h, pe))
 
     @property
     def fills_forces(self) -> bool:
@@ -464,6 +459,25 @@ class TorquePlan:
             pe = robot.difference(robot.q, post._q_ref(robot))
         _torque_rows(self.at_, self.rec_, self.iv_, fx, cv, self.sup_, robot.q, robot.v, robot.h, pe)
         return True
+
+
+def _load(args: tuple) -> bool:
+    """Load :func:`_torque_rows` for the types of ``args`` (numba's cache, else compiled); False:
+    it was."""
+    sig = tuple(nb.typeof(x) for x in args)
+    if sig in _torque_rows.signatures:
+        return False
+    _torque_rows.compile(sig)
+    return True
+
+
+def load_rows_kernel(q: np.ndarray, v: np.ndarray, h: np.ndarray) -> bool:
+    """Load :func:`_torque_rows` for the argument types a plan (:func:`torque_plan`) passes it with
+    this q, v, h (its tables: new C-ordered arrays): the torque cycle's first cycle does
+    (:mod:`wbc.controller.kernel_loading`), so that the plan, made in the second and first run in
+    the third, loads nothing mid-run. False: it was loaded."""
+    i1, f1 = np.zeros(1, dtype=np.int64), np.zeros(1)
+    return _load((i1, np.zeros((1, _W), dtype=np.int64), i1, f1, f1, np.zeros((1, 1), dtype=np.bool_), q, v, h, f1))
 
 
 def torque_plan(groups: list, buffer, robot, layout) -> TorquePlan | None:
