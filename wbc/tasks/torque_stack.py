@@ -369,10 +369,8 @@ class TorquePlan:
             g.copy(self.fx_)
 
     def load_kernel(self) -> bool:
-        """Load :func:`_torque_rows` for this plan's argument types now (numba's cache, else
-        compiled: the machine code its first call would load). The plan is made in the cycle the
-        tasks filled the buffer and first runs in the next, which would otherwise load it then:
-        12-22 ms once a run, in a cycle of a 1 ms period (#26). True: loaded now, False: it was."""
+        """:func:`_torque_rows` loaded for this plan's arguments now, not in its first run (12-22 ms
+        in a 1 ms period, #26), if :func:`load_rows_kernel` did not; False: it was loaded."""
         r = self.robot
         pe = self.pe if self.posture is None else np.zeros(r.nv)     # ``difference``'s: a vector
         return _load((self.at_, self.rec_, self.iv_, self.fx_, self.cv, self.sup_, r.q, r.v, r.h, pe))
@@ -462,8 +460,7 @@ class TorquePlan:
 
 
 def _load(args: tuple) -> bool:
-    """Load :func:`_torque_rows` for the types of ``args`` (numba's cache, else compiled); False:
-    it was."""
+    """Load :func:`_torque_rows` for the types of ``args`` (numba's cache, else compiled)."""
     sig = tuple(nb.typeof(x) for x in args)
     if sig in _torque_rows.signatures:
         return False
@@ -473,9 +470,8 @@ def _load(args: tuple) -> bool:
 
 def load_rows_kernel(q: np.ndarray, v: np.ndarray, h: np.ndarray) -> bool:
     """Load :func:`_torque_rows` for the argument types a plan (:func:`torque_plan`) passes it with
-    this q, v, h (its tables: new C-ordered arrays): the torque cycle's first cycle does
-    (:mod:`wbc.controller.kernel_loading`), so that the plan, made in the second and first run in
-    the third, loads nothing mid-run. False: it was loaded."""
+    this q, v, h (its tables: new C-ordered arrays), by the torque cycle's first cycle
+    (:mod:`wbc.controller.kernel_loading`): the plan's first run, in the third, loads nothing."""
     i1, f1 = np.zeros(1, dtype=np.int64), np.zeros(1)
     return _load((i1, np.zeros((1, _W), dtype=np.int64), i1, f1, f1, np.zeros((1, 1), dtype=np.bool_), q, v, h, f1))
 
