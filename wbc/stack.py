@@ -261,12 +261,10 @@ class Stack:
         """
         extra = list(extra_level0)
         lowest = list(extra_lowest)
-        groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]
-        if lowest:
-            groups.append(lowest)
         key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
         buf = self._row_buffer
-        if buf is not None and buf.key == key:
+        same = buf is not None and buf.key == key
+        if same:
             plan = self._plan
             if plan is not None and plan[0] is buf and plan[1] is not None:
                 # the known tasks' rows in one compiled call (wbc.tasks.torque_stack)
@@ -277,6 +275,10 @@ class Stack:
                 plan = self._plan = None           # a change it does not follow: the tasks, then plan again
             else:
                 called = {}
+        groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]
+        if lowest:
+            groups.append(lowest)                 # (the tasks by level: built only when they are called)
+        if same and buf is not None:
             self._due_forces()
             # each task writes its equality rows into its slot of the buffer (for this call
             # only), and its other rows are put in as they come; rows: the structure changed

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections import Counter
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import wbc
@@ -159,3 +160,59 @@ def test_a_task_the_plan_does_not_know_is_called_and_put_in_its_place():
             assert stack._plan is not None and stack._plan[1] is not None
             assert calls == Counter({"hand": 1}), calls
         _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+
+
+def _retarget(stack, k: int, rng) -> None:
+    """Every target the plan reads (a frame's pose, ẍ_d, ẋ_d; the CoM's target, ẍ_d, ẋ_d; a wrench's)
+    changed in place (k % 3 == 0: the plan reads the same objects), replaced by new arrays (1), or
+    given as what it copies (2: a strided view)."""
+    for t in stack:
+        if t.kind == "frame":
+            names, n = ("target_acceleration", "target_velocity"), 6
+            T = t.target
+            if k % 3 == 0:
+                T.translation = T.translation + 0.01 * rng.standard_normal(3)     # in place: pinocchio's setter
+            else:
+                t.target = pin.SE3(T.rotation, T.translation + 0.01 * rng.standard_normal(3))
+        elif t.kind == "com":
+            names, n = ("target", "target_acceleration", "target_velocity"), 3
+        elif t.kind == "contact_wrench":
+            names, n = ("target",), 6
+        else:
+            continue
+        for name in names:
+            new = rng.standard_normal(n) + (t.target if name == "target" else 0.0)
+            if k % 3 == 0:
+                getattr(t, name)[:] = new
+            elif k % 3 == 1 or name == "target":       # (a target's setter makes its own array)
+                setattr(t, name, new)
+            else:
+                setattr(t, name, np.repeat(new, 2)[::2])               # a strided view: copied
+
+
+def test_targets_changed_in_place_replaced_or_copied_are_read_the_cycle_they_change():
+    """The bench's stack (frames, CoM, wrench targets, copied by the plan each cycle): nine cycles of
+    targets changed in place, replaced, or given as a strided view; every cycle the plan's rows
+    equal the tasks' own, the plan not rebuilt."""
+    robot, stack, ctrl, rng, calls = _planned("talos", bench_stack(), 5)
+    plan = stack._plan
+    for k in range(9):
+        q, v = random_state(robot, rng, speed=1.0)
+        robot.update(q, v)
+        _retarget(stack, k, rng)
+        calls.clear()
+        ctrl.solve(q, v)
+        groups = [ctrl._internal_constraints(ctrl.layout) + stack.levels[0]] + stack.levels[1:]
+        assert stack._plan is plan and not calls, calls
+        _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+
+
+def test_a_target_of_another_size_is_refused_the_cycle_it_is_set():
+    """A frame's ẋ_d of 5 numbers, set between two planned cycles: that cycle is refused (the plan's
+    copy raises, a fault held), not solved with a stale or partly read ẋ_d."""
+    robot, stack, ctrl, rng, calls = _planned("talos", bench_stack(), 6)
+    hand = next(t for t in stack if t.kind == "frame")
+    hand.target_velocity = np.zeros(5)
+    q, v = random_state(robot, rng, speed=1.0)
+    sol = ctrl.solve(q, v)
+    assert sol.fault or sol.status == "failed", sol.status

@@ -41,7 +41,7 @@ import pinocchio as pin
 from wbc.controller.diagnostics import level_diagnostics
 from wbc.controller.faults import FaultMonitor, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
-from wbc.controller.kernel_loading import load_alternates
+from wbc.controller.kernel_loading import load_first
 from wbc.controller.options import ControllerOptions
 from wbc.controller.singular import velocity_names
 from wbc.controller.solution import Solution, SolutionReport, solve_status
@@ -165,6 +165,7 @@ class Controller:
         self.solver = create_solver(solver, backend=backend, damping=damping, **given)
         self._dynamics = FloatingBaseDynamics()
         self._diff_drive = DifferentialDrive() if robot.differential_drive else None
+        self._level0 = self._make_level0()
         self._last_tau: np.ndarray | None = None
         self.faults = FaultMonitor(o.fault_policy())
         self.warm_start = bool(o.warm_start)
@@ -187,6 +188,7 @@ class Controller:
         self.dt = float(o.dt)
         self._ramps: dict[str, ForceRamp] = {}   # contact task name -> its normal-force bound's ramp
         self.layout: Layout | None = None
+        self._spans: tuple[Layout, list[tuple[str, int, int]]] | None = None
         self.levels: list[Level] = []
         #: an object with ``lap(phase, t0) -> t`` (the bench's phase timer) told the time of each
         #: phase of a cycle (update, rows, solve, finish); None: not timed
@@ -238,13 +240,17 @@ class Controller:
 
     def _internal_constraints(self, layout: Layout) -> list:
         """The tasks the controller adds to level 0: the floating-base dynamics (5.26) of a
-        robot with an unactuated root, the differential drive's constraint."""
+        robot with an unactuated root, the differential drive's constraint (a new list)."""
+        return list(self._level0)
+
+    def _make_level0(self) -> tuple[Task, ...]:
+        """The tasks of :meth:`_internal_constraints`, fixed by the robot: worked out once."""
         extra: list[Task] = []
         if len(self.robot.unactuated_idx):
             extra.append(self._dynamics)
         if self._diff_drive is not None:
             extra.append(self._diff_drive)
-        return extra
+        return tuple(extra)
 
     def _lowest(self) -> tuple[list, ContactRegularization]:
         """(the tasks added as the lowest level, the task whose weights define the nominal
@@ -313,7 +319,7 @@ class Controller:
             self._last_tau, self._last_forces = sol.tau_full.copy(), sol.forces
             if self._alternates_pending:    # the kernels a later cycle may switch to, loaded now
                 self._alternates_pending = False
-                load_alternates()
+                load_first(self.robot.q, self.robot.v, self.robot.h)
         return sol
 
     def fault_counts(self) -> dict[str, int]:
@@ -332,8 +338,7 @@ class Controller:
         t = clock and clock.lap("update", t)
         layout = self.stack.layout(robot, deferred=True)      # J_f: by assemble's plan, or refilled there
         lowest, weights_of = self._lowest()
-        levels = self.stack.assemble(robot, layout, self._internal_constraints(layout),
-                                     lowest if layout.nf else ())
+        levels = self.stack.assemble(robot, layout, self._level0, lowest if layout.nf else ())
         t = clock and clock.lap("rows", t)
         self.layout, self.levels = layout, levels
         x_ref = self._reference(layout, weights_of, levels) if self.warm_start else None
@@ -378,7 +383,7 @@ class Controller:
                       for name, sl in layout.contact_slices.items()}
             x = np.concatenate([qdd] + [forces[name] for name in layout.contact_slices])
         else:
-            forces = {name: f[sl.start - nv: sl.stop - nv].copy() for name, sl in layout.contact_slices.items()}
+            forces = {name: f[a:b].copy() for name, a, b in self._force_spans(layout)}
         saturated = n_sat > 0
         if saturated:
             lim = robot.tau_max[robot.actuated_idx]
@@ -400,6 +405,16 @@ class Controller:
                         SolutionReport(qp_count=qp_count, relaxed=relaxed, degraded=degraded, saturated=saturated,
                                        tau_ratio=ratio, saturated_torques=at_limit, singular_levels=singular,
                                        evaluate=evaluate))
+
+    def _force_spans(self, layout: Layout) -> list[tuple[str, int, int]]:
+        """(contact, first, end) of each contact's forces in f = x[nv:], worked out once per layout
+        object (held here: ``is`` on a live object, not an id)."""
+        got = self._spans
+        if got is None or got[0] is not layout:
+            nv = layout.nv
+            got = self._spans = (layout, [(name, sl.start - nv, sl.stop - nv)
+                                          for name, sl in layout.contact_slices.items()])
+        return got[1]
 
     def _below_threshold(self, sigma: float) -> bool:
         """Whether a singular value of a level's projected Jacobian is below the solver's

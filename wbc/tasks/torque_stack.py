@@ -67,7 +67,7 @@ from .torque_limits import TorqueLimits
 from .velocity_frames import _jacobian_rows, frame_motion_rows, relative_rotation
 from .velocity_stack import _matrix, _vector, float_pointer
 
-__all__ = ["TorquePlan", "torque_plan"]
+__all__ = ["TorquePlan", "load_rows_kernel", "torque_plan"]
 
 #: the address table's header: sizes, then pinocchio's J and M, the layout's J_f
 _NX, _NV, _NJ, _NF, _J, _M, _JF = range(7)
@@ -368,6 +368,13 @@ class TorquePlan:
         for g in self.gains:
             g.copy(self.fx_)
 
+    def load_kernel(self) -> bool:
+        """:func:`_torque_rows` loaded for this plan's arguments now, not in its first run (12-22 ms
+        in a 1 ms period, #26), if :func:`load_rows_kernel` did not; False: it was loaded."""
+        r = self.robot
+        pe = self.pe if self.posture is None else np.zeros(r.nv)     # ``difference``'s: a vector
+        return _load((self.at_, self.rec_, self.iv_, self.fx_, self.cv, self.sup_, r.q, r.v, r.h, pe))
+
     @property
     def fills_forces(self) -> bool:
         """Whether :meth:`write` writes all of the layout's J_f before any row that reads it (every
@@ -452,6 +459,23 @@ class TorquePlan:
         return True
 
 
+def _load(args: tuple) -> bool:
+    """Load :func:`_torque_rows` for the types of ``args`` (numba's cache, else compiled)."""
+    sig = tuple(nb.typeof(x) for x in args)
+    if sig in _torque_rows.signatures:
+        return False
+    _torque_rows.compile(sig)
+    return True
+
+
+def load_rows_kernel(q: np.ndarray, v: np.ndarray, h: np.ndarray) -> bool:
+    """Load :func:`_torque_rows` for the argument types a plan (:func:`torque_plan`) passes it with
+    this q, v, h (its tables: new C-ordered arrays), by the torque cycle's first cycle
+    (:mod:`wbc.controller.kernel_loading`): the plan's first run, in the third, loads nothing."""
+    i1, f1 = np.zeros(1, dtype=np.int64), np.zeros(1)
+    return _load((i1, np.zeros((1, _W), dtype=np.int64), i1, f1, f1, np.zeros((1, 1), dtype=np.bool_), q, v, h, f1))
+
+
 def torque_plan(groups: list, buffer, robot, layout) -> TorquePlan | None:
     """The plan of a stack's rows (module docstring) for ``buffer`` (a
     :class:`~wbc.problem.buffer.RowBuffer` its tasks have filled at least once, with their
@@ -472,4 +496,5 @@ def torque_plan(groups: list, buffer, robot, layout) -> TorquePlan | None:
         plan.finish()
     except ValueError:
         return None
+    plan.load_kernel()
     return plan
