@@ -48,26 +48,31 @@ def _apply(qs, taus, ms, level, ends0, v, transpose):
 @nb.njit(cache=True)
 def rows_through(A, qs, taus, ms, nf, ends0):
     """A Z (m × k_nf) for the rows of A (m × n), Z the basis the reflectors keep."""
-    m = A.shape[0]
+    m, n = A.shape
     k = qs[nf - 1].shape[0] - ms[nf - 1]
     AZ = np.empty((m, k))
+    v = np.empty(n)                              # each row's scratch, reflected in place
     if ends0.shape[0]:                           # a profiled level 0: all rows through it at once
         W = np.ascontiguousarray(A.T)
         reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, True)
+        u = v[:n - ms[0]]
         for i in range(m):
-            AZ[i] = _through(W[ms[0]:, i].copy(), qs, taus, ms, 1, nf)
+            u[:] = W[ms[0]:, i]
+            AZ[i] = _through(u, qs, taus, ms, 1, nf)
         return AZ
     for i in range(m):
-        AZ[i] = _through(A[i].copy(), qs, taus, ms, 0, nf)
+        v[:] = A[i]
+        AZ[i] = _through(v, qs, taus, ms, 0, nf)
     return AZ
 
 
 @nb.njit(cache=True)
 def _through(v, qs, taus, ms, first, nf):
-    """v (overwritten) through the LAPACK levels ``first`` .. nf − 1: their Zᵀ."""
+    """v (overwritten) through the LAPACK levels ``first`` .. nf − 1: their Zᵀ, a view of v's tail
+    (each level's reflectors applied in place, its first m entries dropped: no copy)."""
     for level in range(first, nf):
         apply_reflectors(qs[level], taus[level], ms[level], v, True)
-        v = v[ms[level]:].copy()
+        v = v[ms[level]:]
     return v
 
 
@@ -77,7 +82,7 @@ def transposed_times(u, qs, taus, ms, nf, ends0):
     v = u.copy()
     for level in range(nf):
         _apply(qs, taus, ms, level, ends0, v, True)
-        v = v[ms[level]:].copy()
+        v = v[ms[level]:]                        # a view of the tail: no copy
     return v
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .active_set import certified_factored, inverse_factor
+from .active_set import certified_floats, certified_into, inverse_factor_into
 
 
 @nb.njit(cache=True)
@@ -131,20 +131,31 @@ def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
     contains the whole QP's, and it is in the whole QP's. (m rows over n variables, k free
     directions: C Z costs m n k, the check m n; the rows a cascade's QP holds are 1 to 3 of
     ~100.) Returns (certified, z)."""
-    m = C.shape[0]
+    m, n = C.shape
     k = H.shape[0]
     none = np.empty(0)
     cand = np.zeros(m, dtype=np.bool_)
     nc = 0
-    ok, Ui = inverse_factor(H)                   # H factored once for every candidate set
-    if not ok:
+    fw = np.empty(2 * k * k + 3 * k + n + m)     # U (Fortran order), U⁻¹, U⁻ᵀg, U⁻¹U⁻ᵀg, z₀, C Z z, Z z
+    Ui = fw[k * k:2 * k * k].reshape((k, k))
+    if not inverse_factor_into(H, fw[:k * k].reshape((k, k)).T, Ui):   # H factored once for every candidate set
         return False, none
-    z0 = -(Ui @ (Ui.T @ g))                      # the unconstrained minimiser, once per QP
+    at = 2 * k * k
+    t, u, z0 = fw[at:at + k], fw[at + k:at + 2 * k], fw[at + 2 * k:at + 3 * k]
+    dy, dz = fw[at + 3 * k:at + 3 * k + m], fw[at + 3 * k + m:at + 3 * k + m + n]
+    np.dot(Ui.T, g, t)                           # the unconstrained minimiser, once per QP
+    np.dot(Ui, t, u)
+    for i in range(k):
+        z0[i] = -u[i]
     z = z0
     no_side = np.zeros(0, dtype=np.int64)
     for _ in range(5):
-        dx = z if identity else Z @ z
-        dy = C @ dx
+        if identity:
+            dx = z
+        else:
+            np.dot(Z, z, dz)
+            dx = dz
+        np.dot(C, dx, dy)
         added = 0
         for i in range(m):
             if not cand[i] and (dy[i] > dhi[i] + tol or dy[i] < dlo[i] - tol):
@@ -157,17 +168,30 @@ def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
         nc += added
         if nc > k:
             return False, none
-        idx = np.empty(nc, dtype=np.int64)
+        # this round's rows (C_c, C_c Z, their bounds) and the certificate's scratch, one array
+        # each: z (a view of the last) stays valid for the next round's check
+        rw = np.empty(nc * n + nc * k + 2 * nc + certified_floats(k, nc))
+        iw = np.empty(nc + nc + min(nc, k), dtype=np.int64)
+        idx = iw[:nc]
         j = 0
         for i in range(m):
             if cand[i]:
                 idx[j] = i
                 j += 1
-        Cc = np.empty((nc, C.shape[1]))
+        Cc = rw[:nc * n].reshape((nc, n))
         for j in range(nc):
             Cc[j] = C[idx[j]]
-        CcZ = Cc if identity else Cc @ Z
-        ok, z = certified_factored(Ui, z0, CcZ, dlo[idx], dhi[idx], tol, no_side)
+        if identity:
+            CcZ = Cc
+        else:
+            CcZ = rw[nc * n:nc * n + nc * k].reshape((nc, k))
+            np.dot(Cc, Z, CcZ)
+        at = nc * n + nc * k
+        lo_c, hi_c = rw[at:at + nc], rw[at + nc:at + 2 * nc]
+        for j in range(nc):
+            lo_c[j] = dlo[idx[j]]
+            hi_c[j] = dhi[idx[j]]
+        ok, z = certified_into(Ui, z0, CcZ, lo_c, hi_c, tol, no_side, rw[at + 2 * nc:], iw[nc:])
         if not ok:
             return False, none
     return False, none
