@@ -179,7 +179,8 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
     (:func:`cascade_prefix_profiled`)."""
     A, b, e_end = eq
     C, lo, hi, i_end = ineq
-    Z_keep, identity_keep = np.empty((0, 0)), True
+    none = np.empty((0, 0))                      # one empty basis for every level that has none yet
+    Z_keep, identity_keep = none, True
     x0, Z0, identity0, k0, calls0 = start
     rank_tol, threshold, max_damping, gram_min_ratio, tol, certify, regularization, margin = settings
     L = e_end.shape[0]
@@ -212,7 +213,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
         x_next = x
         fstep = 0                                # 1: QR step, reflectors kept; 2: orthonormal shortcut
         Qn, taun = qs[0], taus[0]
-        Z_next = np.empty((0, 0))
+        Z_next = none
         if m and dof:
             Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
             path = hint_route(hints, calls, m, dof)

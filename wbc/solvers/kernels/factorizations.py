@@ -47,7 +47,7 @@ from ..lapack import (
     dpotrf,
     dtrtri,
 )
-from .sigma_min import qr_accepted
+from .sigma_min import qr_accepted, sum_squares
 
 AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
 
@@ -66,23 +66,6 @@ def apply_reflectors(a, tau, k, v, transpose):
         v[c] -= t
         for i in range(c + 1, m):
             v[i] -= t * a[i, c]
-
-
-@nb.njit(cache=True)
-def sum_squares(a) -> float:
-    """Σ a_ij² over a 2-D array in its memory order (what numba's ``np.sum(a * a)`` gives, bit for
-    bit, without its temporary array: one allocation less per call, where a small level's step
-    makes ~30)."""
-    s = 0.0
-    if a.flags.f_contiguous and not a.flags.c_contiguous:
-        for j in range(a.shape[1]):
-            for i in range(a.shape[0]):
-                s += a[i, j] * a[i, j]
-        return s
-    for i in range(a.shape[0]):
-        for j in range(a.shape[1]):
-            s += a[i, j] * a[i, j]
-    return s
 
 
 @nb.njit(cache=True)
@@ -188,7 +171,7 @@ def qr_factor(AZ, r, rank_tol, threshold):
            mi[2:].ctypes)
     if mi[2] != 0:
         return False, np.empty(0), Q, tau, R, work
-    if not qr_accepted(Rinv, np.sqrt(np.sum(AZ * AZ)), rank_tol, threshold):   # ‖AZ‖_F ≥ σ_max
+    if not qr_accepted(Rinv, np.sqrt(sum_squares(AZ)), rank_tol, threshold):   # ‖AZ‖_F ≥ σ_max
         return False, np.empty(0), Q, tau, R, work
     z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
     z[:m] = Rinv.T @ r
@@ -231,6 +214,12 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
 
 
 @nb.njit(cache=True)
+def _cod_fail():
+    """:func:`_cod`'s refusal (built only when it refuses)."""
+    return False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0))
+
+
+@nb.njit(cache=True)
 def _cod(AZ, r, rank_tol, threshold):
     """Complete orthogonal decomposition (LAPACK's xGELSY route) of a rank-deficient level:
     AZ P = Q₁ [R₁₁ R₁₂; 0 R₂₂] (QR with column pivoting), rank ρ from |R_ii|, then
@@ -240,19 +229,25 @@ def _cod(AZ, r, rank_tol, threshold):
     rank tolerance) and σ_ρ ≥ 1/‖T⁻¹‖_F − ‖E‖_F above both that tolerance and the
     damping threshold (Weyl's inequalities)."""
     m, k = AZ.shape
-    a = np.empty((k, m)).T                       # Fortran order, m × k
-    a[:, :] = AZ
-    jpvt = np.zeros(k, dtype=np.int32)
     mn = min(m, k)
-    tau = np.empty(mn)
     lwork = 64 * (m + k)
-    work = np.empty(lwork)
-    iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
-    fail = (False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0)))
+    # the scratch in one array (a, τ, work, W, τ₂, T⁻¹, T, Q₁ᵀr, y, z; ρ ≤ min(m, k)) and LAPACK's
+    # integers in another (the pivots, then each call's sizes and info)
+    fw = np.empty(m * k + mn + lwork + k * k + mn + 2 * mn * mn + m + mn + k)
+    a = fw[:m * k].reshape((k, m)).T             # Fortran order, m × k
+    a[:, :] = AZ
+    at = m * k
+    tau = fw[at:at + mn]
+    work = fw[at + mn:at + mn + lwork]
+    at += mn + lwork
+    ints = np.zeros(k + 14, dtype=np.int32)
+    jpvt = ints[:k]
+    iw = ints[k:k + 5]
+    iw[0], iw[1], iw[2], iw[3] = m, k, m, lwork
     dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
            iw[3:].ctypes, iw[4:].ctypes)
     if iw[4] != 0:
-        return fail
+        return _cod_fail()
     colmax = 0.0
     for j in range(k):
         c2 = 0.0
@@ -264,48 +259,59 @@ def _cod(AZ, r, rank_tol, threshold):
     while rho < mn and abs(a[rho, rho]) > tol:
         rho += 1
     if rho == 0:
-        return fail
+        return _cod_fail()
     e2 = 0.0                                      # ‖R₂₂‖_F²
     for j in range(rho, k):
         for i in range(rho, min(j + 1, m)):
             e2 += a[i, j] * a[i, j]
     e = np.sqrt(e2)
     if e > tol:
-        return fail
-    W = np.empty((k, k)).T                        # Fortran order, k × k; [R₁₁ R₁₂]ᵀ first
+        return _cod_fail()
+    W = fw[at:at + k * k].reshape((k, k)).T       # Fortran order, k × k; [R₁₁ R₁₂]ᵀ first
     W[:, :] = 0.0
+    at += k * k
     for j in range(k):
         for i in range(min(j + 1, rho)):
             W[j, i] = a[i, j]
-    tau2 = np.empty(rho)
-    iw2 = np.array([k, rho, k, lwork, 0, k], dtype=np.int32)
+    tau2 = fw[at:at + rho]
+    at += rho
+    iw2 = ints[k + 5:k + 11]
+    iw2[0], iw2[1], iw2[2], iw2[3], iw2[5] = k, rho, k, lwork, k
     dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
            iw2[3:].ctypes, iw2[4:].ctypes)
     if iw2[4] != 0:
-        return fail
-    Tinv = np.zeros((rho, rho)).T
-    T = np.zeros((rho, rho))
+        return _cod_fail()
+    Tinv = fw[at:at + rho * rho].reshape((rho, rho)).T
+    Tinv[:, :] = 0.0
+    T = fw[at + rho * rho:at + 2 * rho * rho].reshape((rho, rho))
+    T[:, :] = 0.0
+    at += 2 * rho * rho
     for j in range(rho):
         for i in range(j + 1):
             Tinv[i, j] = W[i, j]
             T[i, j] = W[i, j]
-    ti = np.array([rho, rho, 0], dtype=np.int32)
+    ti = ints[k + 11:k + 14]
+    ti[0], ti[1] = rho, rho
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
            ti[2:].ctypes)
     if ti[2] != 0:
-        return fail
+        return _cod_fail()
     lb = 1.0 / np.sqrt(sum_squares(Tinv)) - e
     if not lb > max(rank_tol * max(1.0, np.sqrt(sum_squares(AZ))), threshold):
-        return fail
+        return _cod_fail()
     # Q₁ᵀ r through the first ρ reflectors of the pivoted QR (Q₁ is never formed)
-    c = r.copy()
+    c = fw[at:at + m]
+    c[:] = r
+    at += m
     apply_reflectors(a, tau, rho, c, True)
     dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
            work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
     if iw2[4] != 0:
-        return fail
-    y = Tinv.T @ c[:rho]
-    z = np.zeros(k)
+        return _cod_fail()
+    y = fw[at:at + rho]
+    np.dot(Tinv.T, c[:rho], y)
+    z = fw[at + rho:at + rho + k]
+    z[:] = 0.0
     for j in range(rho):                          # z = Q₂[:, :ρ] y, column after column
         yj = y[j]
         for i in range(k):
@@ -355,20 +361,27 @@ def unit_columns(A):
     """The column of the 1 in each row of A when every row is a unit row e_jᵀ (a posture's
     joint rows, a wrench target's force rows), else an empty array; stops at the first
     row that is not (a Jacobian's first row, usually)."""
-    m, n = A.shape
+    m = A.shape[0]
     cols = np.empty(m, dtype=np.int64)
     for i in range(m):
-        c = -1
-        for j in range(n):
-            a = A[i, j]
-            if a != 0.0:
-                if a != 1.0 or c >= 0:
-                    return np.empty(0, dtype=np.int64)
-                c = j
+        c = unit_column(A, i)
         if c < 0:
             return np.empty(0, dtype=np.int64)
         cols[i] = c
     return cols
+
+
+@nb.njit(cache=True)
+def unit_column(A, i):
+    """The column of the 1 when row i of A is a unit row e_jᵀ, else −1."""
+    c = -1
+    for j in range(A.shape[1]):
+        a = A[i, j]
+        if a != 0.0:
+            if a != 1.0 or c >= 0:
+                return -1
+            c = j
+    return c
 
 
 @nb.njit(cache=True)
@@ -381,15 +394,26 @@ def projected_rows(A, b, x, Z, identity):
 
 
 @nb.njit(cache=True)
+def _general_rows(A, b, x, Z, identity):
+    """:func:`projected_rows_full` for rows that are not all unit rows: (A Z, b − A x̂, False)."""
+    r = A @ x                                    # b − A x̂, in place
+    for i in range(A.shape[0]):
+        r[i] = b[i] - r[i]
+    return (A if identity else A @ Z), r, False
+
+
+@nb.njit(cache=True)
 def projected_rows_full(A, b, x, Z, identity):
     """:func:`projected_rows`, and whether A's rows are unit rows on every coordinate of x
     once each (a permutation: a posture of a fixed-base robot over all of q̈ or q̇). Then
     A Z has orthonormal columns, since Z does (every basis the cascade makes is an
     orthonormal one: Q factors, right singular vectors and their products)."""
-    cols = unit_columns(A)
     m = A.shape[0]
-    if cols.shape[0] == 0 or m == 0:
-        return (A if identity else A @ Z), b - A @ x, False
+    if m == 0 or unit_column(A, 0) < 0:          # a general row first: nothing allocated to find it
+        return _general_rows(A, b, x, Z, identity)
+    cols = unit_columns(A)
+    if cols.shape[0] == 0:
+        return _general_rows(A, b, x, Z, identity)
     n = x.shape[0]
     full = m == n
     if full:
@@ -463,30 +487,28 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     to have orthonormal columns (:func:`_orthonormal`)."""
     n = x.shape[0]
     m, k = AZ.shape
-    R = np.empty((0, 0))
-    none = np.empty((n, 0))
     if not (all_finite(AZ) and all_finite(r.reshape((1, r.shape[0])))):
-        return True, path, 0, np.nan, np.nan, 0.0, pack_step(np.full(k, np.nan), np.full(n, np.nan), R), none
+        return True, path, 0, np.nan, np.nan, 0.0, pack_step(np.full(k, np.nan), np.full(n, np.nan), np.empty((0, 0))), np.empty((n, 0))
     route = path
     if route == AUTO:
         route = GRAM if m >= k else QR
     if orthonormal and route == GRAM:
         ok, z = _orthonormal(AZ, r, rank_tol, threshold, gram_min_ratio)
         if ok:
-            return True, GRAM, k, 1.0, 1.0, 0.0, pack_step(z, x + (z if identity else Z @ z), R), none
+            return True, GRAM, k, 1.0, 1.0, 0.0, pack_step(z, x + (z if identity else Z @ z), np.empty((0, 0))), np.empty((n, 0))
     if route == GRAM:
         ok, z, U, smin, smax, lam2 = _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio)
         if ok:
-            return True, GRAM, k, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), U), none
+            return True, GRAM, k, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), U), np.empty((n, 0))
         if strict:
-            return False, GRAM, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
+            return False, GRAM, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
         route = COD
     elif route == QR:
         ok, z, Z_next, Rq = _qr(AZ, r, rank_tol, threshold, Z, identity)
         if ok:
             return True, QR, m, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), Rq), Z_next
         if strict:
-            return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
+            return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
         route = COD
     if route == COD:
         ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
@@ -494,7 +516,7 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
             Z_next = null if identity else Z @ null
             return True, COD, rank, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), T), Z_next
         if strict:
-            return False, COD, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
+            return False, COD, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
     z, null, rank, smin, smax, lam2 = _svd(AZ, r, rank_tol, threshold, max_damping)
     Z_next = null if identity else Z @ null
-    return True, SVD, rank, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), R), Z_next
+    return True, SVD, rank, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), np.empty((0, 0))), Z_next
