@@ -25,7 +25,7 @@ from .factorizations import (
     qr_factor,
     step_from,
 )
-from .profile_qr import householder_rows, profile_order, reflect, row_ends, upper_inverse
+from .profile_qr import householder_rows, profile_order, reflect, row_ends, upper_inverse_into
 from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
 from .records import (
     CERTIFIED,
@@ -40,7 +40,7 @@ from .records import (
     set_field,
     start_level,
 )
-from .sigma_min import qr_accepted
+from .sigma_min import qr_accepted, sum_squares
 
 
 @nb.njit(cache=True)
@@ -98,17 +98,19 @@ def _profiled_qr(A, r, rank_tol, threshold):
     for j in range(m):
         V[j] = A[order[j]]
     tau = np.empty(m)
-    rdiag = np.empty(m)
+    fw = np.zeros(2 * m * m + m + n)             # the scratch: R, R⁻¹, R's diagonal, a row
+    R = fw[:m * m].reshape((m, m))
+    Rinv = fw[m * m:2 * m * m].reshape((m, m))
+    rdiag = fw[2 * m * m:2 * m * m + m]
     ends = row_ends(V)
-    R = np.zeros((m, m))
-    if not householder_rows(V, tau, rdiag, ends, np.empty(n)):
+    if not householder_rows(V, tau, rdiag, ends, fw[2 * m * m + m:]):
         return False, np.empty(0), V.T, tau, R, ends
     for j in range(m):                            # row j of V: (R[0..j−1, j], R[j, j], v_j)
         for i in range(j):
             R[i, j] = V[j, i]
         R[j, j] = rdiag[j]
-    Rinv = upper_inverse(R)
-    if not qr_accepted(Rinv, np.sqrt(np.sum(A * A)), rank_tol, threshold):
+    upper_inverse_into(R, Rinv)
+    if not qr_accepted(Rinv, np.sqrt(sum_squares(A)), rank_tol, threshold):
         return False, np.empty(0), V.T, tau, R, ends
     z = np.zeros(n)                               # z = Q [R⁻ᵀ P r; 0]
     for i in range(m):

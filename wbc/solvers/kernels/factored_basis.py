@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 
 from ..lapack import SIDE_TRANS
-from .factorizations import apply_q, apply_reflectors
+from .factorizations import apply_q_into, apply_reflectors
 from .profile_qr import reflect, reflect_columns
 
 #: ``ends0`` of a chain whose outermost level is a LAPACK QR
@@ -106,19 +106,28 @@ def explicit_basis(qs, taus, ms, nf, ends0):
     last = nf - 1
     k = qs[last].shape[0]
     p = k - ms[last]
-    W = np.zeros((k, p))
+    n = qs[0].shape[0]
+    # two n × p slots taken in turn by the levels' products, and dormqr's work, in one array;
+    # Z is a view of it
+    fw = np.empty(2 * n * p + 64 * n)
+    work = fw[2 * n * p:]
+    io = np.empty(7, dtype=np.int32)
+    W = fw[:k * p].reshape((k, p))
+    W[:, :] = 0.0
     for j in range(p):
         W[ms[last] + j, j] = 1.0
-    work = np.empty(64 * qs[0].shape[0])
+    slot = 0
     for level in range(last, -1, -1):
         k = qs[level].shape[0]
         if level < last:
-            V = np.zeros((k, p))
+            slot = 1 - slot
+            V = fw[slot * n * p:slot * n * p + k * p].reshape((k, p))
+            V[:ms[level]] = 0.0
             V[ms[level]:] = W
             W = V
         if level == 0 and ends0.shape[0]:
             reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, False)
-        elif apply_q(SIDE_TRANS, p, k, ms[level], qs[level], k, taus[level], W, p, work) != 0:
+        elif apply_q_into(SIDE_TRANS, p, k, ms[level], qs[level], k, taus[level], W, p, work, io) != 0:
             W[:, :] = np.nan       # never seen: LAPACK's argument check; a NaN step is reported as a failed cycle
     return W
 

@@ -99,25 +99,35 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
     G = V Σ² Vᵀ, exact σ, damped if σ_min < ε. Returns (ok, z, U or empty, σ_min,
     σ_max, λ²); σ are NaN on the Cholesky branch (they come from U on demand)."""
     k = AZ.shape[1]
-    G = AZ.T @ AZ
-    U = np.empty((k, k)).T                       # Fortran order
+    fw = np.empty(4 * k * k + 3 * k)             # the scratch: G, U, U⁻¹, U in C order, three k-vectors
+    G = fw[:k * k].reshape((k, k))
+    np.dot(AZ.T, AZ, G)
+    U = fw[k * k:2 * k * k].reshape((k, k)).T    # Fortran order
     for j in range(k):
         for i in range(j + 1):
             U[i, j] = 0.5 * (G[i, j] + G[j, i])
         for i in range(j + 1, k):
             U[i, j] = 0.0
-    ki = np.array([k, max(k, 1), 0], dtype=np.int32)     # n, lda (LAPACK: ≥ 1 also when n = 0), info
+    ki = np.zeros(3, dtype=np.int32)             # n, lda (LAPACK: ≥ 1 also when n = 0), info
+    ki[0], ki[1] = k, max(k, 1)
     dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] == 0:
-        Uinv = U.copy().T.copy().T               # Fortran-order copy
+        Uinv = fw[2 * k * k:3 * k * k].reshape((k, k)).T   # Fortran-order copy
+        Uinv[:, :] = U
         dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
                ki[2:].ctypes)
         if ki[2] == 0:
             ub2 = sum_squares(AZ)                # ≥ σ_max²
             lb2 = 1.0 / sum_squares(Uinv)        # ≤ σ_min²
             if lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol * max(1.0, np.sqrt(ub2)), threshold):
-                z = Uinv @ (Uinv.T @ (AZ.T @ r))
-                return True, z, np.ascontiguousarray(U), np.nan, np.nan, 0.0
+                at = 4 * k * k
+                t, u, z = fw[at:at + k], fw[at + k:at + 2 * k], fw[at + 2 * k:at + 3 * k]
+                np.dot(AZ.T, r, t)               # z = U⁻¹ (U⁻ᵀ ((AZ)ᵀ r))
+                np.dot(Uinv.T, t, u)
+                np.dot(Uinv, u, z)
+                Uc = fw[3 * k * k:4 * k * k].reshape((k, k))
+                Uc[:, :] = U
+                return True, z, Uc, np.nan, np.nan, 0.0
     w, V = np.linalg.eigh(0.5 * (G + G.T))
     if not w[k - 1] > 0.0 or w[0] < gram_min_ratio * w[k - 1]:
         return False, np.empty(0), np.empty((0, 0)), 0.0, 0.0, 0.0
@@ -135,7 +145,13 @@ def apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
     """LAPACK's dormqr: C (m × n, Fortran layout, leading dimension ``ldc``) times Q or Qᵀ as
     ``side_trans`` says ("LT": Qᵀ C, "RT": C Qᵀ), Q the k reflectors a QR left in ``a``
     with factors ``tau``; returns LAPACK's info (0: done)."""
-    io = np.array([m, n, k, lda, ldc, work.shape[0], 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
+    return apply_q_into(side_trans, m, n, k, a, lda, tau, c, ldc, work, np.empty(7, dtype=np.int32))
+
+
+@nb.njit(cache=True)
+def apply_q_into(side_trans, m, n, k, a, lda, tau, c, ldc, work, io):
+    """:func:`apply_q` with LAPACK's integers in the caller's ``io`` (7 int32, overwritten)."""
+    io[0], io[1], io[2], io[3], io[4], io[5], io[6] = m, n, k, lda, ldc, work.shape[0], 0
     dormqr(side_trans[0:].ctypes, side_trans[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
            a.ctypes, io[3:].ctypes, tau.ctypes, c.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
            io[6:].ctypes)
@@ -154,27 +170,34 @@ def qr_factor(AZ, r, rank_tol, threshold):
     Q[:, :m] = AZ.T
     tau = np.empty(m)
     lwork = 64 * k
-    work = np.empty(lwork)
-    iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
+    fw = np.empty(lwork + 2 * m * m + m)         # the scratch: work, R, R⁻¹, R⁻ᵀr
+    work = fw[:lwork]
+    iw = np.zeros(9, dtype=np.int32)             # m, n, lda, lwork, info, ncols(Q); then dtrtri's n, lda, info
+    iw[0], iw[1], iw[2], iw[3], iw[5] = k, m, k, lwork, k
     dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
            iw[3:].ctypes, iw[4:].ctypes)
-    R = np.zeros((m, m))
-    Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
+    R = fw[lwork:lwork + m * m].reshape((m, m))
+    R[:, :] = 0.0
+    Rinv = fw[lwork + m * m:lwork + 2 * m * m].reshape((m, m)).T   # Fortran order, upper triangle of R
+    Rinv[:, :] = 0.0
     if iw[4] != 0:
         return False, np.empty(0), Q, tau, R, work
     for j in range(m):
         for i in range(j + 1):
             R[i, j] = Q[i, j]
             Rinv[i, j] = Q[i, j]
-    mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
+    mi = iw[6:9]                                 # n, lda, info
+    mi[0], mi[1] = m, m
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
            mi[2:].ctypes)
     if mi[2] != 0:
         return False, np.empty(0), Q, tau, R, work
     if not qr_accepted(Rinv, np.sqrt(sum_squares(AZ)), rank_tol, threshold):   # ‖AZ‖_F ≥ σ_max
         return False, np.empty(0), Q, tau, R, work
+    y = fw[lwork + 2 * m * m:]
+    np.dot(Rinv.T, r, y)
     z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
-    z[:m] = Rinv.T @ r
+    z[:m] = y
     apply_reflectors(Q, tau, m, z, False)
     return True, z, Q, tau, R, work
 
