@@ -26,7 +26,7 @@ from .factorizations import (
     step_from,
 )
 from .profile_qr import householder_rows, profile_order, reflect, row_ends, upper_inverse_into
-from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
+from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation_into
 from .records import (
     CERTIFIED,
     LEVEL_FLOATS,
@@ -182,6 +182,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
     A, b, e_end = eq
     C, lo, hi, i_end = ineq
     none = np.empty((0, 0))                      # one empty basis for every level that has none yet
+    cx = np.empty(C.shape[0])                    # C x̂ of the inequality checks
     Z_keep, identity_keep = none, True
     x0, Z0, identity0, k0, calls0 = start
     rank_tol, threshold, max_damping, gram_min_ratio, tol, certify, regularization, margin = settings
@@ -260,7 +261,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
             end_r_factors(ints, L, k, r_at)
             calls += 1
             set_calls(ints, L, calls)
-            if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
+            if rank and i0 and max_violation_into(C[:i0], lo[:i0], hi[:i0], x_next, cx) > tol:
                 if fstep or nf:
                     Z, Z_next, AZ = _explicit(Ak, bk, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n,
                                               ends0)
@@ -275,7 +276,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
                 set_field(ints, k, CERTIFIED, 1)
         else:
             end_r_factors(ints, L, k, r_at)
-        if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
+        if i_end[k] > i0 and max_violation_into(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next, cx) > tol:
             if fstep or nf:
                 Z, Z_next, _ = _explicit(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, qs, taus, ms, nf, fstep,
                                          Qn, taun, m, n, ends0)

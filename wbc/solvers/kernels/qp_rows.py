@@ -41,10 +41,19 @@ def nearest_feasible_rows(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, margin
 @nb.njit(cache=True)
 def max_violation(C, lo, hi, x) -> float:
     """max over rows of how far l ≤ C x ≤ u is violated (0 where it holds, −inf for no rows)."""
+    if C.shape[0] == 0:
+        return -np.inf
+    return max_violation_into(C, lo, hi, x, np.empty(C.shape[0]))
+
+
+@nb.njit(cache=True)
+def max_violation_into(C, lo, hi, x, y) -> float:
+    """:func:`max_violation` with C x written into the caller's ``y`` (at least C's rows)."""
     worst = -np.inf
     if C.shape[0] == 0:
         return worst
-    y = C @ x
+    y = y[:C.shape[0]]
+    np.dot(C, x, y)
     for i in range(y.shape[0]):
         v = max(lo[i] - y[i], y[i] - hi[i])
         worst = max(worst, v)
