@@ -211,10 +211,10 @@ def _higher_bounds(Ca, la, ha, x, margin):
     """The bounds of :func:`higher_rows` on the change of every row, C_a(x + Z z) − C_a x
     (a row at, or a hair past, its bound may not move further; one with room keeps
     ``margin`` of it)."""
-    ya = Ca @ x
-    m = ya.shape[0]
-    dlo = np.empty(m)
-    dhi = np.empty(m)
+    m = Ca.shape[0]
+    fw = np.empty(3 * m)                         # C_a x, then the two bounds (views of it)
+    ya, dlo, dhi = fw[:m], fw[m:2 * m], fw[2 * m:]
+    np.dot(Ca, x, ya)
     for i in range(m):
         d = min(margin, 0.25 * (ha[i] - la[i]))
         dlo[i] = min(la[i] - ya[i] + d, 0.0)
@@ -259,8 +259,10 @@ def certified_nearest_feasible(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, m
 def least_squares_objective(AZ, r, regularization):
     """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
     k = AZ.shape[1]
-    G = AZ.T @ AZ
-    H = np.empty((k, k))                # exactly symmetric, as the QP back-ends assume
+    fw = np.empty(2 * k * k + k)        # (AZ)ᵀAZ, H and g, H and g views of it
+    G = fw[:k * k].reshape((k, k))
+    np.dot(AZ.T, AZ, G)
+    H = fw[k * k:2 * k * k].reshape((k, k))   # exactly symmetric, as the QP back-ends assume
     trace = 0.0
     for i in range(k):
         for j in range(k):
@@ -269,4 +271,8 @@ def least_squares_objective(AZ, r, regularization):
     eps = regularization * max(1.0, trace / max(k, 1))
     for i in range(k):
         H[i, i] += eps
-    return H, -(AZ.T @ r)
+    g = fw[2 * k * k:]
+    np.dot(AZ.T, r, g)
+    for i in range(k):
+        g[i] = -g[i]
+    return H, g
