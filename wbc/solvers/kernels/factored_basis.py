@@ -29,8 +29,8 @@ import numba as nb
 import numpy as np
 
 from ..lapack import SIDE_TRANS
-from .factorizations import apply_q_into, apply_reflectors
 from .profile_qr import reflect, reflect_columns
+from .reflectors import apply_q_into, apply_reflectors
 
 #: ``ends0`` of a chain whose outermost level is a LAPACK QR
 NO_ENDS = np.empty(0, dtype=np.int64)

@@ -36,36 +36,12 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..lapack import (
-    LEFT_TRANS,
-    SIDE_TRANS,
-    UPLO_DIAG,
-    dgeqp3,
-    dgeqrf,
-    dorgqr,
-    dormqr,
-    dpotrf,
-    dtrtri,
-)
+from ..lapack import LEFT_TRANS, SIDE_TRANS, UPLO_DIAG, dgeqrf, dpotrf, dtrtri
+from .cod import cod_step
+from .reflectors import apply_q, apply_reflectors
 from .sigma_min import qr_accepted, sum_squares
 
 AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
-
-
-@nb.njit(cache=True)
-def apply_reflectors(a, tau, k, v, transpose):
-    """v ← Qᵀv (``transpose``) or Qv in place, Q = H₁⋯H_k the Householder reflectors a
-    LAPACK QR (xGEQRF, xGEQP3) left below the diagonal of ``a`` with factors ``tau``."""
-    m = v.shape[0]
-    for step in range(k):
-        c = step if transpose else k - 1 - step
-        t = v[c]
-        for i in range(c + 1, m):
-            t += a[i, c] * v[i]
-        t *= tau[c]
-        v[c] -= t
-        for i in range(c + 1, m):
-            v[i] -= t * a[i, c]
 
 
 @nb.njit(cache=True)
@@ -138,24 +114,6 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
         d[i] += damping_lambda2(np.sqrt(w[i]), threshold, max_damping)
     z = V @ ((V.T @ (AZ.T @ r)) / d)
     return True, z, np.empty((0, 0)), smin, smax, lam2
-
-
-@nb.njit(cache=True)
-def apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
-    """LAPACK's dormqr: C (m × n, Fortran layout, leading dimension ``ldc``) times Q or Qᵀ as
-    ``side_trans`` says ("LT": Qᵀ C, "RT": C Qᵀ), Q the k reflectors a QR left in ``a``
-    with factors ``tau``; returns LAPACK's info (0: done)."""
-    return apply_q_into(side_trans, m, n, k, a, lda, tau, c, ldc, work, np.empty(7, dtype=np.int32))
-
-
-@nb.njit(cache=True)
-def apply_q_into(side_trans, m, n, k, a, lda, tau, c, ldc, work, io):
-    """:func:`apply_q` with LAPACK's integers in the caller's ``io`` (7 int32, overwritten)."""
-    io[0], io[1], io[2], io[3], io[4], io[5], io[6] = m, n, k, lda, ldc, work.shape[0], 0
-    dormqr(side_trans[0:].ctypes, side_trans[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
-           a.ctypes, io[3:].ctypes, tau.ctypes, c.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
-           io[6:].ctypes)
-    return io[6]
 
 
 @nb.njit(cache=True)
@@ -234,117 +192,6 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
     if apply_q(SIDE_TRANS, nm, k, m, Q, k, tau, null, nm, work) != 0:
         return False, np.empty(0), np.empty((0, 0)), R
     return True, z, null if identity else Z @ null, R
-
-
-@nb.njit(cache=True)
-def _cod_fail():
-    """:func:`_cod`'s refusal (built only when it refuses)."""
-    return False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0))
-
-
-@nb.njit(cache=True)
-def _cod(AZ, r, rank_tol, threshold):
-    """Complete orthogonal decomposition (LAPACK's xGELSY route) of a rank-deficient level:
-    AZ P = Q₁ [R₁₁ R₁₂; 0 R₂₂] (QR with column pivoting), rank ρ from |R_ii|, then
-    [R₁₁ R₁₂]ᵀ = Q₂ T. With E the dropped R₂₂ block, AZ = Q₁ Tᵀ Q₂ᵀ Pᵀ + E and
-    z = P Q₂ T⁻ᵀ Q₁ᵀ r, null(AZ) ≈ P Q₂[:, ρ:]. Accepted only when the decision is
-    certain: σ_{ρ+1} ≤ ‖E‖_F ≤ rank_tol·max(1, max column norm) (so below the SVD's
-    rank tolerance) and σ_ρ ≥ 1/‖T⁻¹‖_F − ‖E‖_F above both that tolerance and the
-    damping threshold (Weyl's inequalities)."""
-    m, k = AZ.shape
-    mn = min(m, k)
-    lwork = 64 * (m + k)
-    # the scratch in one array (a, τ, work, W, τ₂, T⁻¹, T, Q₁ᵀr, y, z; ρ ≤ min(m, k)) and LAPACK's
-    # integers in another (the pivots, then each call's sizes and info)
-    fw = np.empty(m * k + mn + lwork + k * k + mn + 2 * mn * mn + m + mn + k)
-    a = fw[:m * k].reshape((k, m)).T             # Fortran order, m × k
-    a[:, :] = AZ
-    at = m * k
-    tau = fw[at:at + mn]
-    work = fw[at + mn:at + mn + lwork]
-    at += mn + lwork
-    ints = np.zeros(k + 14, dtype=np.int32)
-    jpvt = ints[:k]
-    iw = ints[k:k + 5]
-    iw[0], iw[1], iw[2], iw[3] = m, k, m, lwork
-    dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
-           iw[3:].ctypes, iw[4:].ctypes)
-    if iw[4] != 0:
-        return _cod_fail()
-    colmax = 0.0
-    for j in range(k):
-        c2 = 0.0
-        for i in range(m):
-            c2 += AZ[i, j] * AZ[i, j]
-        colmax = max(colmax, np.sqrt(c2))
-    tol = rank_tol * max(1.0, colmax)
-    rho = 0
-    while rho < mn and abs(a[rho, rho]) > tol:
-        rho += 1
-    if rho == 0:
-        return _cod_fail()
-    e2 = 0.0                                      # ‖R₂₂‖_F²
-    for j in range(rho, k):
-        for i in range(rho, min(j + 1, m)):
-            e2 += a[i, j] * a[i, j]
-    e = np.sqrt(e2)
-    if e > tol:
-        return _cod_fail()
-    W = fw[at:at + k * k].reshape((k, k)).T       # Fortran order, k × k; [R₁₁ R₁₂]ᵀ first
-    W[:, :] = 0.0
-    at += k * k
-    for j in range(k):
-        for i in range(min(j + 1, rho)):
-            W[j, i] = a[i, j]
-    tau2 = fw[at:at + rho]
-    at += rho
-    iw2 = ints[k + 5:k + 11]
-    iw2[0], iw2[1], iw2[2], iw2[3], iw2[5] = k, rho, k, lwork, k
-    dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
-           iw2[3:].ctypes, iw2[4:].ctypes)
-    if iw2[4] != 0:
-        return _cod_fail()
-    Tinv = fw[at:at + rho * rho].reshape((rho, rho)).T
-    Tinv[:, :] = 0.0
-    T = fw[at + rho * rho:at + 2 * rho * rho].reshape((rho, rho))
-    T[:, :] = 0.0
-    at += 2 * rho * rho
-    for j in range(rho):
-        for i in range(j + 1):
-            Tinv[i, j] = W[i, j]
-            T[i, j] = W[i, j]
-    ti = ints[k + 11:k + 14]
-    ti[0], ti[1] = rho, rho
-    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
-           ti[2:].ctypes)
-    if ti[2] != 0:
-        return _cod_fail()
-    lb = 1.0 / np.sqrt(sum_squares(Tinv)) - e
-    if not lb > max(rank_tol * max(1.0, np.sqrt(sum_squares(AZ))), threshold):
-        return _cod_fail()
-    # Q₁ᵀ r through the first ρ reflectors of the pivoted QR (Q₁ is never formed)
-    c = fw[at:at + m]
-    c[:] = r
-    at += m
-    apply_reflectors(a, tau, rho, c, True)
-    dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
-           work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
-    if iw2[4] != 0:
-        return _cod_fail()
-    y = fw[at:at + rho]
-    np.dot(Tinv.T, c[:rho], y)
-    z = fw[at + rho:at + rho + k]
-    z[:] = 0.0
-    for j in range(rho):                          # z = Q₂[:, :ρ] y, column after column
-        yj = y[j]
-        for i in range(k):
-            z[i] += yj * W[i, j]
-    zp = np.empty(k)
-    null = np.empty((k, k - rho))
-    for i in range(k):
-        zp[jpvt[i] - 1] = z[i]
-        null[jpvt[i] - 1, :] = W[i, rho:]
-    return True, zp, null, rho, T
 
 
 @nb.njit(cache=True)
@@ -511,7 +358,8 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     n = x.shape[0]
     m, k = AZ.shape
     if not (all_finite(AZ) and all_finite(r.reshape((1, r.shape[0])))):
-        return True, path, 0, np.nan, np.nan, 0.0, pack_step(np.full(k, np.nan), np.full(n, np.nan), np.empty((0, 0))), np.empty((n, 0))
+        nan_step = pack_step(np.full(k, np.nan), np.full(n, np.nan), np.empty((0, 0)))
+        return True, path, 0, np.nan, np.nan, 0.0, nan_step, np.empty((n, 0))
     route = path
     if route == AUTO:
         route = GRAM if m >= k else QR
@@ -534,7 +382,7 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
             return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
         route = COD
     if route == COD:
-        ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
+        ok, z, null, rank, T = cod_step(AZ, r, rank_tol, threshold)
         if ok:
             Z_next = null if identity else Z @ null
             return True, COD, rank, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), T), Z_next
