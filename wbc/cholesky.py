@@ -17,16 +17,24 @@ def cholesky_lower(S, floor):
     S's units; a NaN pivot fails too). O(n³/3) operations in compiled loops."""
     n = S.shape[0]
     L = np.zeros((n, n))
+    return L, cholesky_lower_into(S, floor, L)
+
+
+@nb.njit(cache=True)
+def cholesky_lower_into(S, floor, L):
+    """:func:`cholesky_lower` written into ``L`` (n × n; only its lower triangle is written and
+    read, the rest left as it was), for a caller that holds its scratch; returns the flag."""
+    n = S.shape[0]
     for j in range(n):
         d = S[j, j]
         for p in range(j):
             d -= L[j, p] * L[j, p]
         if not d > floor:
-            return L, False
+            return False
         L[j, j] = np.sqrt(d)
         for i in range(j + 1, n):
             t = S[i, j]
             for p in range(j):
                 t -= L[i, p] * L[j, p]
             L[i, j] = t / L[j, j]
-    return L, True
+    return True

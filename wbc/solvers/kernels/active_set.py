@@ -39,7 +39,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ...cholesky import cholesky_lower
+from ...cholesky import cholesky_lower_into
 from ..lapack import UPLO_DIAG, dpotrf, dtrtri
 
 #: a multiplier of the wrong sign smaller than this, relative to the largest, is taken
@@ -84,7 +84,15 @@ def inverse_factor(H):
     """(ok, U⁻¹) with H = UᵀU (Cholesky, LAPACK), so H⁻¹ = U⁻¹U⁻ᵀ; ok False when H is not
     positive definite. H's upper triangle is read."""
     k = H.shape[0]
-    U = np.empty((k, k)).T                        # Fortran order: H = UᵀU, then U⁻¹
+    Ui = np.empty((k, k))
+    return inverse_factor_into(H, np.empty((k, k)).T, Ui), Ui
+
+
+@nb.njit(cache=True)
+def inverse_factor_into(H, U, Ui):
+    """:func:`inverse_factor` in the caller's scratch: ``U`` k × k Fortran-order (overwritten),
+    U⁻¹ written into ``Ui`` (k × k, C order); returns ok (``Ui`` undefined when False)."""
+    k = H.shape[0]
     for j in range(k):
         for i in range(j + 1):
             U[i, j] = H[i, j]
@@ -93,11 +101,12 @@ def inverse_factor(H):
     ki = np.array([k, max(k, 1), 0], dtype=np.int32)      # n, lda (LAPACK: ≥ 1 also when n = 0), info
     dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] != 0:
-        return False, np.empty((0, 0))
+        return False
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] != 0:
-        return False, np.empty((0, 0))
-    return True, np.ascontiguousarray(U)
+        return False
+    Ui[:, :] = U
+    return True
 
 
 @nb.njit(cache=True)
@@ -117,11 +126,43 @@ def certified_factored(Ui, z0, C, lo, hi, tol, side0):
     same H and g factors H and forms z₀ once)."""
     k = Ui.shape[0]
     m = C.shape[0]
+    return certified_into(Ui, z0, C, lo, hi, tol, side0, np.empty(certified_floats(k, m)),
+                          np.empty(m + min(m, k), dtype=np.int64))
+
+
+@nb.njit(cache=True)
+def certified_floats(k, m):
+    """The float scratch :func:`certified_into` takes for k free directions and m rows: the rows'
+    values at z₀ and at z (2m), the working set's multipliers, its right-hand side, B λ, U⁻¹ B λ
+    and z, and C_W, B = U⁻ᵀC_Wᵀ, S = BᵀB and S's factor, for at most w = min(m, k) rows in W."""
+    w = min(m, k)
+    return 2 * m + 3 * k + 2 * w + 2 * w * k + 2 * w * w
+
+
+@nb.njit(cache=True)
+def certified_into(Ui, z0, C, lo, hi, tol, side0, fw, iw):
+    """:func:`certified_factored` in the caller's scratch: ``fw`` of :func:`certified_floats`
+    (k, m) floats, ``iw`` of m + min(m, k) ints. The same operations in the same order (each
+    product the same BLAS call, written into its slot of ``fw``): the same z to the bit; z is
+    z₀ or a view of ``fw``, valid until ``fw`` is used again."""
+    k = Ui.shape[0]
+    m = C.shape[0]
+    w = min(m, k)
     none = np.empty(0)
-    if not np.all(np.isfinite(z0)):
-        return False, none
-    y0 = C @ z0
-    side = np.zeros(m, dtype=np.int64)
+    for i in range(z0.shape[0]):
+        if not np.isfinite(z0[i]):
+            return False, none
+    y0 = fw[0:m]
+    np.dot(C, z0, y0)
+    y = fw[m:2 * m]
+    at = 2 * m
+    e_all, lam_all = fw[at:at + w], fw[at + w:at + 2 * w]
+    at += 2 * w
+    t, u, zs = fw[at:at + k], fw[at + k:at + 2 * k], fw[at + 2 * k:at + 3 * k]
+    at += 3 * k
+    cw_at, b_at, s_at, l_at = at, at + w * k, at + 2 * w * k, at + 2 * w * k + w * w
+    side = iw[0:m]
+    side[:] = 0
     nw = 0
     for i in range(m):
         if y0[i] != y0[i]:                          # NaN
@@ -141,7 +182,7 @@ def certified_factored(Ui, z0, C, lo, hi, tol, side0):
     for _ in range(MAX_SWAPS + 1):
         if nw > k:
             return False, none
-        W = np.empty(nw, dtype=np.int64)
+        W = iw[m:m + nw]
         j = 0
         for i in range(m):
             if side[i] != 0:
@@ -149,15 +190,18 @@ def certified_factored(Ui, z0, C, lo, hi, tol, side0):
                 j += 1
         z = z0
         if nw:
-            e = np.empty(nw)
-            Cw = np.empty((nw, k))
+            e = e_all[:nw]
+            Cw = fw[cw_at:cw_at + nw * k].reshape((nw, k))
             for j in range(nw):
                 i = W[j]
                 e[j] = y0[i] - (hi[i] if side[i] > 0 else lo[i])
                 Cw[j] = C[i]
-            B = Ui.T @ Cw.T                       # U⁻ᵀC_Wᵀ, so S = BᵀB
-            lam = _cholesky_solve(B.T @ B, e)
-            if lam.shape[0] == 0:
+            B = fw[b_at:b_at + k * nw].reshape((k, nw))
+            np.dot(Ui.T, Cw.T, B)                 # U⁻ᵀC_Wᵀ, so S = BᵀB
+            S = fw[s_at:s_at + nw * nw].reshape((nw, nw))
+            np.dot(B.T, B, S)
+            lam = lam_all[:nw]
+            if not _cholesky_solve(S, e, fw[l_at:l_at + nw * nw].reshape((nw, nw)), lam):
                 return False, none
             # the multiplier of the wrong sign furthest from zero leaves W (a row with
             # lo = hi holds either way)
@@ -174,9 +218,13 @@ def certified_factored(Ui, z0, C, lo, hi, tol, side0):
                 side[W[jd]] = 0
                 nw -= 1
                 continue
-            z = z0 - Ui @ (B @ lam)
+            np.dot(B, lam, t)                     # z = z₀ − U⁻¹ (B λ)
+            np.dot(Ui, t, u)
+            for i in range(k):
+                zs[i] = z0[i] - u[i]
+            z = zs
         # the row furthest outside its bounds joins W
-        y = C @ z
+        np.dot(C, z, y)
         worst, ip, sp = tol, -1, 0
         for i in range(m):
             if y[i] != y[i]:
@@ -198,17 +246,17 @@ def certified_factored(Ui, z0, C, lo, hi, tol, side0):
 
 
 @nb.njit(cache=True)
-def _cholesky_solve(S, e):
-    """S⁻¹e for a small symmetric S by Cholesky; empty if a pivot falls below
-    ``PIVOT_TOL`` of S's largest diagonal entry (S singular to working accuracy)."""
+def _cholesky_solve(S, e, L, x):
+    """x ← S⁻¹e for a small symmetric S by Cholesky (its factor written in ``L``, n × n scratch);
+    False if a pivot falls below ``PIVOT_TOL`` of S's largest diagonal entry (S singular to
+    working accuracy)."""
     n = S.shape[0]
     big = 0.0
     for i in range(n):
         big = max(big, S[i, i])
-    L, ok = cholesky_lower(S, PIVOT_TOL * big)
-    if not ok:
-        return np.empty(0)
-    x = e.copy()
+    if not cholesky_lower_into(S, PIVOT_TOL * big, L):
+        return False
+    x[:] = e
     for i in range(n):                            # L w = e
         for p in range(i):
             x[i] -= L[i, p] * x[p]
@@ -217,4 +265,4 @@ def _cholesky_solve(S, e):
         for p in range(i + 1, n):
             x[i] -= L[p, i] * x[p]
         x[i] /= L[i, i]
-    return x
+    return True

@@ -25,8 +25,8 @@ from .factorizations import (
     qr_factor,
     step_from,
 )
-from .profile_qr import householder_rows, profile_order, reflect, row_ends, upper_inverse
-from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation
+from .profile_qr import householder_rows, profile_order, reflect, row_ends, upper_inverse_into
+from .qp_rows import certified_higher, certified_nearest_feasible, least_squares_objective, max_violation_into
 from .records import (
     CERTIFIED,
     LEVEL_FLOATS,
@@ -40,7 +40,7 @@ from .records import (
     set_field,
     start_level,
 )
-from .sigma_min import qr_accepted
+from .sigma_min import qr_accepted, sum_squares
 
 
 @nb.njit(cache=True)
@@ -98,17 +98,19 @@ def _profiled_qr(A, r, rank_tol, threshold):
     for j in range(m):
         V[j] = A[order[j]]
     tau = np.empty(m)
-    rdiag = np.empty(m)
+    fw = np.zeros(2 * m * m + m + n)             # the scratch: R, R⁻¹, R's diagonal, a row
+    R = fw[:m * m].reshape((m, m))
+    Rinv = fw[m * m:2 * m * m].reshape((m, m))
+    rdiag = fw[2 * m * m:2 * m * m + m]
     ends = row_ends(V)
-    R = np.zeros((m, m))
-    if not householder_rows(V, tau, rdiag, ends, np.empty(n)):
+    if not householder_rows(V, tau, rdiag, ends, fw[2 * m * m + m:]):
         return False, np.empty(0), V.T, tau, R, ends
     for j in range(m):                            # row j of V: (R[0..j−1, j], R[j, j], v_j)
         for i in range(j):
             R[i, j] = V[j, i]
         R[j, j] = rdiag[j]
-    Rinv = upper_inverse(R)
-    if not qr_accepted(Rinv, np.sqrt(np.sum(A * A)), rank_tol, threshold):
+    upper_inverse_into(R, Rinv)
+    if not qr_accepted(Rinv, np.sqrt(sum_squares(A)), rank_tol, threshold):
         return False, np.empty(0), V.T, tau, R, ends
     z = np.zeros(n)                               # z = Q [R⁻ᵀ P r; 0]
     for i in range(m):
@@ -179,7 +181,9 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
     (:func:`cascade_prefix_profiled`)."""
     A, b, e_end = eq
     C, lo, hi, i_end = ineq
-    Z_keep, identity_keep = np.empty((0, 0)), True
+    none = np.empty((0, 0))                      # one empty basis for every level that has none yet
+    cx = np.empty(C.shape[0])                    # C x̂ of the inequality checks
+    Z_keep, identity_keep = none, True
     x0, Z0, identity0, k0, calls0 = start
     rank_tol, threshold, max_damping, gram_min_ratio, tol, certify, regularization, margin = settings
     L = e_end.shape[0]
@@ -212,7 +216,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
         x_next = x
         fstep = 0                                # 1: QR step, reflectors kept; 2: orthonormal shortcut
         Qn, taun = qs[0], taus[0]
-        Z_next = np.empty((0, 0))
+        Z_next = none
         if m and dof:
             Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
             path = hint_route(hints, calls, m, dof)
@@ -257,7 +261,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
             end_r_factors(ints, L, k, r_at)
             calls += 1
             set_calls(ints, L, calls)
-            if rank and i0 and max_violation(C[:i0], lo[:i0], hi[:i0], x_next) > tol:
+            if rank and i0 and max_violation_into(C[:i0], lo[:i0], hi[:i0], x_next, cx) > tol:
                 if fstep or nf:
                     Z, Z_next, AZ = _explicit(Ak, bk, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n,
                                               ends0)
@@ -272,7 +276,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
                 set_field(ints, k, CERTIFIED, 1)
         else:
             end_r_factors(ints, L, k, r_at)
-        if i_end[k] > i0 and max_violation(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next) > tol:
+        if i_end[k] > i0 and max_violation_into(C[:i_end[k]], lo[:i_end[k]], hi[:i_end[k]], x_next, cx) > tol:
             if fstep or nf:
                 Z, Z_next, _ = _explicit(A[e0:e_end[k]], b[e0:e_end[k]], x, Z, identity, qs, taus, ms, nf, fstep,
                                          Qn, taun, m, n, ends0)

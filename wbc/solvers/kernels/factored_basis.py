@@ -29,8 +29,8 @@ import numba as nb
 import numpy as np
 
 from ..lapack import SIDE_TRANS
-from .factorizations import apply_q, apply_reflectors
 from .profile_qr import reflect, reflect_columns
+from .reflectors import apply_q_into, apply_reflectors
 
 #: ``ends0`` of a chain whose outermost level is a LAPACK QR
 NO_ENDS = np.empty(0, dtype=np.int64)
@@ -48,26 +48,31 @@ def _apply(qs, taus, ms, level, ends0, v, transpose):
 @nb.njit(cache=True)
 def rows_through(A, qs, taus, ms, nf, ends0):
     """A Z (m × k_nf) for the rows of A (m × n), Z the basis the reflectors keep."""
-    m = A.shape[0]
+    m, n = A.shape
     k = qs[nf - 1].shape[0] - ms[nf - 1]
     AZ = np.empty((m, k))
+    v = np.empty(n)                              # each row's scratch, reflected in place
     if ends0.shape[0]:                           # a profiled level 0: all rows through it at once
         W = np.ascontiguousarray(A.T)
         reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, True)
+        u = v[:n - ms[0]]
         for i in range(m):
-            AZ[i] = _through(W[ms[0]:, i].copy(), qs, taus, ms, 1, nf)
+            u[:] = W[ms[0]:, i]
+            AZ[i] = _through(u, qs, taus, ms, 1, nf)
         return AZ
     for i in range(m):
-        AZ[i] = _through(A[i].copy(), qs, taus, ms, 0, nf)
+        v[:] = A[i]
+        AZ[i] = _through(v, qs, taus, ms, 0, nf)
     return AZ
 
 
 @nb.njit(cache=True)
 def _through(v, qs, taus, ms, first, nf):
-    """v (overwritten) through the LAPACK levels ``first`` .. nf − 1: their Zᵀ."""
+    """v (overwritten) through the LAPACK levels ``first`` .. nf − 1: their Zᵀ, a view of v's tail
+    (each level's reflectors applied in place, its first m entries dropped: no copy)."""
     for level in range(first, nf):
         apply_reflectors(qs[level], taus[level], ms[level], v, True)
-        v = v[ms[level]:].copy()
+        v = v[ms[level]:]
     return v
 
 
@@ -77,7 +82,7 @@ def transposed_times(u, qs, taus, ms, nf, ends0):
     v = u.copy()
     for level in range(nf):
         _apply(qs, taus, ms, level, ends0, v, True)
-        v = v[ms[level]:].copy()
+        v = v[ms[level]:]                        # a view of the tail: no copy
     return v
 
 
@@ -101,19 +106,28 @@ def explicit_basis(qs, taus, ms, nf, ends0):
     last = nf - 1
     k = qs[last].shape[0]
     p = k - ms[last]
-    W = np.zeros((k, p))
+    n = qs[0].shape[0]
+    # two n × p slots taken in turn by the levels' products, and dormqr's work, in one array;
+    # Z is a view of it
+    fw = np.empty(2 * n * p + 64 * n)
+    work = fw[2 * n * p:]
+    io = np.empty(7, dtype=np.int32)
+    W = fw[:k * p].reshape((k, p))
+    W[:, :] = 0.0
     for j in range(p):
         W[ms[last] + j, j] = 1.0
-    work = np.empty(64 * qs[0].shape[0])
+    slot = 0
     for level in range(last, -1, -1):
         k = qs[level].shape[0]
         if level < last:
-            V = np.zeros((k, p))
+            slot = 1 - slot
+            V = fw[slot * n * p:slot * n * p + k * p].reshape((k, p))
+            V[:ms[level]] = 0.0
             V[ms[level]:] = W
             W = V
         if level == 0 and ends0.shape[0]:
             reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, False)
-        elif apply_q(SIDE_TRANS, p, k, ms[level], qs[level], k, taus[level], W, p, work) != 0:
+        elif apply_q_into(SIDE_TRANS, p, k, ms[level], qs[level], k, taus[level], W, p, work, io) != 0:
             W[:, :] = np.nan       # never seen: LAPACK's argument check; a NaN step is reported as a failed cycle
     return W
 

@@ -36,53 +36,12 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..lapack import (
-    LEFT_TRANS,
-    SIDE_TRANS,
-    UPLO_DIAG,
-    dgeqp3,
-    dgeqrf,
-    dorgqr,
-    dormqr,
-    dpotrf,
-    dtrtri,
-)
-from .sigma_min import qr_accepted
+from ..lapack import LEFT_TRANS, SIDE_TRANS, UPLO_DIAG, dgeqrf, dpotrf, dtrtri
+from .cod import cod_step
+from .reflectors import apply_q, apply_reflectors
+from .sigma_min import qr_accepted, sum_squares
 
 AUTO, SVD, QR, GRAM, COD = 0, 1, 2, 3, 4
-
-
-@nb.njit(cache=True)
-def apply_reflectors(a, tau, k, v, transpose):
-    """v ← Qᵀv (``transpose``) or Qv in place, Q = H₁⋯H_k the Householder reflectors a
-    LAPACK QR (xGEQRF, xGEQP3) left below the diagonal of ``a`` with factors ``tau``."""
-    m = v.shape[0]
-    for step in range(k):
-        c = step if transpose else k - 1 - step
-        t = v[c]
-        for i in range(c + 1, m):
-            t += a[i, c] * v[i]
-        t *= tau[c]
-        v[c] -= t
-        for i in range(c + 1, m):
-            v[i] -= t * a[i, c]
-
-
-@nb.njit(cache=True)
-def sum_squares(a) -> float:
-    """Σ a_ij² over a 2-D array in its memory order (what numba's ``np.sum(a * a)`` gives, bit for
-    bit, without its temporary array: one allocation less per call, where a small level's step
-    makes ~30)."""
-    s = 0.0
-    if a.flags.f_contiguous and not a.flags.c_contiguous:
-        for j in range(a.shape[1]):
-            for i in range(a.shape[0]):
-                s += a[i, j] * a[i, j]
-        return s
-    for i in range(a.shape[0]):
-        for j in range(a.shape[1]):
-            s += a[i, j] * a[i, j]
-    return s
 
 
 @nb.njit(cache=True)
@@ -116,25 +75,35 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
     G = V Σ² Vᵀ, exact σ, damped if σ_min < ε. Returns (ok, z, U or empty, σ_min,
     σ_max, λ²); σ are NaN on the Cholesky branch (they come from U on demand)."""
     k = AZ.shape[1]
-    G = AZ.T @ AZ
-    U = np.empty((k, k)).T                       # Fortran order
+    fw = np.empty(4 * k * k + 3 * k)             # the scratch: G, U, U⁻¹, U in C order, three k-vectors
+    G = fw[:k * k].reshape((k, k))
+    np.dot(AZ.T, AZ, G)
+    U = fw[k * k:2 * k * k].reshape((k, k)).T    # Fortran order
     for j in range(k):
         for i in range(j + 1):
             U[i, j] = 0.5 * (G[i, j] + G[j, i])
         for i in range(j + 1, k):
             U[i, j] = 0.0
-    ki = np.array([k, max(k, 1), 0], dtype=np.int32)     # n, lda (LAPACK: ≥ 1 also when n = 0), info
+    ki = np.zeros(3, dtype=np.int32)             # n, lda (LAPACK: ≥ 1 also when n = 0), info
+    ki[0], ki[1] = k, max(k, 1)
     dpotrf(UPLO_DIAG[0:].ctypes, ki[0:].ctypes, U.ctypes, ki[1:].ctypes, ki[2:].ctypes)
     if ki[2] == 0:
-        Uinv = U.copy().T.copy().T               # Fortran-order copy
+        Uinv = fw[2 * k * k:3 * k * k].reshape((k, k)).T   # Fortran-order copy
+        Uinv[:, :] = U
         dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ki[0:].ctypes, Uinv.ctypes, ki[1:].ctypes,
                ki[2:].ctypes)
         if ki[2] == 0:
             ub2 = sum_squares(AZ)                # ≥ σ_max²
             lb2 = 1.0 / sum_squares(Uinv)        # ≤ σ_min²
             if lb2 >= gram_min_ratio * ub2 and np.sqrt(lb2) > max(rank_tol * max(1.0, np.sqrt(ub2)), threshold):
-                z = Uinv @ (Uinv.T @ (AZ.T @ r))
-                return True, z, np.ascontiguousarray(U), np.nan, np.nan, 0.0
+                at = 4 * k * k
+                t, u, z = fw[at:at + k], fw[at + k:at + 2 * k], fw[at + 2 * k:at + 3 * k]
+                np.dot(AZ.T, r, t)               # z = U⁻¹ (U⁻ᵀ ((AZ)ᵀ r))
+                np.dot(Uinv.T, t, u)
+                np.dot(Uinv, u, z)
+                Uc = fw[3 * k * k:4 * k * k].reshape((k, k))
+                Uc[:, :] = U
+                return True, z, Uc, np.nan, np.nan, 0.0
     w, V = np.linalg.eigh(0.5 * (G + G.T))
     if not w[k - 1] > 0.0 or w[0] < gram_min_ratio * w[k - 1]:
         return False, np.empty(0), np.empty((0, 0)), 0.0, 0.0, 0.0
@@ -145,18 +114,6 @@ def _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio):
         d[i] += damping_lambda2(np.sqrt(w[i]), threshold, max_damping)
     z = V @ ((V.T @ (AZ.T @ r)) / d)
     return True, z, np.empty((0, 0)), smin, smax, lam2
-
-
-@nb.njit(cache=True)
-def apply_q(side_trans, m, n, k, a, lda, tau, c, ldc, work):
-    """LAPACK's dormqr: C (m × n, Fortran layout, leading dimension ``ldc``) times Q or Qᵀ as
-    ``side_trans`` says ("LT": Qᵀ C, "RT": C Qᵀ), Q the k reflectors a QR left in ``a``
-    with factors ``tau``; returns LAPACK's info (0: done)."""
-    io = np.array([m, n, k, lda, ldc, work.shape[0], 0], dtype=np.int32)   # M, N, K, lda, ldc, lwork, info
-    dormqr(side_trans[0:].ctypes, side_trans[1:].ctypes, io[0:].ctypes, io[1:].ctypes, io[2:].ctypes,
-           a.ctypes, io[3:].ctypes, tau.ctypes, c.ctypes, io[4:].ctypes, work.ctypes, io[5:].ctypes,
-           io[6:].ctypes)
-    return io[6]
 
 
 @nb.njit(cache=True)
@@ -171,27 +128,34 @@ def qr_factor(AZ, r, rank_tol, threshold):
     Q[:, :m] = AZ.T
     tau = np.empty(m)
     lwork = 64 * k
-    work = np.empty(lwork)
-    iw = np.array([k, m, k, lwork, 0, k], dtype=np.int32)   # m, n, lda, lwork, info, ncols(Q)
+    fw = np.empty(lwork + 2 * m * m + m)         # the scratch: work, R, R⁻¹, R⁻ᵀr
+    work = fw[:lwork]
+    iw = np.zeros(9, dtype=np.int32)             # m, n, lda, lwork, info, ncols(Q); then dtrtri's n, lda, info
+    iw[0], iw[1], iw[2], iw[3], iw[5] = k, m, k, lwork, k
     dgeqrf(iw[0:].ctypes, iw[1:].ctypes, Q.ctypes, iw[2:].ctypes, tau.ctypes, work.ctypes,
            iw[3:].ctypes, iw[4:].ctypes)
-    R = np.zeros((m, m))
-    Rinv = np.zeros((m, m)).T                    # Fortran order, upper triangle of R
+    R = fw[lwork:lwork + m * m].reshape((m, m))
+    R[:, :] = 0.0
+    Rinv = fw[lwork + m * m:lwork + 2 * m * m].reshape((m, m)).T   # Fortran order, upper triangle of R
+    Rinv[:, :] = 0.0
     if iw[4] != 0:
         return False, np.empty(0), Q, tau, R, work
     for j in range(m):
         for i in range(j + 1):
             R[i, j] = Q[i, j]
             Rinv[i, j] = Q[i, j]
-    mi = np.array([m, m, 0], dtype=np.int32)     # n, lda, info
+    mi = iw[6:9]                                 # n, lda, info
+    mi[0], mi[1] = m, m
     dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, mi[0:].ctypes, Rinv.ctypes, mi[1:].ctypes,
            mi[2:].ctypes)
     if mi[2] != 0:
         return False, np.empty(0), Q, tau, R, work
-    if not qr_accepted(Rinv, np.sqrt(np.sum(AZ * AZ)), rank_tol, threshold):   # ‖AZ‖_F ≥ σ_max
+    if not qr_accepted(Rinv, np.sqrt(sum_squares(AZ)), rank_tol, threshold):   # ‖AZ‖_F ≥ σ_max
         return False, np.empty(0), Q, tau, R, work
+    y = fw[lwork + 2 * m * m:]
+    np.dot(Rinv.T, r, y)
     z = np.zeros(k)                              # z = Q₁ y = Q [y; 0]
-    z[:m] = Rinv.T @ r
+    z[:m] = y
     apply_reflectors(Q, tau, m, z, False)
     return True, z, Q, tau, R, work
 
@@ -231,94 +195,6 @@ def _qr(AZ, r, rank_tol, threshold, Z, identity):
 
 
 @nb.njit(cache=True)
-def _cod(AZ, r, rank_tol, threshold):
-    """Complete orthogonal decomposition (LAPACK's xGELSY route) of a rank-deficient level:
-    AZ P = Q₁ [R₁₁ R₁₂; 0 R₂₂] (QR with column pivoting), rank ρ from |R_ii|, then
-    [R₁₁ R₁₂]ᵀ = Q₂ T. With E the dropped R₂₂ block, AZ = Q₁ Tᵀ Q₂ᵀ Pᵀ + E and
-    z = P Q₂ T⁻ᵀ Q₁ᵀ r, null(AZ) ≈ P Q₂[:, ρ:]. Accepted only when the decision is
-    certain: σ_{ρ+1} ≤ ‖E‖_F ≤ rank_tol·max(1, max column norm) (so below the SVD's
-    rank tolerance) and σ_ρ ≥ 1/‖T⁻¹‖_F − ‖E‖_F above both that tolerance and the
-    damping threshold (Weyl's inequalities)."""
-    m, k = AZ.shape
-    a = np.empty((k, m)).T                       # Fortran order, m × k
-    a[:, :] = AZ
-    jpvt = np.zeros(k, dtype=np.int32)
-    mn = min(m, k)
-    tau = np.empty(mn)
-    lwork = 64 * (m + k)
-    work = np.empty(lwork)
-    iw = np.array([m, k, m, lwork, 0], dtype=np.int32)
-    fail = (False, np.empty(0), np.empty((0, 0)), 0, np.empty((0, 0)))
-    dgeqp3(iw[0:].ctypes, iw[1:].ctypes, a.ctypes, iw[2:].ctypes, jpvt.ctypes, tau.ctypes, work.ctypes,
-           iw[3:].ctypes, iw[4:].ctypes)
-    if iw[4] != 0:
-        return fail
-    colmax = 0.0
-    for j in range(k):
-        c2 = 0.0
-        for i in range(m):
-            c2 += AZ[i, j] * AZ[i, j]
-        colmax = max(colmax, np.sqrt(c2))
-    tol = rank_tol * max(1.0, colmax)
-    rho = 0
-    while rho < mn and abs(a[rho, rho]) > tol:
-        rho += 1
-    if rho == 0:
-        return fail
-    e2 = 0.0                                      # ‖R₂₂‖_F²
-    for j in range(rho, k):
-        for i in range(rho, min(j + 1, m)):
-            e2 += a[i, j] * a[i, j]
-    e = np.sqrt(e2)
-    if e > tol:
-        return fail
-    W = np.empty((k, k)).T                        # Fortran order, k × k; [R₁₁ R₁₂]ᵀ first
-    W[:, :] = 0.0
-    for j in range(k):
-        for i in range(min(j + 1, rho)):
-            W[j, i] = a[i, j]
-    tau2 = np.empty(rho)
-    iw2 = np.array([k, rho, k, lwork, 0, k], dtype=np.int32)
-    dgeqrf(iw2[0:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes, work.ctypes,
-           iw2[3:].ctypes, iw2[4:].ctypes)
-    if iw2[4] != 0:
-        return fail
-    Tinv = np.zeros((rho, rho)).T
-    T = np.zeros((rho, rho))
-    for j in range(rho):
-        for i in range(j + 1):
-            Tinv[i, j] = W[i, j]
-            T[i, j] = W[i, j]
-    ti = np.array([rho, rho, 0], dtype=np.int32)
-    dtrtri(UPLO_DIAG[0:].ctypes, UPLO_DIAG[1:].ctypes, ti[0:].ctypes, Tinv.ctypes, ti[1:].ctypes,
-           ti[2:].ctypes)
-    if ti[2] != 0:
-        return fail
-    lb = 1.0 / np.sqrt(sum_squares(Tinv)) - e
-    if not lb > max(rank_tol * max(1.0, np.sqrt(sum_squares(AZ))), threshold):
-        return fail
-    # Q₁ᵀ r through the first ρ reflectors of the pivoted QR (Q₁ is never formed)
-    c = r.copy()
-    apply_reflectors(a, tau, rho, c, True)
-    dorgqr(iw2[0:].ctypes, iw2[5:].ctypes, iw2[1:].ctypes, W.ctypes, iw2[2:].ctypes, tau2.ctypes,
-           work.ctypes, iw2[3:].ctypes, iw2[4:].ctypes)
-    if iw2[4] != 0:
-        return fail
-    y = Tinv.T @ c[:rho]
-    z = np.zeros(k)
-    for j in range(rho):                          # z = Q₂[:, :ρ] y, column after column
-        yj = y[j]
-        for i in range(k):
-            z[i] += yj * W[i, j]
-    zp = np.empty(k)
-    null = np.empty((k, k - rho))
-    for i in range(k):
-        zp[jpvt[i] - 1] = z[i]
-        null[jpvt[i] - 1, :] = W[i, rho:]
-    return True, zp, null, rho, T
-
-
-@nb.njit(cache=True)
 def _svd(AZ, r, rank_tol, threshold, max_damping):
     m, k = AZ.shape
     U, s, Vt = np.linalg.svd(AZ, full_matrices=m < k)
@@ -355,20 +231,27 @@ def unit_columns(A):
     """The column of the 1 in each row of A when every row is a unit row e_jᵀ (a posture's
     joint rows, a wrench target's force rows), else an empty array; stops at the first
     row that is not (a Jacobian's first row, usually)."""
-    m, n = A.shape
+    m = A.shape[0]
     cols = np.empty(m, dtype=np.int64)
     for i in range(m):
-        c = -1
-        for j in range(n):
-            a = A[i, j]
-            if a != 0.0:
-                if a != 1.0 or c >= 0:
-                    return np.empty(0, dtype=np.int64)
-                c = j
+        c = unit_column(A, i)
         if c < 0:
             return np.empty(0, dtype=np.int64)
         cols[i] = c
     return cols
+
+
+@nb.njit(cache=True)
+def unit_column(A, i):
+    """The column of the 1 when row i of A is a unit row e_jᵀ, else −1."""
+    c = -1
+    for j in range(A.shape[1]):
+        a = A[i, j]
+        if a != 0.0:
+            if a != 1.0 or c >= 0:
+                return -1
+            c = j
+    return c
 
 
 @nb.njit(cache=True)
@@ -381,15 +264,26 @@ def projected_rows(A, b, x, Z, identity):
 
 
 @nb.njit(cache=True)
+def _general_rows(A, b, x, Z, identity):
+    """:func:`projected_rows_full` for rows that are not all unit rows: (A Z, b − A x̂, False)."""
+    r = A @ x                                    # b − A x̂, in place
+    for i in range(A.shape[0]):
+        r[i] = b[i] - r[i]
+    return (A if identity else A @ Z), r, False
+
+
+@nb.njit(cache=True)
 def projected_rows_full(A, b, x, Z, identity):
     """:func:`projected_rows`, and whether A's rows are unit rows on every coordinate of x
     once each (a permutation: a posture of a fixed-base robot over all of q̈ or q̇). Then
     A Z has orthonormal columns, since Z does (every basis the cascade makes is an
     orthonormal one: Q factors, right singular vectors and their products)."""
-    cols = unit_columns(A)
     m = A.shape[0]
-    if cols.shape[0] == 0 or m == 0:
-        return (A if identity else A @ Z), b - A @ x, False
+    if m == 0 or unit_column(A, 0) < 0:          # a general row first: nothing allocated to find it
+        return _general_rows(A, b, x, Z, identity)
+    cols = unit_columns(A)
+    if cols.shape[0] == 0:
+        return _general_rows(A, b, x, Z, identity)
     n = x.shape[0]
     full = m == n
     if full:
@@ -463,38 +357,37 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
     to have orthonormal columns (:func:`_orthonormal`)."""
     n = x.shape[0]
     m, k = AZ.shape
-    R = np.empty((0, 0))
-    none = np.empty((n, 0))
     if not (all_finite(AZ) and all_finite(r.reshape((1, r.shape[0])))):
-        return True, path, 0, np.nan, np.nan, 0.0, pack_step(np.full(k, np.nan), np.full(n, np.nan), R), none
+        nan_step = pack_step(np.full(k, np.nan), np.full(n, np.nan), np.empty((0, 0)))
+        return True, path, 0, np.nan, np.nan, 0.0, nan_step, np.empty((n, 0))
     route = path
     if route == AUTO:
         route = GRAM if m >= k else QR
     if orthonormal and route == GRAM:
         ok, z = _orthonormal(AZ, r, rank_tol, threshold, gram_min_ratio)
         if ok:
-            return True, GRAM, k, 1.0, 1.0, 0.0, pack_step(z, x + (z if identity else Z @ z), R), none
+            return True, GRAM, k, 1.0, 1.0, 0.0, pack_step(z, x + (z if identity else Z @ z), np.empty((0, 0))), np.empty((n, 0))
     if route == GRAM:
         ok, z, U, smin, smax, lam2 = _gram(AZ, r, rank_tol, threshold, max_damping, gram_min_ratio)
         if ok:
-            return True, GRAM, k, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), U), none
+            return True, GRAM, k, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), U), np.empty((n, 0))
         if strict:
-            return False, GRAM, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
+            return False, GRAM, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
         route = COD
     elif route == QR:
         ok, z, Z_next, Rq = _qr(AZ, r, rank_tol, threshold, Z, identity)
         if ok:
             return True, QR, m, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), Rq), Z_next
         if strict:
-            return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
+            return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
         route = COD
     if route == COD:
-        ok, z, null, rank, T = _cod(AZ, r, rank_tol, threshold)
+        ok, z, null, rank, T = cod_step(AZ, r, rank_tol, threshold)
         if ok:
             Z_next = null if identity else Z @ null
             return True, COD, rank, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), T), Z_next
         if strict:
-            return False, COD, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, R), none
+            return False, COD, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
     z, null, rank, smin, smax, lam2 = _svd(AZ, r, rank_tol, threshold, max_damping)
     Z_next = null if identity else Z @ null
-    return True, SVD, rank, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), R), Z_next
+    return True, SVD, rank, smin, smax, lam2, pack_step(z, x + (z if identity else Z @ z), np.empty((0, 0))), Z_next

@@ -9,7 +9,7 @@ import numba as nb
 import numpy as np
 
 from ..lapack import dgeqrf
-from .factorizations import apply_reflectors
+from .reflectors import apply_reflectors
 
 
 @nb.njit(cache=True)

@@ -107,6 +107,15 @@ def upper_inverse(R):
     (X[i] = (e_i − Σ_{p>i} R[i, p] X[p]) / R[i, i]: contiguous rows)."""
     m = R.shape[0]
     X = np.zeros((m, m))
+    upper_inverse_into(R, X)
+    return X
+
+
+@nb.njit(cache=True, fastmath=True)
+def upper_inverse_into(R, X):
+    """:func:`upper_inverse` written into ``X`` (m × m, C order, zero on entry: the caller's
+    scratch)."""
+    m = R.shape[0]
     for i in range(m - 1, -1, -1):
         xi = X[i]
         xi[i] = 1.0
@@ -119,7 +128,6 @@ def upper_inverse(R):
         d = 1.0 / ri[i]
         for c in range(i, m):
             xi[c] *= d
-    return X
 
 
 @nb.njit(cache=True)

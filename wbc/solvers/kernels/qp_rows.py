@@ -9,7 +9,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .active_set import certified_factored, inverse_factor
+from .active_set import certified_floats, certified_into, inverse_factor_into
 
 
 @nb.njit(cache=True)
@@ -41,10 +41,19 @@ def nearest_feasible_rows(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, margin
 @nb.njit(cache=True)
 def max_violation(C, lo, hi, x) -> float:
     """max over rows of how far l ≤ C x ≤ u is violated (0 where it holds, −inf for no rows)."""
+    if C.shape[0] == 0:
+        return -np.inf
+    return max_violation_into(C, lo, hi, x, np.empty(C.shape[0]))
+
+
+@nb.njit(cache=True)
+def max_violation_into(C, lo, hi, x, y) -> float:
+    """:func:`max_violation` with C x written into the caller's ``y`` (at least C's rows)."""
     worst = -np.inf
     if C.shape[0] == 0:
         return worst
-    y = C @ x
+    y = y[:C.shape[0]]
+    np.dot(C, x, y)
     for i in range(y.shape[0]):
         v = max(lo[i] - y[i], y[i] - hi[i])
         worst = max(worst, v)
@@ -131,20 +140,31 @@ def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
     contains the whole QP's, and it is in the whole QP's. (m rows over n variables, k free
     directions: C Z costs m n k, the check m n; the rows a cascade's QP holds are 1 to 3 of
     ~100.) Returns (certified, z)."""
-    m = C.shape[0]
+    m, n = C.shape
     k = H.shape[0]
     none = np.empty(0)
     cand = np.zeros(m, dtype=np.bool_)
     nc = 0
-    ok, Ui = inverse_factor(H)                   # H factored once for every candidate set
-    if not ok:
+    fw = np.empty(2 * k * k + 3 * k + n + m)     # U (Fortran order), U⁻¹, U⁻ᵀg, U⁻¹U⁻ᵀg, z₀, C Z z, Z z
+    Ui = fw[k * k:2 * k * k].reshape((k, k))
+    if not inverse_factor_into(H, fw[:k * k].reshape((k, k)).T, Ui):   # H factored once for every candidate set
         return False, none
-    z0 = -(Ui @ (Ui.T @ g))                      # the unconstrained minimiser, once per QP
+    at = 2 * k * k
+    t, u, z0 = fw[at:at + k], fw[at + k:at + 2 * k], fw[at + 2 * k:at + 3 * k]
+    dy, dz = fw[at + 3 * k:at + 3 * k + m], fw[at + 3 * k + m:at + 3 * k + m + n]
+    np.dot(Ui.T, g, t)                           # the unconstrained minimiser, once per QP
+    np.dot(Ui, t, u)
+    for i in range(k):
+        z0[i] = -u[i]
     z = z0
     no_side = np.zeros(0, dtype=np.int64)
     for _ in range(5):
-        dx = z if identity else Z @ z
-        dy = C @ dx
+        if identity:
+            dx = z
+        else:
+            np.dot(Z, z, dz)
+            dx = dz
+        np.dot(C, dx, dy)
         added = 0
         for i in range(m):
             if not cand[i] and (dy[i] > dhi[i] + tol or dy[i] < dlo[i] - tol):
@@ -157,17 +177,30 @@ def _certified_on_candidates(H, g, C, dlo, dhi, Z, identity, tol):
         nc += added
         if nc > k:
             return False, none
-        idx = np.empty(nc, dtype=np.int64)
+        # this round's rows (C_c, C_c Z, their bounds) and the certificate's scratch, one array
+        # each: z (a view of the last) stays valid for the next round's check
+        rw = np.empty(nc * n + nc * k + 2 * nc + certified_floats(k, nc))
+        iw = np.empty(nc + nc + min(nc, k), dtype=np.int64)
+        idx = iw[:nc]
         j = 0
         for i in range(m):
             if cand[i]:
                 idx[j] = i
                 j += 1
-        Cc = np.empty((nc, C.shape[1]))
+        Cc = rw[:nc * n].reshape((nc, n))
         for j in range(nc):
             Cc[j] = C[idx[j]]
-        CcZ = Cc if identity else Cc @ Z
-        ok, z = certified_factored(Ui, z0, CcZ, dlo[idx], dhi[idx], tol, no_side)
+        if identity:
+            CcZ = Cc
+        else:
+            CcZ = rw[nc * n:nc * n + nc * k].reshape((nc, k))
+            np.dot(Cc, Z, CcZ)
+        at = nc * n + nc * k
+        lo_c, hi_c = rw[at:at + nc], rw[at + nc:at + 2 * nc]
+        for j in range(nc):
+            lo_c[j] = dlo[idx[j]]
+            hi_c[j] = dhi[idx[j]]
+        ok, z = certified_into(Ui, z0, CcZ, lo_c, hi_c, tol, no_side, rw[at + 2 * nc:], iw[nc:])
         if not ok:
             return False, none
     return False, none
@@ -178,10 +211,10 @@ def _higher_bounds(Ca, la, ha, x, margin):
     """The bounds of :func:`higher_rows` on the change of every row, C_a(x + Z z) − C_a x
     (a row at, or a hair past, its bound may not move further; one with room keeps
     ``margin`` of it)."""
-    ya = Ca @ x
-    m = ya.shape[0]
-    dlo = np.empty(m)
-    dhi = np.empty(m)
+    m = Ca.shape[0]
+    fw = np.empty(3 * m)                         # C_a x, then the two bounds (views of it)
+    ya, dlo, dhi = fw[:m], fw[m:2 * m], fw[2 * m:]
+    np.dot(Ca, x, ya)
     for i in range(m):
         d = min(margin, 0.25 * (ha[i] - la[i]))
         dlo[i] = min(la[i] - ya[i] + d, 0.0)
@@ -226,8 +259,10 @@ def certified_nearest_feasible(Co, lo_o, hi_o, Ch, lo_h, hi_h, x, Z, identity, m
 def least_squares_objective(AZ, r, regularization):
     """(H, g) of min ‖AZ z − r‖² + ε‖z‖², ε = ``regularization``·max(1, tr(AZᵀAZ)/k)."""
     k = AZ.shape[1]
-    G = AZ.T @ AZ
-    H = np.empty((k, k))                # exactly symmetric, as the QP back-ends assume
+    fw = np.empty(2 * k * k + k)        # (AZ)ᵀAZ, H and g, H and g views of it
+    G = fw[:k * k].reshape((k, k))
+    np.dot(AZ.T, AZ, G)
+    H = fw[k * k:2 * k * k].reshape((k, k))   # exactly symmetric, as the QP back-ends assume
     trace = 0.0
     for i in range(k):
         for j in range(k):
@@ -236,4 +271,8 @@ def least_squares_objective(AZ, r, regularization):
     eps = regularization * max(1.0, trace / max(k, 1))
     for i in range(k):
         H[i, i] += eps
-    return H, -(AZ.T @ r)
+    g = fw[2 * k * k:]
+    np.dot(AZ.T, r, g)
+    for i in range(k):
+        g[i] = -g[i]
+    return H, g
