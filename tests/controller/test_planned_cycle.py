@@ -84,3 +84,36 @@ def test_a_replaced_solve_levels_is_what_the_cycle_calls(talos, monkeypatch):
     monkeypatch.setattr(HierarchicalQP, "solve_levels", counted)
     ctrl.solve(q, v)
     assert calls == [ctrl.solver] * 2
+
+
+def test_a_cycles_diagnostics_read_later_are_its_own(talos):
+    """The row values a cycle's diagnostics are worked out from are taken in that cycle (the
+    stack's row buffer is refilled in the next): a solution's residuals and per-level values,
+    read only after later cycles moved the targets and the state, equal those of the same
+    cycle read at once by a controller run in lockstep. Fails if the values were read from the
+    buffer when the diagnostics are first read (they would be a later cycle's rows)."""
+    def controller():
+        stack = stacks.talos_stack()
+        ctrl = Controller(talos, stack, solver="hqp")
+        return ctrl, moving_targets(talos, stack)
+
+    (now, targets_now), (late, targets_late) = controller(), controller()
+    q, v = talos.q_default.copy(), np.zeros(talos.nv)
+    talos.update(q, v)
+    kept, read = [], []
+    for k in range(12):
+        targets_now(k * DT)
+        targets_late(k * DT)
+        a, b = now.solve(q, v), late.solve(q, v)
+        assert np.array_equal(a.tau, b.tau)
+        read.append((a.residuals, a.task_residuals,
+                     [(d.residual, d.unenforced_violation, d.active, d.sacrificed) for d in a.diagnostics]))
+        kept.append(b)                           # read after the cycles that follow it
+        v = v + a.qdd * DT
+        q = pin.integrate(talos.model, q, v * DT)
+    moved = 0
+    for (res, task_res, diag), b in zip(read, kept):
+        assert b.residuals == res and b.task_residuals == task_res
+        assert [(d.residual, d.unenforced_violation, d.active, d.sacrificed) for d in b.diagnostics] == diag
+        moved += res != read[-1][0]
+    assert moved >= 6                            # the cycles' residuals differ: a stale read would show

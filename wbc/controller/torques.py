@@ -40,7 +40,9 @@ def joint_torques(M, h, Jf, x, unactuated):
     """(τ = M q̈ + h − J_fᵀ f with zeros on the unactuated rows (5.26), whether x and τ are
     all finite), x = (q̈, f)."""
     nv = M.shape[0]
-    tau = M @ x[:nv] + h
+    tau = np.empty(nv)
+    np.dot(M, x[:nv], tau)      # M q̈ by the same product as ``M @ q̈``, in place (no temporary)
+    tau += h
     if Jf.shape[0]:
         tau -= Jf.T @ x[nv:]
     for i in unactuated:

@@ -218,8 +218,11 @@ def row_values(A, b, C, lo, hi, x):
     the buffer being refilled next cycle."""
     ne, ni = b.shape[0], lo.shape[0]
     out = np.empty(2 * ne + 3 * ni)
-    out[:ne] = A @ x - b if ne else out[:0]
-    out[ne:ne + ni] = C @ x if ni else out[:0]
+    if ne:      # A x by the same product as ``A @ x``, written in place (no temporary), then − b
+        np.dot(A, x, out[:ne])
+        out[:ne] -= b
+    if ni:
+        np.dot(C, x, out[ne:ne + ni])
     out[ne + ni:ne + 2 * ni] = lo
     out[ne + 2 * ni:ne + 3 * ni] = hi
     out[ne + 3 * ni:] = b
