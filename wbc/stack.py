@@ -49,9 +49,10 @@ class Stack:
     """
 
     def __init__(self, levels: Iterable = ()) -> None:
-        self.levels: list[list[Task]] = []
+        self._levels: list[list[Task]] = []
         #: bumped by every change of structure; the caches below are valid for one version
         self.version = 0
+        self._view: tuple = (-1, ())            # (version, the levels as tuples) of :attr:`levels`
         self._contacts: tuple | None = None     # (version, contact tasks)
         self._layout: tuple | None = None       # (key, Layout, its force-Jacobian blocks)
         self._row_buffer: RowBuffer | None = None
@@ -60,8 +61,19 @@ class Stack:
         #: (robot, layout, blocks) of a J_f refill :meth:`layout` left to the plan (``deferred``)
         self._forces_due: tuple | None = None
         for lvl in levels:
-            self.levels.append(_as_level(lvl))
+            self._levels.append(_as_level(lvl))
         self._check_names()
+
+    @property
+    def levels(self) -> tuple[tuple[Task, ...], ...]:
+        """The levels, highest first, each a tuple of its tasks: a read-only view. The stack
+        changes through :meth:`add`, :meth:`remove`, :meth:`move` and :meth:`replace` only,
+        which bump :attr:`version`; a controller plans again on a new version, and would not
+        see a task put into a level's list by hand (it kept solving for the old one)."""
+        view = self._view
+        if view[0] != self.version:
+            view = self._view = (self.version, tuple(tuple(lvl) for lvl in self._levels))
+        return view[1]
 
     def __getstate__(self) -> dict:
         """A copy or a pickle plans again: the plan holds its arrays' addresses, which a copy's
@@ -73,7 +85,7 @@ class Stack:
 
     def _check_names(self) -> None:
         seen: dict[str, int] = {}
-        for k, lvl in enumerate(self.levels):
+        for k, lvl in enumerate(self._levels):
             for t in lvl:
                 if t.name in seen:
                     raise StackError(
@@ -89,7 +101,7 @@ class Stack:
         Args:
             other: a task, a task group or a list of tasks.
         """
-        return Stack(self.levels + [_as_level(other)])
+        return Stack(self._levels + [_as_level(other)])
 
     def __getitem__(self, name: str) -> Task:
         """The task named ``name``; a KeyError listing the stack's tasks if none.
@@ -97,7 +109,7 @@ class Stack:
         Args:
             name: the task's name (``Task.name``).
         """
-        for lvl in self.levels:
+        for lvl in self._levels:
             for t in lvl:
                 if t.name == name:
                     return t
@@ -112,11 +124,11 @@ class Stack:
         return name in self.names()
 
     def __iter__(self) -> Iterator[Task]:
-        for lvl in self.levels:
+        for lvl in self._levels:
             yield from lvl
 
     def __len__(self) -> int:
-        return len(self.levels)
+        return len(self._levels)
 
     def names(self) -> list[str]:
         """The tasks' names, level by level, highest first."""
@@ -128,7 +140,7 @@ class Stack:
         Args:
             name: the task's name.
         """
-        for k, lvl in enumerate(self.levels):
+        for k, lvl in enumerate(self._levels):
             if any(t.name == name for t in lvl):
                 return k
         raise KeyError(f"no task named '{name}' in the stack; tasks: {self.names()}")
@@ -142,15 +154,18 @@ class Stack:
             level: level index, 0 (highest) to ``len(stack)`` (appends a new lowest level);
                 outside that range a StackError.
         """
-        if not 0 <= level <= len(self.levels):
-            raise StackError(f"level must be in [0, {len(self.levels)}], got {level}")
-        if level == len(self.levels):
-            self.levels.append([])
-        self.levels[level].append(task)
+        if not 0 <= level <= len(self._levels):
+            raise StackError(f"level must be in [0, {len(self._levels)}], got {level}")
+        new_level = level == len(self._levels)
+        if new_level:
+            self._levels.append([])
+        self._levels[level].append(task)
         try:
             self._check_names()
         except StackError:
-            self.levels[level].pop()
+            self._levels[level].pop()
+            if new_level:
+                del self._levels[level]
             raise
 
     def remove(self, name: str) -> Task:
@@ -161,11 +176,33 @@ class Stack:
         """
         k = self.level_of(name)
         task = self[name]
-        self.levels[k].remove(task)
-        if not self.levels[k]:
-            del self.levels[k]
+        self._levels[k].remove(task)
+        if not self._levels[k]:
+            del self._levels[k]
         self._check_names()
         return task
+
+    def replace(self, name: str, task: Task) -> Task:
+        """Put ``task`` in the place (level and order) of the task named ``name``, and return
+        the one it replaces.
+
+        Args:
+            name: the name of the task to replace; a KeyError if none.
+            task: the new task; its name must be ``name`` or a name not in the stack yet (else
+                a StackError, the stack unchanged).
+        """
+        k = self.level_of(name)
+        old = self[name]
+        if not isinstance(task, Task):
+            raise StackError(f"a stack level holds tasks, got {type(task).__name__} to replace '{name}'")
+        j = next(i for i, t in enumerate(self._levels[k]) if t is old)
+        self._levels[k][j] = task
+        try:
+            self._check_names()
+        except StackError:
+            self._levels[k][j] = old
+            raise
+        return old
 
     def move(self, name: str, level: int) -> None:
         """Re-prioritise a task: remove it, then add it at ``level``.
@@ -176,7 +213,7 @@ class Stack:
                 last level it goes to a new lowest one.
         """
         task = self.remove(name)
-        self.add(task, min(level, len(self.levels)))
+        self.add(task, min(level, len(self._levels)))
 
     def contacts(self) -> list[Contact]:
         """The stack's :class:`~wbc.tasks.Contact` tasks, in stack order (a new list)."""
@@ -187,7 +224,7 @@ class Stack:
 
     def to_list(self) -> list[list[dict]]:
         """The stack as plain data: levels of ``{type: ..., <constructor arguments>}``."""
-        return [[{"type": t.kind, **t.params()} for t in lvl] for lvl in self.levels]
+        return [[{"type": t.kind, **t.params()} for t in lvl] for lvl in self._levels]
 
     def to_yaml(self) -> str:
         """YAML of :meth:`to_list`; ``wbc.scenario.build_tasks.build_stack(yaml.safe_load(text))`` rebuilds
@@ -197,7 +234,7 @@ class Stack:
         return yaml.safe_dump(self.to_list(), sort_keys=False, allow_unicode=True)
 
     def __repr__(self) -> str:
-        return "Stack(" + " / ".join("[" + ", ".join(t.name for t in lvl) + "]" for lvl in self.levels) + ")"
+        return "Stack(" + " / ".join("[" + ", ".join(t.name for t in lvl) + "]" for lvl in self._levels) + ")"
 
     # ------------------------------------------------------------ per cycle
     def layout(self, robot, deferred: bool = False) -> Layout:
@@ -275,7 +312,7 @@ class Stack:
                 plan = self._plan = None           # a change it does not follow: the tasks, then plan again
             else:
                 called = {}
-        groups = [extra + (self.levels[0] if self.levels else [])] + self.levels[1:]
+        groups = [extra + (self._levels[0] if self._levels else [])] + self._levels[1:]
         if lowest:
             groups.append(lowest)                 # (the tasks by level: built only when they are called)
         if same and buf is not None:

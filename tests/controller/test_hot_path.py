@@ -129,7 +129,7 @@ def test_level_buffers_equal_rows_stacked_afresh():
         layout = ctrl.layout
         extra = ctrl._internal_constraints(layout)
         reused = stack.assemble(robot, layout, extra)
-        groups = [list(extra) + stack.levels[0]] + stack.levels[1:]
+        groups = [list(extra) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]]
         for lvl, tasks in zip(reused, groups):
             fresh = assemble_level(lvl.index, tasks, robot, layout)
             for name in ("A", "b", "C", "lo", "hi"):

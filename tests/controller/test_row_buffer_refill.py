@@ -86,7 +86,7 @@ def test_a_weight_set_in_place_rebuilds_from_the_same_call(changed):
             assert stack.row_buffer is not before          # rebuilt for the new weight
         elif k == 3:
             assert stack.row_buffer is before              # reused again
-        groups = [list(extra) + stack.levels[0]] + stack.levels[1:]
+        groups = [list(extra) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]]
         _assert_fresh(levels, groups, robot, layout)
 
 
@@ -106,5 +106,5 @@ def test_the_reused_buffer_equals_the_rows_stacked_afresh_cycle_after_cycle():
         ctrl.solve(q, v)
         built = built or stack.row_buffer
         assert stack.row_buffer is built
-        groups = [ctrl._internal_constraints(ctrl.layout) + stack.levels[0]] + stack.levels[1:]
+        groups = [ctrl._internal_constraints(ctrl.layout) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]]
         _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)

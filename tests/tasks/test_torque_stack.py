@@ -47,7 +47,7 @@ def _cycle(ctrl, stack, robot, rng, calls: Counter):
     randomise_targets(stack, robot, rng)
     calls.clear()
     ctrl.solve(q, v)
-    return [ctrl._internal_constraints(ctrl.layout) + stack.levels[0]] + stack.levels[1:] + \
+    return [ctrl._internal_constraints(ctrl.layout) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]] + \
         ([ctrl.lowest_tasks()] if ctrl.layout.nf and ctrl.lowest_tasks() else [])
 
 
@@ -202,7 +202,7 @@ def test_targets_changed_in_place_replaced_or_copied_are_read_the_cycle_they_cha
         _retarget(stack, k, rng)
         calls.clear()
         ctrl.solve(q, v)
-        groups = [ctrl._internal_constraints(ctrl.layout) + stack.levels[0]] + stack.levels[1:]
+        groups = [ctrl._internal_constraints(ctrl.layout) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]]
         assert stack._plan is plan and not calls, calls
         _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
 

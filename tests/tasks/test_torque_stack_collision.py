@@ -26,7 +26,7 @@ _CALLED = {"collision_avoidance", "contact_regularization"}
 def _groups(ctrl, stack) -> list:
     """The levels' tasks as the controller stacks them (its own level-0 and lowest tasks)."""
     lowest = ctrl.lowest_tasks() if ctrl.layout.nf else []
-    return [ctrl._internal_constraints(ctrl.layout) + stack.levels[0]] + stack.levels[1:] + \
+    return [ctrl._internal_constraints(ctrl.layout) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]] + \
         ([lowest] if lowest else [])
 
 

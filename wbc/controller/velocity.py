@@ -32,6 +32,7 @@ The QP margin (the room kept from a limit) is in the rows' units, here m/s and r
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import partial
 
 import numpy as np
@@ -255,7 +256,7 @@ class VelocityController:
         v = self._v0 if v is None else v
         return self.faults.cycle(q, v, self._solve, self._hold)
 
-    def groups(self) -> list[list]:
+    def groups(self) -> Sequence[Sequence]:
         """The levels of tasks solved this cycle: the stack's, the differential drive in level 0."""
         levels = self.stack.levels
         if self._diff_drive is None:
