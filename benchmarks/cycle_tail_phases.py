@@ -13,7 +13,9 @@ thread time (leaving out those preempted or right after a preemption): each phas
 its own median as a share of the cycle's excess, beside its share of the median cycle (equal
 shares: the whole cycle ran slower; one phase far above its share: that phase carries the tail),
 and the probes' slowdown in the tail cycles and in the others. ``--minimum`` reads runs saved with
-``--save`` and gives each phase's spread of the per-cycle minimum over them (the work's own).
+``--save`` and gives each phase's spread of the per-cycle minimum over them (the work's own), the
+cycles of its top 1 %, and per period P the residue class k mod P slowest in the median (work done
+every P cycles).
 
     PYTHONPATH=. python benchmarks/cycle_tail_phases.py [SCENARIO] [--cpu N] [--gc-freeze] [--save F.npz]
         (talos_reach, own simulator, hqp, one OpenBLAS thread; Linux)
@@ -39,6 +41,8 @@ from wbc.runner.loop import ScenarioRun
 from wbc.scenario.loader import load_config
 
 PHASES = ("entry", "update", "rows", "prep", "solve", "finish", "exit")
+#: the periods ``--minimum`` looks for periodic work at (cycles)
+PERIODS = (2, 5, 10, 20, 50, 100, 200, 500)
 #: cycles left out of the figures (and of the saved arrays, whose row i is cycle WARM + i)
 WARM = 10
 
@@ -82,6 +86,15 @@ def minimum(files: list[str]) -> None:
         print(f"  {name:10s} median {np.median(x):7.1f} µs, p99/median {np.percentile(x, 99) / np.median(x):.2f}")
     slow = np.flatnonzero(total > 1.3 * np.median(total)) + first
     print(f"  cycles whose minimum is above 1.3× the median: {slow.size}, the first {slow[:20].tolist()}")
+    top = np.sort(np.argsort(total)[::-1][:max(1, n // 100)] + first)
+    print(f"  the top 1 % of the minimum (cycles): {top.tolist()}")
+    # periodic work: per period P, the residue class k mod P whose median is furthest above the median
+    # (#26, tail2: the support polygon's Qhull every 50 cycles left cycle 50 j + 1 1.09× the median)
+    k = np.arange(n) + first
+    for p in PERIODS:
+        ratio = [np.median(total[k % p == r]) / np.median(total) for r in range(p)]
+        r = int(np.argmax(ratio))
+        print(f"  period {p:4d}: cycles k ≡ {r} (mod {p}) median {ratio[r]:.3f}× the median")
 
 
 def main() -> None:

@@ -15,13 +15,18 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
-from wbc.runner.state_kernel import VIOLATIONS, fallen_state, ratio_max, state_metrics
+from wbc.runner.state_kernel import VIOLATIONS, fallen_state, hull_holds, ratio_max, state_metrics
 from wbc.runner.stats import Running
 from wbc.tasks.contact import Contact
 
 #: the metrics a run reports as true/false (flattened names, ``*`` one part): a sweep's
 #: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
 BOOLEAN_METRICS = ("fell", "contacts.*.lifted")
+
+#: a point at least this far (m) inside every edge of the support polygon not its own keeps the
+#: polygon's vertices as the hull's (:func:`~wbc.runner.state_kernel.hull_holds`); nearer, Qhull
+#: decides (its own precision, ~1e-15 m on a foot, is far below)
+HULL_TOL = 1e-9
 
 #: a floating-base robot has fallen when its base is below this fraction of its starting
 #: height (unitless) ...
@@ -42,10 +47,15 @@ class SupportPolygon:
     """The support polygon's hull, built once per contact set.
 
     The hull's vertex indices (counter-clockwise, scipy's ConvexHull) are kept while the
-    set of contact points is unchanged and refreshed every ``refresh`` cycles (feet may
+    set of contact points is unchanged and checked every ``refresh`` cycles (feet may
     creep or turn); in between the margin is computed on the current positions of those
     vertices (:func:`~wbc.runner.state_kernel.polygon_margin`, inside the cycle's one
-    compiled call): a few flops instead of a Qhull call per cycle. Per cycle:
+    compiled call): a few flops instead of a Qhull call per cycle. The check is
+    :func:`~wbc.runner.state_kernel.hull_holds`, the certificate that the kept vertices are
+    still the hull's, vertex for vertex (every other point strictly inside every edge by
+    ``HULL_TOL``): Qhull is called again only when it fails (#26: a Qhull call every 50 cycles
+    left the next cycle's solve 11 % slower, the one after 4 %, its code and memory evicting the
+    controller's from the caches; the margin is the same: the same edges). Per cycle:
     :meth:`vertices` before the margin, :meth:`counted` after it."""
 
     def __init__(self, refresh: int = 50) -> None:
@@ -65,6 +75,9 @@ class SupportPolygon:
             return _NO_POINTS                     # no support
         if key == self._key and self._age + 1 < self.refresh:
             self._counting = True                 # the age counts if the points are finite
+            return self._vertices
+        if key == self._key and hull_holds(points, idx, self._vertices, HULL_TOL):
+            self._age = 0                         # the same hull: its vertices kept, no Qhull call
             return self._vertices
         xy = points[idx, :2]
         if not np.all(np.isfinite(xy)):

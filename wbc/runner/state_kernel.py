@@ -163,6 +163,38 @@ def polygon_margin(P, vertices, px, py):
 
 
 @nb.njit(cache=True)
+def hull_holds(P, idx, vertices, tol):
+    """Whether the points ``P[vertices]`` (xy, counter-clockwise) are still, vertex for vertex
+    and in that cyclic order, the convex hull of the points ``P[idx]`` (``vertices`` ⊂ ``idx``):
+    every point of ``idx`` other than an edge's two ends lies strictly inside that edge's line,
+    cross(e, p − a) / ‖e‖ > ``tol`` (m) for the edge e = b − a. Then each edge's line supports
+    the set and touches it only at a and b, so each edge is an edge of the hull and its ends
+    are extreme points; the hull's boundary is one cycle, so the polygon's cycle of edges is
+    all of it: the hull's vertices are exactly these, in this order (up to where the cycle
+    starts). False for fewer than 3 vertices, for a point on or outside an edge's line (a
+    degenerate or changed hull: the caller builds it again), and for non-finite points."""
+    nv = vertices.shape[0]
+    if nv < 3:
+        return False
+    a = vertices[nv - 1]
+    for k in range(nv):
+        b = vertices[k]
+        ax, ay = P[a, 0], P[a, 1]
+        ex, ey = P[b, 0] - ax, P[b, 1] - ay
+        length = math.sqrt(ex * ex + ey * ey)
+        if not length > 0.0:
+            return False
+        for i in idx:
+            if i == a or i == b:
+                continue
+            d = (ex * (P[i, 1] - ay) - ey * (P[i, 0] - ax)) / length
+            if not d > tol:
+                return False
+        a = b
+    return True
+
+
+@nb.njit(cache=True)
 def _limits(q, v, tau, pf, limits, viol):
     """The cycle's limit and contact-force violations, each counted once (``viol``, in the
     order of :data:`VIOLATIONS`)."""
