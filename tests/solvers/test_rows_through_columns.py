@@ -105,3 +105,28 @@ def test_a_run_stopped_at_a_factored_level_hands_back_its_step_packed():
         np.testing.assert_allclose(A[2:] @ x_step, b[2:], atol=1e-10)   # level 1 met by the step
         np.testing.assert_allclose(A[:2] @ x_step, b[:2], atol=1e-10)   # level 0 kept
         assert np.linalg.norm(packed[:dof]) > 0.0
+
+
+def _unit_column_reference(row) -> int:
+    """A unit row's column by the definition, entry by entry: exactly one nonzero (NaN is one), equal to 1."""
+    nonzero = [j for j, a in enumerate(row) if a != 0.0]
+    return nonzero[0] if len(nonzero) == 1 and row[nonzero[0]] == 1.0 else -1
+
+
+def test_unit_column_is_the_definition():
+    """The branch-free count (``factorizations.unit_column``) decides as the definition does on
+    unit rows, rows with a second entry, another value than 1, NaN, ±∞, −0.0 and zero rows."""
+    from wbc.solvers.kernels.factorizations import unit_column
+
+    rng = np.random.default_rng(13)
+    specials = [1.0, 2.0, -1.0, 1e-300, np.nan, np.inf, -np.inf, -0.0, 1.0 + 2e-16]
+    found = {-1: 0, "unit": 0}
+    for _ in range(3000):
+        n = int(rng.integers(1, 60))
+        row = np.zeros(n)
+        for j in rng.choice(n, size=min(n, int(rng.integers(0, 3))), replace=False):
+            row[j] = specials[int(rng.integers(0, len(specials)))] if rng.random() < 0.5 else 1.0
+        expect = _unit_column_reference(row)
+        assert unit_column(row.reshape(1, n), 0) == expect
+        found["unit" if expect >= 0 else -1] += 1
+    assert found["unit"] > 300 and found[-1] > 300
