@@ -123,6 +123,14 @@ def _profiled_qr(A, r, rank_tol, threshold):
 
 
 @nb.njit(cache=True)
+def _packed(lazy, packed, z, R):
+    """A level's step as :func:`.factorizations.pack_step` packs it, the run hands it back where it
+    stops: from (z, x̂ + Z z = ``packed``, R) for a factored step (``lazy``: packed only then),
+    else ``packed`` itself."""
+    return pack_step(z, packed, R) if lazy else packed
+
+
+@nb.njit(cache=True)
 def _explicit(A, b, x, Z, identity, qs, taus, ms, nf, fstep, Qn, taun, m, n, ends0):
     """The level's basis before (Z) and after (Z_next) its step, and A Z, as matrices, when
     the run kept them as reflectors (``nf`` levels; ``fstep``: this level's step was taken
@@ -217,6 +225,8 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
         fstep = 0                                # 1: QR step, reflectors kept; 2: orthonormal shortcut
         Qn, taun = qs[0], taus[0]
         Z_next = none
+        lazy = False                             # a factored step: (z, x̂ + Z z, R) packed only if handed back
+        packed, zs, Rs = x, x, none
         if m and dof:
             Ak, bk = A[e0:e_end[k]], b[e0:e_end[k]]
             path = hint_route(hints, calls, m, dof)
@@ -233,7 +243,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
                     if ok:
                         fstep = 1
                         x_next = x + (z if identity else basis_times(z, qs, taus, ms, nf, ends0))
-                        packed = pack_step(z, x_next, R)
+                        lazy, zs, Rs = True, z, R
                         rank, smin, smax, lam2 = m, np.nan, np.nan, 0.0
                 elif route == GRAM and orthonormal and nf and orthonormal_accepted(dof, rank_tol[k], threshold[k],
                                                                                    gram_min_ratio):
@@ -244,7 +254,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
                     z = transposed_times(u, qs, taus, ms, nf, ends0)
                     fstep = 2
                     x_next = x + basis_times(z, qs, taus, ms, nf, ends0)
-                    packed = pack_step(z, x_next, np.empty((0, 0)))
+                    lazy, zs = True, z
                     rank, smin, smax, lam2 = dof, 1.0, 1.0, 0.0
                     Z_next = np.empty((n, 0))
             if fstep == 0:
@@ -257,7 +267,12 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
                     orthonormal)
                 x_next = packed[dof:dof + n]
             hint_record(hints, calls, m, dof, path, route)
-            r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
+            if lazy:
+                packed = x_next                      # the step's x̂ + Z z, for the step packed below
+                r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, Rs.reshape(Rs.size), 0,
+                                    r_at)
+            else:
+                r_at = record_level(ints, floats, k, calls, route, rank, smin, smax, lam2, packed, dof + n, r_at)
             end_r_factors(ints, L, k, r_at)
             calls += 1
             set_calls(ints, L, calls)
@@ -267,11 +282,11 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
                                               ends0)
                     fstep = nf = 0
                 if not certify:
-                    return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
+                    return k, x, Z, identity, ints, floats, _packed(lazy, packed, zs, Rs), Z_next, Z_keep, identity_keep
                 H, g = least_squares_objective(AZ, rk, regularization)
                 ok, z = certified_higher(H, g, C[:i0], lo[:i0], hi[:i0], x, Z, identity, mk, tol)
                 if not ok:
-                    return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
+                    return k, x, Z, identity, ints, floats, _packed(lazy, packed, zs, Rs), Z_next, Z_keep, identity_keep
                 x_next = x + (z if identity else Z @ z)
                 set_field(ints, k, CERTIFIED, 1)
         else:
@@ -290,7 +305,7 @@ def _run(eq, ineq, start, hints, settings, keep, factored, profiled):
             if not ok:
                 set_field(ints, k, CERTIFIED, 0)       # the caller solves the whole level
                 if m and dof:
-                    return k, x, Z, identity, ints, floats, packed, Z_next, Z_keep, identity_keep
+                    return k, x, Z, identity, ints, floats, _packed(lazy, packed, zs, Rs), Z_next, Z_keep, identity_keep
                 return k, x, Z, identity, ints, floats, np.empty(0), np.empty((0, 0)), Z_keep, identity_keep
             if not (m and dof):
                 Z_next = Z

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..lapack import SIDE_TRANS
 from .profile_qr import reflect, reflect_columns
-from .reflectors import apply_q_into, apply_reflectors
+from .reflectors import apply_q_into, apply_reflectors, apply_reflectors_columns
 
 #: ``ends0`` of a chain whose outermost level is a LAPACK QR
 NO_ENDS = np.empty(0, dtype=np.int64)
@@ -47,33 +47,20 @@ def _apply(qs, taus, ms, level, ends0, v, transpose):
 
 @nb.njit(cache=True)
 def rows_through(A, qs, taus, ms, nf, ends0):
-    """A Z (m × k_nf) for the rows of A (m × n), Z the basis the reflectors keep."""
-    m, n = A.shape
-    k = qs[nf - 1].shape[0] - ms[nf - 1]
-    AZ = np.empty((m, k))
-    v = np.empty(n)                              # each row's scratch, reflected in place
-    if ends0.shape[0]:                           # a profiled level 0: all rows through it at once
-        W = np.ascontiguousarray(A.T)
+    """A Z (m × k_nf) for the rows of A (m × n), Z the basis the reflectors keep: Zᵀ Aᵀ, all
+    rows at once, level after level (each level's reflectors applied to the columns of Aᵀ in
+    place, its first m_i rows then dropped by a view: no copy); the same numbers as each row
+    taken through the levels alone (:func:`.reflectors.apply_reflectors_columns`)."""
+    W = np.ascontiguousarray(A.T)
+    first = 0
+    if ends0.shape[0]:                           # a profiled level 0
         reflect_columns(qs[0].T, taus[0], ends0, ms[0], W, True)
-        u = v[:n - ms[0]]
-        for i in range(m):
-            u[:] = W[ms[0]:, i]
-            AZ[i] = _through(u, qs, taus, ms, 1, nf)
-        return AZ
-    for i in range(m):
-        v[:] = A[i]
-        AZ[i] = _through(v, qs, taus, ms, 0, nf)
-    return AZ
-
-
-@nb.njit(cache=True)
-def _through(v, qs, taus, ms, first, nf):
-    """v (overwritten) through the LAPACK levels ``first`` .. nf − 1: their Zᵀ, a view of v's tail
-    (each level's reflectors applied in place, its first m entries dropped: no copy)."""
+        W = W[ms[0]:]
+        first = 1
     for level in range(first, nf):
-        apply_reflectors(qs[level], taus[level], ms[level], v, True)
-        v = v[ms[level]:]
-    return v
+        apply_reflectors_columns(qs[level], taus[level], ms[level], W, True)
+        W = W[ms[level]:]
+    return np.ascontiguousarray(W.T)
 
 
 @nb.njit(cache=True)

@@ -243,15 +243,20 @@ def unit_columns(A):
 
 @nb.njit(cache=True)
 def unit_column(A, i):
-    """The column of the 1 when row i of A is a unit row e_jᵀ, else −1."""
-    c = -1
-    for j in range(A.shape[1]):
-        a = A[i, j]
-        if a != 0.0:
-            if a != 1.0 or c >= 0:
-                return -1
-            c = j
-    return c
+    """The column of the 1 when row i of A is a unit row e_jᵀ, else −1: exactly one nonzero
+    entry (NaN counts as one) and it is 1. The row is counted without a branch (its nonzeros
+    and the sum of their columns: one vectorised pass, where a test per entry costs ~1 µs over a
+    posture's 32 rows of 50), then that one entry is read."""
+    row = A[i]
+    count = 0
+    at = 0
+    for j in range(row.shape[0]):
+        nz = np.int64(row[j] != 0.0)
+        count += nz
+        at += j * nz
+    if count != 1 or row[at] != 1.0:
+        return -1
+    return at
 
 
 @nb.njit(cache=True)

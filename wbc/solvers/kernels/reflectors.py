@@ -1,5 +1,6 @@
 """Householder reflectors a LAPACK QR left in an array, applied, compiled: by a loop
-(:func:`apply_reflectors`, one vector) or by LAPACK's dormqr (:func:`apply_q`, a matrix). Shared
+(:func:`apply_reflectors`, one vector; :func:`apply_reflectors_columns`, the same on each column of
+a matrix) or by LAPACK's dormqr (:func:`apply_q`, a matrix). Shared
 by one level's factorisations (:mod:`.factorizations`, :mod:`.cod`), the basis kept as
 reflectors (:mod:`.factored_basis`) and the force distribution (:mod:`.forces`)."""
 
@@ -25,6 +26,38 @@ def apply_reflectors(a, tau, k, v, transpose):
         v[c] -= t
         for i in range(c + 1, m):
             v[i] -= t * a[i, c]
+
+
+@nb.njit(cache=True)
+def apply_reflectors_columns(a, tau, k, W, transpose):
+    """:func:`apply_reflectors` on every column of W (m × p, C order) at once: W ← QᵀW
+    (``transpose``) or QW. Each column gets the very operations :func:`apply_reflectors` does
+    on a vector, in the same order (t = w_c + Σ_{i>c} a_ic w_i, t ← τ_c t, w_c −= t,
+    w_i −= t a_ic; no fastmath: nothing reassociated or fused), so the same numbers bit for
+    bit; the loop over the p columns is innermost, over contiguous memory (the rows a
+    factored basis projects, :func:`.factored_basis.rows_through`, in one pass instead of
+    one vector at a time)."""
+    m, p = W.shape
+    w = np.empty(p)
+    for step in range(k):
+        c = step if transpose else k - 1 - step
+        wc = W[c]
+        for j in range(p):
+            w[j] = wc[j]
+        for i in range(c + 1, m):
+            f = a[i, c]
+            wi = W[i]
+            for j in range(p):
+                w[j] += f * wi[j]
+        t = tau[c]
+        for j in range(p):
+            w[j] *= t
+            wc[j] -= w[j]
+        for i in range(c + 1, m):
+            f = a[i, c]
+            wi = W[i]
+            for j in range(p):
+                wi[j] -= w[j] * f
 
 
 @nb.njit(cache=True)
