@@ -23,9 +23,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.controller.velocity_step import (_A, _B, _C, _CERTIFY, _E_END, _GRAM_MIN_RATIO, _HC, _HI, _HINTS, _I_END,
-                                          _LO, _MAX_DAMPING, _NE, _NH, _NI, _NL, _NX, _QP_MARGIN, _RANK_TOL,
-                                          _REGULARIZATION, _THRESHOLD, _TOL, _X0, step_tables)
+from wbc.controller import velocity_step as vs
 from wbc.problem.problem import Problem
 from wbc.problem.result import SolveResult
 from wbc.solvers.kernels.cascade_run import cascade_prefix_profiled
@@ -40,17 +38,17 @@ def profiled_step(sx, sf):
     addresses of ``sx`` and the scalars of ``sf`` (:func:`~wbc.controller.velocity_step.step_tables`)
     from x₀ at ``sx``'s x₀ slot, with no basis yet (Z = I); x and the records empty, and the route
     hints as they were before the run, when it stopped above the last level (k < L)."""
-    ne, ni, n, L = sx[_NE], sx[_NI], sx[_NX], sx[_NL]
-    A = nb.carray(float_pointer(sx[_A]), (ne, n))
-    b = _vector(sx[_B], ne)
-    C = nb.carray(float_pointer(sx[_C]), (ni, n))
-    lo, hi = _vector(sx[_LO], ni), _vector(sx[_HI], ni)
-    e_end, i_end = nb.carray(int_pointer(sx[_E_END]), L), nb.carray(int_pointer(sx[_I_END]), L)
-    hints = nb.carray(int_pointer(sx[_HINTS]), (sx[_NH], sx[_HC]))
-    settings = (_vector(sx[_RANK_TOL], L), _vector(sx[_THRESHOLD], L), _vector(sx[_MAX_DAMPING], L),
-                sf[_GRAM_MIN_RATIO], sf[_TOL], sx[_CERTIFY] != 0, sf[_REGULARIZATION], sf[_QP_MARGIN])
+    ne, ni, n, L = sx[vs._NE], sx[vs._NI], sx[vs._NX], sx[vs._NL]
+    A = nb.carray(float_pointer(sx[vs._A]), (ne, n))
+    b = _vector(sx[vs._B], ne)
+    C = nb.carray(float_pointer(sx[vs._C]), (ni, n))
+    lo, hi = _vector(sx[vs._LO], ni), _vector(sx[vs._HI], ni)
+    e_end, i_end = nb.carray(int_pointer(sx[vs._E_END]), L), nb.carray(int_pointer(sx[vs._I_END]), L)
+    hints = nb.carray(int_pointer(sx[vs._HINTS]), (sx[vs._NH], sx[vs._HC]))
+    settings = (_vector(sx[vs._RANK_TOL], L), _vector(sx[vs._THRESHOLD], L), _vector(sx[vs._MAX_DAMPING], L),
+                sf[vs._GRAM_MIN_RATIO], sf[vs._TOL], sx[vs._CERTIFY] != 0, sf[vs._REGULARIZATION], sf[vs._QP_MARGIN])
     saved = hints.copy()
-    start = (_vector(sx[_X0], n), np.zeros((0, 0)), True, 0, 0)
+    start = (_vector(sx[vs._X0], n), np.zeros((0, 0)), True, 0, 0)
     k, x, _, _, ints, floats, _, _ = cascade_prefix_profiled((A, b, e_end), (C, lo, hi, i_end), start, hints,
                                                              settings)
     if k != L:
@@ -89,7 +87,7 @@ class ProfiledStep:
         t = self._tables
         if t is None or t[0] is not planned or t[1] is not hints or t[2] is not x0:
             try:
-                sx, sf = step_tables(planned[3:], hints, x0, _NO_STEP)
+                sx, sf = vs.step_tables(planned[3:], hints, x0, _NO_STEP)
             except ValueError:                     # an array not as the call reads it: the solver's own path
                 self._tables = None
                 return solver.solve_planned(problem)
