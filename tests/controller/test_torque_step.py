@@ -34,7 +34,7 @@ def _cycles(robot, step: bool, cycles: int = 60):
     stack = stacks.talos_stack()
     ctrl = Controller(robot, stack, solver="hqp")
     if not step:                                # the solver's own planned entry
-        ctrl._profiled.solve = lambda solver, problem: solver.solve_planned(problem)
+        ctrl._profiled.enabled = False
     q, v = robot.q_default.copy(), np.zeros(robot.nv)
     robot.update(q, v)
     targets = moving_targets(robot, stack)
