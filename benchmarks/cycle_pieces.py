@@ -66,6 +66,11 @@ def main() -> None:
     wrap(Stack, "layout")
     # not HierarchicalQP.solve: a replaced solve makes solve_planned hand over to it (hqp_planned._plain)
     wrap(hqp.HierarchicalQP, "solve_planned")
+    try:                                           # the torque cycle's entry since perf22 (its compiled run's call)
+        from wbc.controller import torque_step
+        wrap(torque_step.ProfiledStep, "solve", "ProfiledStep.solve")
+    except ImportError:
+        pass
     wrap(hqp, "cascade_prefix", "compiled run")
     try:
         from wbc.solvers import hqp_planned

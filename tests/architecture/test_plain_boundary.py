@@ -30,12 +30,14 @@ def _problems(solver: str, cycles: int = 3) -> tuple[list[Problem], wbc.Controll
             return real(problem)
         return spy
 
-    # the hqp's cycle enters through solve_planned (the same problem; solve when the run stops)
-    planned = getattr(ctrl.solver, "solve_planned", None)
-    if planned is not None:
-        ctrl.solver.solve_planned = spying(planned)
-    else:
-        ctrl.solver.solve = spying(ctrl.solver.solve)
+    # the hqp's torque cycle enters through profiled_planned (its first run made by the controller's
+    # compiled call, wbc/controller/torque_step.py), else solve_planned (the same problem; solve when the
+    # run stops)
+    for name in ("profiled_planned", "solve_planned", "solve"):
+        entry = getattr(ctrl.solver, name, None)
+        if entry is not None:
+            setattr(ctrl.solver, name, spying(entry))
+            break
     q, v = robot.q_default.copy(), np.zeros(robot.nv)
     for _ in range(cycles):
         ctrl.solve(q, v)

@@ -101,24 +101,32 @@ def test_a_failed_first_cycle_commands_gravity_compensation_not_nan(talos, monke
     from wbc.solvers.hqp import HierarchicalQP
 
     ctrl = wbc.Controller(talos, [[Contact("left_foot"), Contact("right_foot")], [CoM()]])
-    # the torque cycle enters the hqp through solve_planned: its answer is poisoned
-    real = HierarchicalQP.solve_planned
+    # the torque cycle enters the hqp through profiled_result (after its compiled run,
+    # wbc/controller/torque_step.py; solve_planned where that is off): its answer is poisoned
+    entries = ("solve_planned", "profiled_result")
+    real = {name: getattr(HierarchicalQP, name) for name in entries}
 
-    def poisoned(self, problem):
-        res = real(self, problem)
-        res.x = np.full(problem.layout.nx, np.nan)
-        return res
+    def poisoning(name):
+        def poisoned(self, problem, *args):
+            res = real[name](self, problem, *args)
+            res.x = np.full(problem.layout.nx, np.nan)
+            return res
+        return poisoned
 
-    monkeypatch.setattr(HierarchicalQP, "solve_planned", poisoned)
+    def poison(on: bool) -> None:
+        for name in entries:
+            monkeypatch.setattr(HierarchicalQP, name, poisoning(name) if on else real[name])
+
+    poison(True)
     q = talos.q_default.copy()
     sol = ctrl.solve(q, np.zeros(talos.nv))
     assert sol.status == "failed" and np.all(np.isfinite(sol.tau))
     g = pin.computeGeneralizedGravity(talos.model, talos.model.createData(), q)
     np.testing.assert_allclose(sol.tau, g[talos.actuated_idx], atol=1e-9)
     assert np.abs(sol.tau).max() > 1.0           # a real gravity torque (N·m), not zeros
-    monkeypatch.setattr(HierarchicalQP, "solve_planned", real)
+    poison(False)
     good = ctrl.solve(q, np.zeros(talos.nv))
-    monkeypatch.setattr(HierarchicalQP, "solve_planned", poisoned)
+    poison(True)
     again = ctrl.solve(q, np.zeros(talos.nv))
     assert good.status == "ok" and again.status == "failed"
     np.testing.assert_array_equal(again.tau, good.tau)      # the last good torque

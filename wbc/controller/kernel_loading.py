@@ -18,10 +18,15 @@ spent (with the first cycle's, which loads or compiles the kernels anyway).
 :func:`load_first` adds the torque plan's kernel (:func:`~wbc.tasks.torque_stack.load_rows_kernel`):
 the plan is made in the second cycle (after the tasks filled the row buffer in the first) and
 first runs in the third, which loaded it then, 12-22 ms in a 1 ms period in every torque scenario.
+
+:func:`load_plain_run` loads the plain run for the arguments the solver passes it after the torque
+cycle's profiled run, made inside a compiled call (:mod:`wbc.controller.torque_step`), stopped:
+that call leaves no signature of ``cascade_prefix_profiled`` for :func:`load_alternates` to read.
 """
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from wbc.solvers.kernels.cascade_run import cascade_prefix, cascade_prefix_profiled
@@ -49,3 +54,15 @@ def load_first(q: np.ndarray, v: np.ndarray, h: np.ndarray) -> int:
     """What the torque cycle's first accepted cycle loads for the later ones: :func:`load_alternates`
     and the torque plan's kernel for this q, v, h (``RobotModel.h``); the number loaded now."""
     return load_alternates() + int(load_rows_kernel(q, v, h))
+
+
+def load_plain_run(args: tuple) -> bool:
+    """Load :func:`~wbc.solvers.kernels.cascade_run.cascade_prefix` for the types of ``args`` (its
+    five arguments as the solver passes them, ``PlannedEntry.profiled_result``), from numba's cache or
+    compiled; False: it was loaded. :class:`~wbc.controller.torque_step.ProfiledStep` calls it when it
+    builds its tables (the first cycle, and after a change of the solver's planned arrays)."""
+    sig = tuple(nb.typeof(a) for a in args)
+    if sig in cascade_prefix.signatures:
+        return False
+    cascade_prefix.compile(sig)
+    return True

@@ -86,6 +86,33 @@ class PlannedEntry:
         deferred, certified = _deferred(out[4], out[5], levels)
         return SolveResult(out[1], deferred, True, certified, "")
 
+    def profiled_planned(self: Any, problem: Problem) -> tuple | None:
+        """``(planned, hints)`` as :meth:`equality_planned` gives them, for a caller that runs
+        :meth:`solve_planned`'s first run itself (the torque cycle's, :mod:`wbc.controller.torque_step`:
+        :func:`~wbc.solvers.kernels.cascade_run.cascade_prefix_profiled` of ``planned``'s arrays from
+        ``problem.x_ref``, the hints restored where it stops) and hands its answer to
+        :meth:`profiled_result`; None where :meth:`solve_planned` (without ``equalities_first``)
+        would not run it (:attr:`profile_first` False, a subclass that solves otherwise)."""
+        if not (self.profile_first and _plain(self)):
+            return None
+        return self._planned_rows(problem), self._hints
+
+    def profiled_result(self: Any, problem: Problem, k: int, x: np.ndarray, records: tuple) -> SolveResult:
+        """:meth:`solve_planned`'s result (the same, bit for bit) after the caller ran its profiled run
+        (:meth:`profiled_planned`): ``k`` the level it stopped at, ``x`` its solution and ``records`` its
+        (ints, floats) when it solved every level (k = L); else (the hints restored) the plain run
+        from x₀ and the levels from where that one stops, as :meth:`solve_planned` goes on."""
+        levels = problem.levels
+        if k == len(levels):
+            deferred, certified = _deferred(records[0], records[1], levels)
+            return SolveResult(x, deferred, True, certified, "")
+        got, x0 = self._planned_args(problem)
+        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
+        if out[0] != len(levels):
+            return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, got[5][-1]), out)
+        deferred, certified = _deferred(out[4], out[5], levels)
+        return SolveResult(out[1], deferred, True, certified, "")
+
     def equality_step(self: Any, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """The equality-only cascade of :meth:`solve_planned` alone: ``(x, ints, floats, values)`` when
         it is accepted (x the solution, its levels' records :func:`equality_levels` reads, and the
