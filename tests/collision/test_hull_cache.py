@@ -18,7 +18,7 @@ def _mesh():
 
 
 def _points(cv):
-    return np.array([cv.points(i) for i in range(cv.num_points)])
+    return np.array(cv.points(), dtype=float)
 
 
 def test_corrupt_and_stale_entries_are_rebuilt(tmp_path):

@@ -46,7 +46,7 @@ def _hull_points(bvh) -> np.ndarray:
     """The vertices (n × 3, m, in the mesh's frame, scaled) of the convex hull of a coal BVH."""
     bvh.buildConvexHull(True, "Qt")
     cv = bvh.convex
-    return np.array([cv.points(i) for i in range(cv.num_points)], dtype=float)
+    return np.array(cv.points(), dtype=float)              # (n, 3): coal deprecates points(i)
 
 
 def read_cached(path: Path, key: str) -> np.ndarray | None:

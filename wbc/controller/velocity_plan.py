@@ -18,6 +18,7 @@ step are a single compiled call (:meth:`VelocityPlan.fill_step`, :mod:`wbc.contr
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
@@ -48,7 +49,7 @@ class VelocityPlan:
         margin: the QP margin (m/s, rad/s) of the Problem.
     """
 
-    def __init__(self, groups: list[list], key: tuple, robot, dt: float, gain: float | None, margin: float) -> None:
+    def __init__(self, groups: Sequence[Sequence], key: tuple, robot, dt: float, gain: float | None, margin: float) -> None:
         nv = robot.nv
         self.key = key
         self.groups = groups
@@ -101,7 +102,7 @@ class VelocityPlan:
                                rows=buf.stacked)
         self.fill()
 
-    def matches(self, groups: list[list], key: tuple) -> bool:
+    def matches(self, groups: Sequence[Sequence], key: tuple) -> bool:
         """Whether this plan is still the stack's: the same structure key and task weights (these
         compared again only after a task's watched attribute was assigned:
         :data:`wbc.tasks.base.TASK_CHANGES`)."""

@@ -9,6 +9,7 @@ one call of ``Task.rows``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from itertools import count
 from typing import TYPE_CHECKING
 
@@ -36,7 +37,7 @@ class RowBuffer:
     weight 1 its block of A and b, so that its rows are written in place and nothing is
     copied; for another weight the buffer's scratch, scaled by √weight into the block."""
 
-    def __init__(self, nx: int, groups: list[list[Task]], rows: list[list[Rows]], first_index: int = 0,
+    def __init__(self, nx: int, groups: Sequence[Sequence[Task]], rows: list[list[Rows]], first_index: int = 0,
                  key=None) -> None:
         self.nx, self.key = nx, key
         ne = sum(r.n_eq for rs in rows for r in rs)
@@ -100,7 +101,7 @@ class RowBuffer:
         self.stacked = StackedRows(self.A, self.b, self.C, self.lo, self.hi, self.eq_end, self.ineq_end,
                                    self.spans, (key, next(_BUILDS)))
 
-    def fill(self, groups: list[list[Task]], rows: list[list[Rows]]) -> bool:
+    def fill(self, groups: Sequence[Sequence[Task]], rows: list[list[Rows]]) -> bool:
         """Copy this cycle's rows in (those written into a slot of A, b are there already);
         False (nothing to trust) if they no longer have the structure the buffer was built for."""
         if len(rows) != len(self.plans):
@@ -114,7 +115,7 @@ class RowBuffer:
                     return False
         return True
 
-    def refill(self, robot, layout, groups: list[list[Task]],
+    def refill(self, robot, layout, groups: Sequence[Sequence[Task]],
                called: dict[tuple[int, int], Rows] | None = None) -> list[list[Rows]] | None:
         """Each task's rows of this cycle (``Task.rows`` with its slot) put in as it comes,
         one pass over the tasks (:meth:`fill`'s checks and copies, task by task): None when

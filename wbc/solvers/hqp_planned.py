@@ -81,7 +81,14 @@ class PlannedEntry:
                 out = cascade_prefix(got[3], got[4], start, self._hints, got[5])
         else:
             out = cascade_prefix(got[3], got[4], start, self._hints, got[5])
-        if out[0] != L:
+        return self._run_result(problem, got, x0, out)
+
+    def _run_result(self: Any, problem: Problem, got: tuple, x0: np.ndarray, out: tuple) -> SolveResult:
+        """The result of the plain run ``out`` of :meth:`solve_planned` (``got``, ``x0``: its planned
+        arguments): the levels decoded when read if it solved every level, else the back-end levels
+        from where it stopped (:meth:`_cascade`)."""
+        levels = problem.levels
+        if out[0] != len(levels):
             return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, got[5][-1]), out)
         deferred, certified = _deferred(out[4], out[5], levels)
         return SolveResult(out[1], deferred, True, certified, "")
@@ -107,11 +114,8 @@ class PlannedEntry:
             deferred, certified = _deferred(records[0], records[1], levels)
             return SolveResult(x, deferred, True, certified, "")
         got, x0 = self._planned_args(problem)
-        out = cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0), self._hints, got[5])
-        if out[0] != len(levels):
-            return self._cascade(levels, problem.layout.nx, "", x0, (None, problem.rows, None, got[5][-1]), out)
-        deferred, certified = _deferred(out[4], out[5], levels)
-        return SolveResult(out[1], deferred, True, certified, "")
+        return self._run_result(problem, got, x0, cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0),
+                                                                 self._hints, got[5]))
 
     def equality_step(self: Any, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """The equality-only cascade of :meth:`solve_planned` alone: ``(x, ints, floats, values)`` when

@@ -36,7 +36,7 @@ regularisation, null-space impedance, the floating-base dynamics) have no veloci
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numba as nb
 import numpy as np
@@ -56,7 +56,7 @@ VELOCITY_KINDS = ("frame", "com", "posture", "contact", "joint_limits", "collisi
 _FREE = 1.0
 
 
-def check_velocity_stack(levels: list[list[Task]]) -> None:
+def check_velocity_stack(levels: Sequence[Sequence[Task]]) -> None:
     """Raise TaskDefinitionError for the first task without a velocity form, naming it, its
     kind, its level and index (``stack[k][i]``) and the kinds a velocity stack may hold.
 
