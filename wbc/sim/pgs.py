@@ -28,7 +28,10 @@ and a result object per step, and its generic constraint visitor per contact):
   P_K* the projection on the dual cone K* = {μ‖σ_t‖ ≤ σ_n};
 - stop after the sweep where every contact's complementarity and dual feasibility are
   ≤ ``absolute_precision``, or ‖Δλ‖_∞ ≤ ``relative_precision`` · max(‖λ‖_∞, ‖λ_prev‖_∞),
-  or after ``max_iterations`` sweeps.
+  or after ``max_iterations`` sweeps. A sweep stops working out the residuals at the first
+  contact above the tolerance (the absolute test has failed then), and each contact's two step
+  sizes are divided out once per solve: the same decisions and numbers, ~20 % less time a sweep
+  (#26).
 
 The sweeps, the stopping tests and their order are pinocchio 4's; what differs is the
 rounding of the products (Eigen's vectorised row product against a plain loop here), so
@@ -84,6 +87,14 @@ def pgs_solve(G, g, mus, lam, over_relax, max_sweeps, abs_tol, rel_tol, Gs, lam_
     prev_norm = 0.0
     for i in range(n):
         prev_norm = max(prev_norm, abs(lam[i]))
+    # each contact's two steps ω / max(ε, G_nn) and ω / max(ε, min(G_t1t1, G_t2t2)): the same
+    # divisions every sweep, done once
+    step_n = np.empty(nc)
+    step_t = np.empty(nc)
+    for c in range(nc):
+        r = 3 * c
+        step_n[c] = over_relax / max(EPS_DIAGONAL, Gs[r + 2, r + 2])
+        step_t[c] = over_relax / max(EPS_DIAGONAL, min(Gs[r, r], Gs[r + 1, r + 1]))
     sweeps = 0
     converged = False
     while sweeps < max_sweeps:
@@ -110,7 +121,7 @@ def pgs_solve(G, g, mus, lam, over_relax, max_sweeps, abs_tol, rel_tol, Gs, lam_
             s2 += a2
             # normal
             fz_prev = lam[r + 2]
-            fz = fz_prev - (over_relax / max(EPS_DIAGONAL, Gs[r + 2, r + 2])) * s2
+            fz = fz_prev - step_n[c] * s2
             if fz < 0.0:
                 fz = 0.0
             lam[r + 2] = fz
@@ -119,10 +130,9 @@ def pgs_solve(G, g, mus, lam, over_relax, max_sweeps, abs_tol, rel_tol, Gs, lam_
             s1 += Gs[r + 1, r + 2] * dz
             s2 += Gs[r + 2, r + 2] * dz
             # tangent, projected on the disc of radius μ λ_n
-            dmin = max(EPS_DIAGONAL, min(Gs[r, r], Gs[r + 1, r + 1]))
             t0_prev = lam[r]
             t1_prev = lam[r + 1]
-            step = over_relax / dmin
+            step = step_t[c]
             t0 = t0_prev - step * s0
             t1 = t1_prev - step * s1
             tn = np.sqrt(t0 * t0 + t1 * t1)
@@ -141,7 +151,11 @@ def pgs_solve(G, g, mus, lam, over_relax, max_sweeps, abs_tol, rel_tol, Gs, lam_
             sigma[r] = s0
             sigma[r + 1] = s1
             sigma[r + 2] = s2
-            # residuals with the De Saxcé correction
+            # residuals with the De Saxcé correction; they only decide the absolute test, and the
+            # two maxima only grow (Python's max: a NaN never replaces the running value), so once
+            # one is above the tolerance the sweep's test has failed and the rest are skipped
+            if complementarity > abs_tol or dual > abs_tol:
+                continue
             c2 = s2 + mu * np.sqrt(s0 * s0 + s1 * s1)
             complementarity = max(complementarity, abs(lam[r] * s0 + lam[r + 1] * s1 + fz * c2))
             dual = max(dual, _dual_cone_residual(mu, s0, s1, c2))
