@@ -259,7 +259,12 @@ class Simulator:
     def _substep(self, tau: np.ndarray) -> None:
         m, d, h = self.model, self.data, self.h
         q, v = self.q, self.v
-        pin.computeJointJacobians(m, d, q)
+        if self._kin_q is not None and self._kin_q == q.tobytes():
+            # data's joint placements are at q already (_kinematics, for the metrics read after the
+            # last step): the Jacobians from them, the same products without forward kinematics again
+            pin.computeJointJacobians(m, d)
+        else:
+            pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
         fext = self._external_forces()
         J, frames, depths, mus, ids = self._contact_rows()
