@@ -90,6 +90,7 @@ if TYPE_CHECKING:
 #: the warnings on which MuJoCo resets the state (a diverged step)
 _BAD = np.array([mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC],
                 dtype=np.int64)
+_BAD_IDS = tuple(int(k) for k in _BAD)
 
 class MujocoSimulator:
     """:class:`wbc.sim.Simulator`'s interface on MuJoCo (module docstring). Units: s, m, rad, N, N·m.
@@ -391,7 +392,6 @@ class MujocoSimulator:
     def _advance(self) -> None:
         """``substeps`` MuJoCo steps at the current ctrl, then the contacts and the state read."""
         mm, d = self.mj_model, self.mj_data
-        warned = self._warned       # MuJoCo resets the state on any of these warnings (a diverged step)
         for _ in range(self.substeps):
             d.xfrc_applied[:] = self.push_wrenches(self.t) if self.pushes else 0.0
             if self.differential_drive:
@@ -399,16 +399,23 @@ class MujocoSimulator:
                 mujoco.mj_forward(mm, d)
                 e, Me = self._lateral()
                 d.qfrc_applied[:] = e * (-(e @ (d.qvel + self.h * d.qacc)) / (self.h * (e @ Me)))
-            n_bad = int(warned[_BAD].sum())
+            n_bad = self._bad_warnings()
             mujoco.mj_step(mm, d)
             self._fresh = False
             if self.differential_drive:       # the impulse along the new heading's lateral axis
                 e, Me = self._lateral()
                 d.qvel[:] -= Me * ((e @ d.qvel) / (e @ Me))
-            self.solver_failures += int(warned[_BAD].sum()) - n_bad
+            self.solver_failures += self._bad_warnings() - n_bad
             self.t += self.h
         self._read_contacts()
         self._read_state()
+
+    def _bad_warnings(self) -> int:
+        """How many times MuJoCo has issued the warnings on which it resets the state (a diverged
+        step: a bad qpos, qvel or qacc), read from its live counts as three Python ints (the same
+        sum as ``warned[_BAD].sum()``, without the index array and the reduction: twice a step)."""
+        w, (a, b, c) = self._warned, _BAD_IDS
+        return int(w[a]) + int(w[b]) + int(w[c])
 
     def _lateral(self) -> tuple[np.ndarray, np.ndarray]:
         """The base's lateral axis e (qvel coordinates) and M⁻¹e (MuJoCo's last factorization)."""
