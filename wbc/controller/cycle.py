@@ -349,7 +349,10 @@ class Controller:
         contacts = [c.contact_data() for c in self.stack.contacts()] \
             if layout.nf and getattr(solver, "reads_contacts", True) else []
         buf = self.stack.row_buffer
-        M, h, Jf = robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES
+        Jf = layout.force_jacobian
+        if Jf is None or not layout.nf:
+            Jf = _NO_FORCES
+        M, h = robot.M, robot.h
         problem = Problem(levels, layout, M, h, robot.unactuated_idx, x_ref, contacts,
                           None if buf is None else buf.stacked, ROW_MARGIN)
         t = clock and clock.lap(None, t)
