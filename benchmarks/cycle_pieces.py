@@ -69,6 +69,8 @@ def main() -> None:
     try:                                           # the torque cycle's entry since perf22 (its compiled run's call)
         from wbc.controller import torque_step
         wrap(torque_step.ProfiledStep, "solve", "ProfiledStep.solve")
+        # perf24: the run with τ and the rows' values in its call (the torque cycle's hqp entry)
+        wrap(torque_step.ProfiledStep, "solve_outputs", "ProfiledStep.solve_outputs")
     except ImportError:
         pass
     wrap(hqp, "cascade_prefix", "compiled run")

@@ -344,24 +344,40 @@ class Controller:
         t = clock and clock.lap("rows", t)
         self.layout, self.levels = layout, levels
         x_ref = self._reference(layout, weights_of, levels) if self.warm_start else None
-        contacts = [c.contact_data() for c in self.stack.contacts()] if layout.nf else []
+        solver = self.solver
+        # the contacts' records only for a solver that reads them (the projection's force distribution)
+        contacts = [c.contact_data() for c in self.stack.contacts()] \
+            if layout.nf and getattr(solver, "reads_contacts", True) else []
         buf = self.stack.row_buffer
-        problem = Problem(levels, layout, robot.M, robot.h, robot.unactuated_idx, x_ref, contacts,
+        Jf = layout.force_jacobian
+        if Jf is None or not layout.nf:
+            Jf = _NO_FORCES
+        M, h = robot.M, robot.h
+        problem = Problem(levels, layout, M, h, robot.unactuated_idx, x_ref, contacts,
                           None if buf is None else buf.stacked, ROW_MARGIN)
         t = clock and clock.lap(None, t)
-        solver = self.solver
         # the hqp's entry for rows kept in the same arrays (the stack's buffer): its run's
-        # arguments built once per buffer, its levels' records decoded when read (the same result)
-        planned = getattr(solver, "solve_planned", None)
-        res = solver.solve(problem) if planned is None else self._profiled.solve(solver, problem)
+        # arguments built once per buffer, its levels' records decoded when read (the same result),
+        # and where it solves every level, τ and the rows' values of its x in the same compiled call
+        if getattr(solver, "solve_planned", None) is None:
+            res, outputs = solver.solve(problem), None
+        else:
+            res, outputs = self._profiled.solve_outputs(solver, problem, (M, h, Jf, robot.unactuated_idx,
+                                                                          robot.actuated_idx, robot.tau_max,
+                                                                          SATURATION_TOL))
         t = clock and clock.lap("solve", t)
-        sol = self._finish(res.x, res, levels, layout, res.ok, res.message, res.qp_count)
+        sol = self._finish(res, layout, Jf, outputs)
         if clock:
             clock.lap("finish", t)
         return sol
 
-    def _finish(self, x, res: SolveResult, levels, layout, ok, message, qp_count) -> Solution:
+    def _finish(self, res: SolveResult, layout: Layout, Jf: np.ndarray, outputs: tuple | None) -> Solution:
+        """The cycle's Solution of the solver's result ``res``: τ (saturated), the rows' values of its x
+        (``outputs`` = (τ, finite, values, ratio, saturated count) when the solver's call computed them,
+        :meth:`ProfiledStep.solve_outputs`; None: computed here), the status, the forces, the fallback
+        of a failed cycle, the diagnostics evaluated when read."""
         robot, nv = self.robot, layout.nv
+        x, ok, message = res.x, res.ok, res.message
         qdd, f = x[:nv], x[nv:]
         # τ, and every level's row values this cycle produced (the stack's buffer is refilled
         # next cycle), in one compiled call; the per-level and per-task breakdown is done
@@ -370,9 +386,10 @@ class Controller:
         assert buf is not None, "the stack's rows were filled this cycle"
         # τ (saturated in place), whether x and τ are finite, the rows' values, the worst
         # |τ_i|/τ_max,i the solver asked for and the joints clipped beyond rounding
-        tau_full, finite, values, ratio, n_sat = cycle_outputs(
-            robot.M, robot.h, layout.force_jacobian if layout.nf else _NO_FORCES, x, robot.unactuated_idx,
-            buf.A, buf.b, buf.C, buf.lo, buf.hi, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+        if outputs is None:
+            outputs = cycle_outputs(robot.M, robot.h, Jf, x, robot.unactuated_idx, buf.A, buf.b, buf.C, buf.lo,
+                                    buf.hi, robot.actuated_idx, robot.tau_max, SATURATION_TOL)
+        tau_full, finite, values, ratio, n_sat = outputs
         status, relaxed = solve_status(ok, res)
         degraded = ok and bool(res.degraded)
         if not finite:
@@ -403,10 +420,8 @@ class Controller:
         infos = res.levels
         singular = infos.singular() if isinstance(infos, DeferredLevels) else \
             [k for k, info in enumerate(infos) if info.damping > 0.0 or info.singular]
-        return Solution(qdd, tau_full[robot.actuated_idx], tau_full, forces, x, status, message,
-                        SolutionReport(qp_count=qp_count, relaxed=relaxed, degraded=degraded, saturated=saturated,
-                                       tau_ratio=ratio, saturated_torques=at_limit, singular_levels=singular,
-                                       evaluate=evaluate))
+        return Solution.of_cycle((qdd, tau_full[robot.actuated_idx], tau_full, forces, x), status, message,
+                                 (res.qp_count, relaxed, degraded, saturated, ratio, at_limit, singular), evaluate)
 
     def _force_spans(self, layout: Layout) -> list[tuple[str, int, int]]:
         """(contact, first, end) of each contact's forces in f = x[nv:], worked out once per layout

@@ -21,7 +21,9 @@ first runs in the third, which loaded it then, 12-22 ms in a 1 ms period in ever
 
 :func:`load_plain_run` loads the plain run for the arguments the solver passes it after the torque
 cycle's profiled run, made inside a compiled call (:mod:`wbc.controller.torque_step`), stopped:
-that call leaves no signature of ``cascade_prefix_profiled`` for :func:`load_alternates` to read.
+that call leaves no signature of ``cascade_prefix_profiled`` for :func:`load_alternates` to read;
+:func:`load_outputs` the torques' kernel, which that call runs inside itself on the cycles that
+solve every level, for the first cycle that stops for a back-end QP.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from wbc.controller.torques import cycle_outputs
 from wbc.solvers.kernels.cascade_run import cascade_prefix, cascade_prefix_profiled
 from wbc.tasks.torque_stack import load_rows_kernel
 
@@ -65,4 +68,19 @@ def load_plain_run(args: tuple) -> bool:
     if sig in cascade_prefix.signatures:
         return False
     cascade_prefix.compile(sig)
+    return True
+
+
+def load_outputs(torques: tuple, x: np.ndarray, rows) -> bool:
+    """Load :func:`~wbc.controller.torques.cycle_outputs` for the types of its arguments in the torque
+    cycle (``torques`` = (M, h, J_f, unactuated, actuated, τ_max, tol) as
+    :meth:`~wbc.controller.torque_step.ProfiledStep.solve_outputs` takes them, x like ``x``, the rows
+    ``rows``' arrays), from numba's cache or compiled; False: it was loaded. The cycle calls it only
+    where the hqp's run stops for a back-end QP (else its outputs come from the run's call)."""
+    M, h, Jf, unactuated, actuated, tau_max, tol = torques
+    sig = tuple(nb.typeof(a) for a in (M, h, Jf, x, unactuated, rows.A, rows.b, rows.C, rows.lo, rows.hi, actuated,
+                                       tau_max, tol))
+    if sig in cycle_outputs.signatures:
+        return False
+    cycle_outputs.compile(sig)
     return True

@@ -217,6 +217,31 @@ class Solution:
                         "saturated_torques": [], "singular_levels": [], "_evaluate": evaluate, **more}
         return sol
 
+    @classmethod
+    def of_cycle(cls: type[_S], arrays: tuple, status: str, message: str, report: tuple,
+                 evaluate: Callable[[], tuple] | None) -> _S:
+        """``cls(*arrays, status, message, SolutionReport(*report, evaluate=evaluate))`` in one step: the
+        same attributes, set from one dict display (the torque cycle's Solution, built every cycle).
+
+        Args:
+            arrays: (qdd, tau, tau_full, forces, x) as :class:`Solution` takes them.
+            status: the cycle's status (class docstring).
+            message: the solver's note in words, "" when nothing to say.
+            report: (qp_count, relaxed, degraded, saturated, tau_ratio, saturated_torques,
+                singular_levels), :class:`SolutionReport`'s first seven fields, the two lists given
+                (not None).
+            evaluate: ``evaluate() -> (residuals, task_residuals, diagnostics)``, called on their first
+                access.
+        """
+        sol = cls.__new__(cls)
+        qp_count, relaxed, degraded, saturated, tau_ratio, saturated_torques, singular_levels = report
+        sol.__dict__ = {"qdd": arrays[0], "tau": arrays[1], "tau_full": arrays[2], "forces": arrays[3],
+                        "x": arrays[4], "status": status, "message": message, "qp_count": qp_count,
+                        "relaxed": relaxed, "saturated": saturated, "tau_ratio": tau_ratio, "_degraded": degraded,
+                        "saturated_torques": saturated_torques, "singular_levels": singular_levels, "fault": "",
+                        "_residuals": None, "_task_residuals": None, "_diagnostics": None, "_evaluate": evaluate}
+        return sol
+
     @staticmethod
     def ok_base(zeros: tuple[np.ndarray, np.ndarray, np.ndarray]) -> dict:
         """The attributes of an :meth:`ok_without_qp` solution that do not change from cycle to cycle

@@ -104,14 +104,22 @@ class PlannedEntry:
             return None
         return self._planned_rows(problem), self._hints
 
-    def profiled_result(self: Any, problem: Problem, k: int, x: np.ndarray, records: tuple) -> SolveResult:
+    def profiled_result(self: Any, problem: Problem, k: int, x: np.ndarray, records: tuple,
+                        summary: tuple[int, list[int]] | None = None) -> SolveResult:
         """:meth:`solve_planned`'s result (the same, bit for bit) after the caller ran its profiled run
         (:meth:`profiled_planned`): ``k`` the level it stopped at, ``x`` its solution and ``records`` its
         (ints, floats) when it solved every level (k = L); else (the hints restored) the plain run
-        from x₀ and the levels from where that one stops, as :meth:`solve_planned` goes on."""
+        from x₀ and the levels from where that one stops, as :meth:`solve_planned` goes on.
+        ``summary``: (the QPs certified, the damped levels) of a run that solved every level, as
+        :func:`_deferred` reads them off the records, when the caller read them in its compiled call
+        (:func:`wbc.controller.torque_step.profiled_outputs`); None: read here."""
         levels = problem.levels
         if k == len(levels):
-            deferred, certified = _deferred(records[0], records[1], levels)
+            if summary is None:
+                deferred, certified = _deferred(records[0], records[1], levels)
+            else:
+                certified = summary[0]
+                deferred = DeferredLevels(partial(_decoded, records[0], records[1], levels), singular=summary[1])
             return SolveResult(x, deferred, True, certified, "")
         got, x0 = self._planned_args(problem)
         return self._run_result(problem, got, x0, cascade_prefix(got[3], got[4], (x0, _NO_BASIS, True, 0, 0),
