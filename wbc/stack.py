@@ -48,6 +48,10 @@ class Stack:
             level that holds something else than tasks, is a StackError.
     """
 
+    #: (buffer, extra_level0, extra_lowest, version, nx) of :meth:`_hold_args` (a class default:
+    #: a stack pickled before it has none)
+    _held_args: tuple | None = None
+
     def __init__(self, levels: Iterable = ()) -> None:
         self._levels: list[list[Task]] = []
         #: bumped by every change of structure; the caches below are valid for one version
@@ -81,6 +85,7 @@ class Stack:
         state = self.__dict__.copy()
         state["_plan"] = None
         state["_forces_due"] = None
+        state["_held_args"] = None
         return state
 
     def _check_names(self) -> None:
@@ -296,11 +301,16 @@ class Stack:
                 contact regularisation), which is then always the lowest, whatever levels
                 events add; default none.
         """
-        extra = list(extra_level0)
-        lowest = list(extra_lowest)
-        key = (self.version, layout.nx, tuple(map(id, extra)), tuple(map(id, lowest)))
         buf = self._row_buffer
-        same = buf is not None and buf.key == key
+        held = self._held_args
+        if held is not None and buf is not None and held[0] is buf and held[1] is extra_level0 \
+                and held[2] is extra_lowest and held[3] == self.version and held[4] == layout.nx:
+            same = True                           # the same tuples of tasks for this buffer: its key
+            key = buf.key
+        else:
+            key = (self.version, layout.nx, tuple(map(id, extra_level0)), tuple(map(id, extra_lowest)))
+            same = buf is not None and buf.key == key
+            self._hold_args(buf if same else None, extra_level0, extra_lowest, layout.nx)
         if same:
             plan = self._plan
             if plan is not None and plan[0] is buf and plan[1] is not None:
@@ -312,6 +322,7 @@ class Stack:
                 plan = self._plan = None           # a change it does not follow: the tasks, then plan again
             else:
                 called = {}
+        extra, lowest = list(extra_level0), list(extra_lowest)
         groups = [extra + (self._levels[0] if self._levels else [])] + self._levels[1:]
         if lowest:
             groups.append(lowest)                 # (the tasks by level: built only when they are called)
@@ -329,7 +340,15 @@ class Stack:
             rows = [[t.rows(robot, layout) for t in tasks] for tasks in groups]
         buf = self._row_buffer = RowBuffer(layout.nx, groups, rows, key=key)
         buf.fill(groups, rows)
+        self._hold_args(buf, extra_level0, extra_lowest, layout.nx)
         return buf.levels
+
+    def _hold_args(self, buf: RowBuffer | None, extra_level0, extra_lowest, nx: int) -> None:
+        """:meth:`assemble`'s arguments for the buffer they match (its key checked), held when they
+        are tuples (immutable: the same objects are the same tasks) so that the next call with the
+        same objects, version and nx skips building the key; None otherwise."""
+        ok = buf is not None and type(extra_level0) is tuple and type(extra_lowest) is tuple
+        self._held_args = (buf, extra_level0, extra_lowest, self.version, nx) if ok else None
 
     def _due_forces(self) -> None:
         """The J_f refill :meth:`layout` left to a plan that did not run (before any task's rows)."""

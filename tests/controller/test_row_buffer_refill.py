@@ -108,3 +108,31 @@ def test_the_reused_buffer_equals_the_rows_stacked_afresh_cycle_after_cycle():
         assert stack.row_buffer is built
         groups = [ctrl._internal_constraints(ctrl.layout) + list(stack.levels[0])] + [list(lvl) for lvl in stack.levels[1:]]
         _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
+
+
+def test_assemble_follows_the_added_tasks_whatever_object_holds_them():
+    """``Stack.assemble``'s added tasks (level 0's, the lowest level's), held across calls when
+    given as the same tuples: another tuple with other tasks, or a list changed in place between
+    two calls, gives that call's levels (the lowest level there or not), equal to the rows stacked
+    afresh."""
+    from wbc.tasks.contact_regularization import ContactRegularization
+    from wbc.tasks.dynamics import FloatingBaseDynamics
+
+    robot = wbc.load_robot("talos")
+    stack = talos_stack()
+    dyn, reg = FloatingBaseDynamics(), ContactRegularization()
+    for t in (*stack, dyn, reg):
+        t.bind(robot)
+    rng = np.random.default_rng(5)
+    level0, with_reg, listed = (dyn,), (reg,), [reg]
+    for k, lowest in enumerate([with_reg, with_reg, (), (), with_reg, listed, listed, listed]):
+        if k == 6:
+            listed.clear()                             # the same list, now empty
+        q, v = random_state(robot, rng)
+        robot.update(q, v)
+        randomise_targets(stack, robot, rng)
+        layout = stack.layout(robot)
+        levels = stack.assemble(robot, layout, level0, lowest)
+        groups = [[dyn, *stack.levels[0]]] + [list(lvl) for lvl in stack.levels[1:]] + ([list(lowest)] if lowest else [])
+        assert len(levels) == len(groups), k
+        _assert_fresh(levels, groups, robot, layout)

@@ -163,8 +163,8 @@ def test_a_task_the_plan_does_not_know_is_called_and_put_in_its_place():
 
 
 def _retarget(stack, k: int, rng) -> None:
-    """Every target the plan reads (a frame's pose, ẍ_d, ẋ_d; the CoM's target, ẍ_d, ẋ_d; a wrench's)
-    changed in place (k % 3 == 0: the plan reads the same objects), replaced by new arrays (1), or
+    """Every target the plan reads (a frame's pose, ẍ_d, ẋ_d; the CoM's target, ẍ_d, ẋ_d; a wrench's; the
+    posture's q_d) changed in place (k % 3 == 0: the plan reads the same objects), replaced by new arrays (1), or
     given as what it copies (2: a strided view)."""
     for t in stack:
         if t.kind == "frame":
@@ -178,6 +178,14 @@ def _retarget(stack, k: int, rng) -> None:
             names, n = ("target", "target_acceleration", "target_velocity"), 3
         elif t.kind == "contact_wrench":
             names, n = ("target",), 6
+        elif t.kind == "posture":                      # q_d: copied into the call, its error computed there
+            q = t.target.copy()
+            q[7:] += 0.1 * rng.standard_normal(len(q) - 7)
+            if k % 3 == 0:
+                t.target[:] = q
+            else:
+                t.target = q if k % 3 == 1 else np.repeat(q, 2)[::2]
+            continue
         else:
             continue
         for name in names:

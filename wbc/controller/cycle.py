@@ -254,7 +254,7 @@ class Controller:
             extra.append(self._diff_drive)
         return tuple(extra)
 
-    def _lowest(self) -> tuple[list, ContactRegularization]:
+    def _lowest(self) -> tuple[tuple, ContactRegularization]:
         """(the tasks added as the lowest level, the task whose weights define the nominal
         forces f₀), worked out once per stack structure: the controller's regularisation
         when the stack has contacts, no ContactRegularization of its own, and a contact
@@ -266,10 +266,10 @@ class Controller:
         own = next((t for t in self.stack if isinstance(t, ContactRegularization)), None)
         contacts = {c.name for c in self.stack.contacts()}
         wrenched = {t.contact for t in self.stack if isinstance(t, ContactWrench)}
-        lowest = []
+        lowest: tuple = ()                        # a tuple: Stack.assemble holds it (immutable)
         if own is None and self.regularization is not None and contacts - wrenched:
             self.regularization.bind(self.robot)
-            lowest = [self.regularization]
+            lowest = (self.regularization,)
         weights_of = own or self._nominal_weights_of
         self._lowest_for = (self.stack.version, lowest, weights_of)
         return lowest, weights_of

@@ -1,8 +1,8 @@
 """Pinocchio's arrays as views held once: what a compiled task row reads without crossing the
 bindings (each crossing ~1 µs, about twice that in a control cycle).
 
-Pinocchio refreshes ``data.J``, ``data.oMf``, ``data.oMi``, ``data.v``, ``data.a`` and the CoM's
-arrays in place at every ``RobotModel.update`` (checked on pinocchio 4.1 and 3.8), so a view
+Pinocchio refreshes ``data.J``, ``data.oMf``, ``data.oMi``, ``data.v``, ``data.a``, the CoM's
+arrays, ``data.M`` and ``data.nle`` in place at every ``RobotModel.update`` (checked on pinocchio 4.1 and 3.8), so a view
 taken once follows every later state of the same ``data`` object; :class:`HeldViews` holds them
 for one ``data`` (``RobotModel`` takes them again when its ``data`` is another, and drops them
 when pickled or copied: a copied view would no longer follow).
@@ -88,14 +88,15 @@ class FrameArrays(NamedTuple):
 
 class HeldViews:
     """One ``data`` object's held views: ``J`` (``data.J``, 6 × nv), the CoM's ``com``,
-    ``vcom``, ``acom`` (3 each) and ``Jcom`` (3 × nv), and each frame's :class:`FrameArrays`
-    (:meth:`frame`, taken at its first use).
+    ``vcom``, ``acom`` (3 each) and ``Jcom`` (3 × nv), ``M`` (``data.M``, nv × nv) and ``nle``
+    (``data.nle``, nv), and each frame's :class:`FrameArrays` (:meth:`frame`, taken at its first
+    use).
 
     Args:
         data: the pinocchio data; None: nothing held yet.
     """
 
-    __slots__ = ("data", "J", "com", "vcom", "acom", "Jcom", "frames")
+    __slots__ = ("data", "J", "com", "vcom", "acom", "Jcom", "M", "nle", "frames")
 
     def __init__(self, data: pin.Data | None) -> None:
         self.data: pin.Data | None = data
@@ -103,6 +104,7 @@ class HeldViews:
         if data is not None:
             self.J, self.Jcom = data.J, data.Jcom
             self.com, self.vcom, self.acom = data.com[0], data.vcom[0], data.acom[0]
+            self.M, self.nle = data.M, data.nle
 
     def frame(self, model: pin.Model, fid: int) -> FrameArrays:
         """The :class:`FrameArrays` of frame ``fid`` of ``model`` (this ``data``'s model)."""

@@ -320,14 +320,14 @@ class RobotModel:
     @property
     def M(self) -> np.ndarray:
         """Joint-space inertia matrix M(q) (the chapter's B(q)), nv × nv, kg·m²."""
-        return self.data.M
+        return self._held().M
 
     @property
     def h(self) -> np.ndarray:
         """Nonlinear effects h = C(q, q̇)q̇ + g(q) − τ_e (τ_e the known external generalised
         force given to :meth:`update`, else 0), plus D q̇ + F σ(q̇) with a ``compensation``
         (:mod:`wbc.robot.joint_compensation`); nv, N·m."""
-        return self.data.nle if self.compensation is None else self._h_eff  # type: ignore[return-value]  # update() sets it
+        return self._held().nle if self.compensation is None else self._h_eff  # type: ignore[return-value]  # update() sets it
 
     def _held(self) -> HeldViews:
         views = self._views

@@ -20,18 +20,18 @@ scaled by √w into the buffer, as ``_put`` does (one product a coefficient: the
 What is held and what is read each cycle.
 
 - By address (one int64 table ``at``; :func:`~wbc.tasks.velocity_stack.float_pointer`), arrays
-  fixed for the plan's life: the buffer's blocks and scratch slots, pinocchio's arrays
-  (``data.J``, ``data.M``, each frame's placement, its joint's rotation, v and a, the CoM's
-  arrays), the layout's J_f (refilled in place by ``Stack.layout``), a contact's friction
-  rows and the torque limits' scratch. The plan holds the robot, its ``data``, the layout and
-  each task's own array objects, and runs only while they are the same objects.
-- Copied each cycle into the cycle table ``cv``: every target (a frame's R_d, p_d, ẋ_d, ẍ_d,
-  a contact's reference position, the CoM's, a wrench's) and the logarithms: a target
-  replaced or changed in place is read as it is now.
-- Copied into the constant table ``fx`` when replaced (by identity, the plan's own record of
-  what it copied): the gains K_p, K_d (``gain_vectors``), the joint limits' settings.
-- Passed: q, v, h (``RobotModel.h``: another array with a joint compensation) and the
-  posture's error.
+  fixed for the plan's life: the buffer's blocks and scratch slots, pinocchio's arrays, the
+  layout's J_f, a contact's friction rows, the torque limits' scratch. The plan holds the
+  robot, its ``data``, the layout and each task's own array objects, and runs only while they
+  are the same objects.
+- Copied each cycle into the cycle table ``cv`` (through views of it held by the plan): every
+  target (a frame's R_d, p_d, ẋ_d, ẍ_d, a contact's reference position, the CoM's, a wrench's,
+  the posture's q_d where every coordinate it drives is a vector space's, its error then
+  q_d − q in the call as ``difference`` gives it) and the logarithms: a target replaced or
+  changed in place is read as it is now.
+- Copied into the constant table ``fx`` when replaced (by identity): the gains K_p, K_d
+  (``gain_vectors``), the joint limits' settings. Passed: q, v, h (``RobotModel.h``) and the
+  posture's error by ``difference`` where a coordinate it drives is not a vector space's.
 
 A cycle the plan cannot write as the tasks would (a target not set yet, a weight, a
 ``cop_margin``, ``sliding``, a torque-limit ``scale`` changed, another robot, data or
@@ -64,8 +64,9 @@ from .frame import Frame
 from .joint_limits import JointLimits, acceleration_bounds
 from .posture import Posture, _posture_rhs
 from .torque_limits import TorqueLimits
+from .torque_tables import Gains, address
 from .velocity_frames import _jacobian_rows, frame_motion_rows, relative_rotation
-from .velocity_stack import _matrix, _vector, float_pointer
+from .velocity_stack import _matrix, _vector, _vector_space_coordinates, float_pointer
 
 __all__ = ["TorquePlan", "load_rows_kernel", "torque_plan"]
 
@@ -125,7 +126,12 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
             motion_rows(A, b, _matrix(at[a + 5], 3, nv), iv[i:i + m], cv[c + 3:c + 6], fx[f:f + 3], err,
                         fx[f + 3:f + 6], cv[c + 6:c + 9], _vector(at[a + 6], 3), _vector(at[a + 7], 3))
         elif kind == _POSTURE:                     # b = K_p e − K_d q̇ on its unit rows (A constant)
-            _posture_rhs(_vector(at[s + 1], m), pe, v, iv[i:i + m], fx[f:f + m], fx[f + m:f + 2 * m])
+            e = pe
+            if flag:                               # e = q_d − q on its coordinates (q_d in cv), as ``difference``
+                e = np.zeros(nv)
+                for k in range(m):
+                    e[iv[i + k]] = cv[c + iv[i + m + k]] - q[iv[i + m + k]]
+            _posture_rhs(_vector(at[s + 1], m), e, v, iv[i:i + m], fx[f:f + m], fx[f + m:f + 2 * m])
         elif kind == _DYN:
             A, b = nb.carray(float_pointer(at[s]), (m, nx)), _vector(at[s + 1], m)
             dynamics_block(A, b, M, h, Jf, iv[i:i + m], nv, -1.0)
@@ -163,34 +169,6 @@ def _torque_rows(at, rec, iv, fx, cv, sup, q, v, h, pe):
             _scale(at, a, m, nx, fx[w])
 
 
-def _address(x, order: str = "C") -> int:
-    """The data address of x, a float64 array laid out as the kernel reads it (``order`` "C":
-    row-major or a contiguous vector; "F": a column-major matrix, pinocchio's); ValueError else."""
-    ok = isinstance(x, np.ndarray) and x.dtype == np.float64
-    ok = ok and (x.flags.f_contiguous if order == "F" else x.flags.c_contiguous)
-    if not ok:
-        raise ValueError("an array is not laid out as the plan's kernel reads it")
-    return x.__array_interface__["data"][0]
-
-
-class _Gains:
-    """A task's K_p, K_d (``gain_vectors(dim)``) copied into ``fx`` at f and f + ``step`` when the
-    task's ``kp`` or ``kd`` object is replaced (this record keeps what it copied)."""
-
-    __slots__ = ("task", "dim", "f", "step", "kp", "kd")
-
-    def __init__(self, task, dim: int, f: int, step: int) -> None:
-        self.task, self.dim, self.f, self.step, self.kp, self.kd = task, dim, f, step, None, None
-
-    def copy(self, fx: np.ndarray) -> None:
-        t = self.task
-        kp, kd = t.gain_vectors(self.dim)
-        f, d = self.f, self.dim
-        fx[f:f + d] = kp
-        fx[f + self.step:f + self.step + d] = kd
-        self.kp, self.kd = t.kp, t.kd
-
-
 class TorquePlan:
     """One stack structure's rows in one compiled call (module docstring): :meth:`write` each
     cycle. Built by :func:`torque_plan`."""
@@ -198,11 +176,11 @@ class TorquePlan:
     def __init__(self, buffer, robot, layout) -> None:
         self.buffer, self.robot, self.layout, self.data = buffer, robot, layout, robot.data
         self.at: list[int] = [layout.nx, layout.nv, robot.data.J.shape[1], layout.nf,
-                              _address(robot.data.J, "F"), _address(robot.data.M, "F"), 0]
+                              address(robot.data.J, "F"), address(robot.data.M, "F"), 0]
         #: the objects whose data ``at`` points at, alive while the plan is
         self.keep: list = [robot.data.J, robot.data.M]
         if layout.nf:
-            self.at[_JF] = _address(layout.force_jacobian)
+            self.at[_JF] = address(layout.force_jacobian)
             self.keep.append(layout.force_jacobian)
         self.rec: list[list[int]] = []
         self.iv: list[int] = []
@@ -216,11 +194,12 @@ class TorquePlan:
         #: a failed :meth:`write`'s rows of the tasks it called, by (level, place): the stack
         #: hands them to ``RowBuffer.refill``, which calls the others (each task once a cycle)
         self.called: dict[tuple[int, int], Rows] = {}
-        self.gains: list[_Gains] = []
+        self.gains: list[Gains] = []
         self.posture = None
         #: the J_f records (:meth:`_force_rows`), run before the others; the rows of J_f they cover
         self.front: list[list[int]] = []
         self.jf_rows = 0
+        self.posture_target: np.ndarray | None = None      # (:meth:`_cycle_lists`)
 
     # ------------------------------------------------------------------ building
     def _record(self, kind: int, arrays: list, ints, sizes: tuple, w: float = 1.0) -> list[int]:
@@ -229,7 +208,7 @@ class TorquePlan:
         floats, values, m, flag, count = sizes
         a, i, f, c = len(self.at), len(self.iv), len(self.fx), self.ncv
         for x, order in arrays:
-            self.at.append(_address(x, order))
+            self.at.append(address(x, order))
             self.keep.append(x)
         self.iv += [int(k) for k in ints]
         self.fx += [0.0] * floats
@@ -256,7 +235,7 @@ class TorquePlan:
                                           (aj, "C")]
         r = self._record(_FRAME, arrays, sel, (12, 21, len(sel), int(contact), len(self.sup)), entry[1][2])
         self.sup.append(sup)
-        g = _Gains(t, dim, r[3], 6)
+        g = Gains(t, dim, r[3], 6)
         self.gains.append(g)
         return r
 
@@ -306,16 +285,18 @@ class TorquePlan:
             arrays = self._eq(entry, slot) + [(robot.com, "C"), (robot.com_jacobian, "F"),
                                               (robot.com_velocity, "C"), (robot.com_drift, "C")]
             r = self._record(_COM, arrays, t._sel, (6, 9, len(t._sel), 0, 0), w)
-            self.gains.append(_Gains(t, 3, r[3], 3))
+            self.gains.append(Gains(t, 3, r[3], 3))
             self.items.append((_COM, t, t.weight, r[4]))
         elif kind is Posture:
             idx = t._idx
             if self.posture is not None or idx is None:
                 return False
-            r = self._record(_POSTURE, self._eq(entry, slot), idx, (2 * len(idx), 0, len(idx), 0, 0), w)
-            self.gains.append(_Gains(t, len(idx), r[3], len(idx)))
+            qs = _vector_space_coordinates(robot.model, idx)      # its error computed in the call
+            r = self._record(_POSTURE, self._eq(entry, slot), [*idx, *(qs or ())],
+                             (2 * len(idx), 0 if qs is None else robot.nq, len(idx), int(qs is not None), 0), w)
+            self.gains.append(Gains(t, len(idx), r[3], len(idx)))
             self.posture = t
-            self.items.append((_POSTURE, t, t.weight, None))
+            self.items.append((_POSTURE, t, t.weight, None if qs is None else r[4]))
         elif kind is FloatingBaseDynamics:
             if t._u is None:
                 return False
@@ -367,6 +348,31 @@ class TorquePlan:
                 st[1] += len(self.front)
         for g in self.gains:
             g.copy(self.fx_)
+        self._cycle_lists()
+
+    def _cycle_lists(self) -> None:
+        """:meth:`write`'s work kind by kind: each task with the weight it was planned with, each
+        target's place in ``cv`` as a view held for the plan's life (``view[...] = x``: the slice
+        assignment ``cv[a:b] = x`` without the slice); the posture's q_d's, or None."""
+        cv, self.weights = self.cv, [(t, w) for _, t, w, _ in self.items]
+        lists: list[list[tuple]] = [[] for _ in range(6)]
+        self.frames, self.contacts, self.coms, self.wrenches, self.taus, self.lims = lists
+        for kind, t, _, st in self.items:
+            if kind == _FRAME:
+                c, Re, fa = st
+                self.frames.append((t, cv[c + 3:c + 6] if t._sel[-1] > 2 else None, Re, fa.views[1],
+                                    cv[c + 6:c + 9], cv[c + 9:c + 15], cv[c + 15:c + 21]))
+            elif kind == _CONTACT:
+                c, m = st[:2]
+                self.contacts.append((t, cv[c:c + 6] if m == 6 else cv[c + 6:c + 9], m == 6, *st[2:]))
+            elif kind == _COM:
+                self.coms.append((t, cv[st:st + 3], cv[st + 3:st + 6], cv[st + 6:st + 9]))
+            elif kind == _WRENCH:
+                self.wrenches.append((t, cv[st[0]:st[0] + st[1]], st[1]))
+            elif kind in (_TAU, _LIM):
+                (self.taus if kind == _TAU else self.lims).append((t, st))
+            elif kind == _POSTURE and st is not None:
+                self.posture_target = cv[st:st + self.robot.nq]
 
     def load_kernel(self) -> bool:
         """:func:`_torque_rows` loaded for this plan's arguments now, not in its first run (12-22 ms
@@ -389,62 +395,54 @@ class TorquePlan:
         if robot is not self.robot or layout is not self.layout or robot.data is not self.data:
             return False
         self.called = {}
-        fx, cv = self.fx_, self.cv
+        fx = self.fx_
         for g in self.gains:
             t = g.task
             if t.kp is not g.kp or t.kd is not g.kd:
                 if type(t) is CoM and not (len(t._sel) == 3 or (np.ndim(t.kp) == 0 and np.ndim(t.kd) == 0)):
                     return False                   # gains per selected axis: CoM.rows' other branch
                 g.copy(fx)
-        for kind, t, w, st in self.items:
+        for t, w in self.weights:
             if t.weight != w:
                 return False
-            if kind == _FRAME:
-                T = t._target
-                if T is None:
+        for t, rot, Re, R, p_d, a_d, v_d in self.frames:
+            T = t._target
+            if T is None:
+                return False
+            if rot is not None:                    # log₃(R_d Rᵀ), pinocchio's (Frame.rows' bits)
+                relative_rotation(Re, T.rotation, R)
+                rot[...] = pin.log3(Re)
+            p_d[...] = T.translation
+            a_d[...] = t.target_acceleration
+            v_d[...] = t.target_velocity
+        for t, e, six, sliding, bilateral, fr, cop, placement in self.contacts:
+            ref = t.reference
+            if ref is None or t.sliding != sliding or t.bilateral != bilateral:
+                return False
+            e[...] = pin.log6(placement.actInv(ref)).vector if six else ref.translation
+            if fr is not None:
+                fa = t.friction_arrays()
+                if fa is None or fa[0] is not fr or t.cop_margin != cop:
                     return False
-                c = st[0]
-                if t._sel[-1] > 2:                 # log₃(R_d Rᵀ), pinocchio's (Frame.rows' bits)
-                    Re = st[1]
-                    relative_rotation(Re, T.rotation, st[2].views[1])
-                    cv[c + 3:c + 6] = pin.log3(Re)
-                cv[c + 6:c + 9] = T.translation
-                cv[c + 9:c + 15] = t.target_acceleration
-                cv[c + 15:c + 21] = t.target_velocity
-            elif kind == _CONTACT:             # a contact
-                ref = t.reference
-                c, m, sliding, bilateral, fr, cop, placement = st
-                if ref is None or t.sliding != sliding or t.bilateral != bilateral:
-                    return False
-                if m == 6:
-                    cv[c:c + 6] = pin.log6(placement.actInv(ref)).vector
-                else:
-                    cv[c + 6:c + 9] = ref.translation
-                if fr is not None:
-                    fa = t.friction_arrays()
-                    if fa is None or fa[0] is not fr or t.cop_margin != cop:
-                        return False
-                    t.bound_normal_force()
-            elif kind == _COM:
-                T = t._target
-                if T is None:
-                    return False
-                cv[st:st + 3] = T
-                cv[st + 3:st + 6] = t.target_acceleration
-                cv[st + 6:st + 9] = t.target_velocity
-            elif kind == _WRENCH:
-                c, dim = st
-                cv[c:c + dim] = t._ref(dim)       # the task's own check of a target set anew
-            elif kind == _TAU:
-                if t._buf is not st[0] or t.scale != st[1]:
-                    return False
-            elif kind == _LIM:
-                now = (t.margin, t.dt, t.horizon, t.max_acceleration, t.recovery)
-                if now != st[0]:
-                    f = st[2]
-                    fx[f:f + 4] = now[:4]
-                    self.rec_[st[1], 6] = int(now[4] == "stop")
-                    st[0] = now
+                t.bound_normal_force()
+        for t, p_d, a_d, v_d in self.coms:
+            if t._target is None:
+                return False
+            p_d[...] = t._target
+            a_d[...] = t.target_acceleration
+            v_d[...] = t.target_velocity
+        for t, e, dim in self.wrenches:
+            e[...] = t._ref(dim)                   # the task's own check of a target set anew
+        for t, (buf, scale) in self.taus:
+            if t._buf is not buf or t.scale != scale:
+                return False
+        for t, st in self.lims:
+            now = (t.margin, t.dt, t.horizon, t.max_acceleration, t.recovery)
+            if now != st[0]:
+                f = st[2]
+                fx[f:f + 4] = now[:4]
+                self.rec_[st[1], 6] = int(now[4] == "stop")
+                st[0] = now
         called = self.called
         for t, entry, slot, where in self.rest:    # after every check: a False from here on is a refill
             r = called[where] = t.rows(robot, layout, slot)
@@ -453,9 +451,11 @@ class TorquePlan:
         called.clear()
         pe = self.pe
         post = self.posture
-        if post is not None:
+        if post is not None and self.posture_target is None:
             pe = robot.difference(robot.q, post._q_ref(robot))
-        _torque_rows(self.at_, self.rec_, self.iv_, fx, cv, self.sup_, robot.q, robot.v, robot.h, pe)
+        elif post is not None:
+            self.posture_target[...] = post._q_ref(robot)
+        _torque_rows(self.at_, self.rec_, self.iv_, fx, self.cv, self.sup_, robot.q, robot.v, robot.h, pe)
         return True
 
 
