@@ -45,3 +45,29 @@ def test_the_report_fields_reach_the_solution():
 def test_an_unknown_report_field_is_refused():
     with pytest.raises(TypeError, match="tau_max"):
         SolutionReport(tau_max=1.0)  # type: ignore[call-arg]
+
+
+def _attributes(sol: Solution) -> dict:
+    """Every attribute the Solution holds, arrays as bytes (so that == compares values)."""
+    return {k: (v.tobytes() if isinstance(v, np.ndarray) else v) for k, v in vars(sol).items()}
+
+
+def test_the_one_step_constructors_set_what_init_sets():
+    """``Solution.of_cycle`` (the torque cycle's) and ``Solution.ok_without_qp`` (the velocity cycle's)
+    set their attributes from one dict display instead of ``__init__``: the same names and values,
+    so an attribute added to ``__init__`` and not to them fails here."""
+    qdd, tau, tau_full, x = np.arange(3.0), np.ones(2), np.r_[0.0, 1.0, 1.0], np.arange(5.0)
+    forces = {"left": np.ones(6)}
+
+    def evaluate():
+        return [], {}, []
+
+    report = (2, True, True, True, 1.5, [1, 2], [0])
+    made = Solution.of_cycle((qdd, tau, tau_full, forces, x), "saturated", "note", report, evaluate)
+    ref = Solution(qdd, tau, tau_full, forces, x, "saturated", "note",
+                   SolutionReport(*report, evaluate=evaluate))
+    assert _attributes(made) == _attributes(ref)
+    zeros = (np.zeros(3), np.zeros(2), np.zeros(3))
+    made = Solution.ok_without_qp(zeros, x, evaluate)
+    ref = Solution(*zeros, {}, x, "ok", "", SolutionReport(evaluate=evaluate))
+    assert _attributes(made) == _attributes(ref)
