@@ -345,9 +345,7 @@ class Controller:
         self.layout, self.levels = layout, levels
         x_ref = self._reference(layout, weights_of, levels) if self.warm_start else None
         solver = self.solver
-        # the contacts' records only for a solver that reads them (the projection's force distribution)
-        contacts = [c.contact_data() for c in self.stack.contacts()] \
-            if layout.nf and getattr(solver, "reads_contacts", True) else []
+        contacts = [c.contact_data() for c in self.stack.contacts()] if layout.nf else []
         buf = self.stack.row_buffer
         Jf = layout.force_jacobian
         if Jf is None or not layout.nf:

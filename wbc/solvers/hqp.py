@@ -79,8 +79,6 @@ class HierarchicalQP(PlannedEntry):
     only where its KKT certificate fails (False: every QP goes to the back-end)."""
 
     name = "hqp"
-    #: the solver reads no ``Problem.contacts`` (the controller builds them only for one that does)
-    reads_contacts = False
 
     #: the options :meth:`create` takes beyond ``backend`` and ``damping`` (:mod:`wbc.solvers.options`)
     options: tuple[str, ...] = ()
