@@ -6,13 +6,11 @@ also with limits low enough to saturate and a damping threshold high enough to d
 
 from __future__ import annotations
 
-import numpy as np
-import pinocchio as pin
 import pytest
 
 import wbc
 from benchmarks.harness import stacks
-from benchmarks.harness.trajectory import DT, moving_targets
+from tests.helpers.stacks import bench_cycles
 from wbc import Controller
 from wbc.controller.cycle import SATURATION_TOL
 from wbc.controller.torque_step import ProfiledStep
@@ -30,22 +28,16 @@ def _run(robot, fused: bool, cycles: int, scale: float = 1.0, **options):
     ctrl = Controller(robot, stack, solver="hqp", **options)
     robot.tau_max = robot.tau_max * scale
     ctrl._profiled.enabled = fused              # False: the solver's own solve_planned, outputs apart
-    q, v = robot.q_default.copy(), np.zeros(robot.nv)
-    robot.update(q, v)
-    targets = moving_targets(robot, stack)
-    out = []
-    for k in range(cycles):
-        targets(k * DT)
-        sol = ctrl.solve(q, v)
+
+    def read(sol):
         diag = [(d.residual, d.rank, d.sigma_min, d.damping, d.used_qp, d.qp_status, d.relaxed, d.sacrificed,
                  d.active, d.saturated_torques, d.singular, d.violations) for d in sol.diagnostics]
-        out.append((sol.tau_full.tobytes(), sol.tau.tobytes(), sol.x.tobytes(), sol.qdd.tobytes(), sol.status,
-                    sol.message, sol.qp_count, sol.relaxed, sol.saturated, sol.tau_ratio, sol.saturated_torques,
-                    sol.singular_levels, sol.conditions, {n: f.tobytes() for n, f in sol.forces.items()},
-                    sol.residuals, sol.task_residuals, diag))
-        v = v + sol.qdd * DT
-        q = pin.integrate(robot.model, q, v * DT)
-    return out
+        return (sol.tau_full.tobytes(), sol.tau.tobytes(), sol.x.tobytes(), sol.qdd.tobytes(), sol.status,
+                sol.message, sol.qp_count, sol.relaxed, sol.saturated, sol.tau_ratio, sol.saturated_torques,
+                sol.singular_levels, sol.conditions, {n: f.tobytes() for n, f in sol.forces.items()},
+                sol.residuals, sol.task_residuals, diag)
+
+    return bench_cycles(robot, ctrl, stack, cycles, read)
 
 
 def _spied(monkeypatch) -> list:

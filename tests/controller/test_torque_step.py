@@ -7,11 +7,10 @@ diagnostics equal those of the solver's own entry."""
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from benchmarks.harness import stacks
-from benchmarks.harness.trajectory import DT, moving_targets
+from tests.helpers.stacks import bench_cycles
 from tests.solvers.test_solve_planned import _problem, _same
 from wbc import Controller
 from wbc.controller.torque_step import ProfiledStep
@@ -35,19 +34,12 @@ def _cycles(robot, step: bool, cycles: int = 60):
     ctrl = Controller(robot, stack, solver="hqp")
     if not step:                                # the solver's own planned entry
         ctrl._profiled.enabled = False
-    q, v = robot.q_default.copy(), np.zeros(robot.nv)
-    robot.update(q, v)
-    targets = moving_targets(robot, stack)
-    out = []
-    for k in range(cycles):
-        targets(k * DT)
-        sol = ctrl.solve(q, v)
+
+    def read(sol):
         diag = [(d.rank, d.sigma_min, d.damping, d.used_qp, d.qp_status, d.relaxed) for d in sol.diagnostics]
-        out.append((sol.tau_full.tobytes(), sol.x.tobytes(), sol.status, sol.qp_count,
-                    list(sol.singular_levels), diag))
-        v = v + sol.qdd * DT
-        q = pin.integrate(robot.model, q, v * DT)
-    return out, ctrl
+        return (sol.tau_full.tobytes(), sol.x.tobytes(), sol.status, sol.qp_count, list(sol.singular_levels), diag)
+
+    return bench_cycles(robot, ctrl, stack, cycles, read), ctrl
 
 
 def test_the_cycle_through_the_step_is_the_solvers_entrys(talos):

@@ -16,7 +16,8 @@ from benchmarks.harness import stacks as shared
 from benchmarks.harness.trajectory import DT, moving_targets
 from wbc.tasks import CoM, Frame, Posture
 
-__all__ = ["DT", "bench_stack", "moving_targets", "random_state", "randomise_targets", "talos_stack", "tiago_stack"]
+__all__ = ["DT", "bench_cycles", "bench_stack", "moving_targets", "random_state", "randomise_targets", "talos_stack",
+           "tiago_stack"]
 
 bench_stack = shared.talos_stack
 
@@ -68,3 +69,20 @@ def randomise_targets(stack: wbc.Stack, robot: wbc.RobotModel, rng: np.random.Ge
             q = robot.q_default.copy()
             q[robot.model.nq - len(robot.joint_idx):] += 0.1 * rng.standard_normal(len(robot.joint_idx))
             task.target = q
+
+
+def bench_cycles(robot: wbc.RobotModel, ctrl: wbc.Controller, stack: wbc.Stack, cycles: int, read) -> list:
+    """``read(sol)`` of each of the bench trajectory's first ``cycles`` cycles, in closed loop on the
+    controller's own q̈ (explicit Euler on v, ``pin.integrate`` on q, period ``DT``) from the default
+    posture at rest."""
+    q, v = robot.q_default.copy(), np.zeros(robot.nv)
+    robot.update(q, v)
+    targets = moving_targets(robot, stack)
+    out = []
+    for k in range(cycles):
+        targets(k * DT)
+        sol = ctrl.solve(q, v)
+        out.append(read(sol))
+        v = v + sol.qdd * DT
+        q = pin.integrate(robot.model, q, v * DT)
+    return out
