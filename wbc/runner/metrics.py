@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
-from wbc.runner.state_kernel import VIOLATIONS, fallen_state, hull_holds, ratio_max, state_metrics
+from wbc.runner.state_kernel import VIOLATIONS, fallen_state, hull_holds, pack_state, ratio_max, state_metrics_packed
 from wbc.runner.stats import Running
 from wbc.tasks.contact import Contact
 
@@ -138,8 +138,8 @@ class ContactMetrics:
         self.inside = np.zeros(ns, dtype=np.int64)
         self.loaded = np.zeros(ns, dtype=np.int64)
         self.watched = np.zeros(ns, dtype=np.bool_)
-        #: the soles for the compiled call: (ptr, point indices, vertex ptr, vertex indices, watched)
-        self.soles = (_offsets(idx), _joined(idx), _offsets(verts), _joined(verts), self.watched)
+        #: the soles' groups (ptr, point indices, vertex ptr, vertex indices), packed by RunMetrics for its compiled call
+        self.soles = (_offsets(idx), _joined(idx), _offsets(verts), _joined(verts))
         self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
         self.pair_points = tuple(np.asarray(pts_of[n], dtype=np.int64) for n in self.pair) if self.pair \
             else (_NO_POINTS, _NO_POINTS)
@@ -329,9 +329,7 @@ class RunMetrics:
                 self.err_parts[name] = {u: Running() for u in kinds}
         #: per cycle counts of :data:`~wbc.runner.state_kernel.VIOLATIONS`; per contact (``contacts``'
         #: order) the largest squared slip (m²) and whether it lifted
-        self.viol_counts = np.zeros(len(VIOLATIONS), dtype=np.int64)
-        self.slip2 = np.zeros(len(contacts))
-        self.lifted = np.zeros(len(contacts), dtype=np.bool_)
+        self.viol_counts, self.slip2, self.lifted = np.zeros(len(VIOLATIONS)), np.zeros(len(contacts)), np.zeros(len(contacts))
         self.margins = Running()
         self.lateral = 0.0
         self.qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
@@ -342,17 +340,21 @@ class RunMetrics:
         self.inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
         self.hull = SupportPolygon()
         cm = self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
-        # the compiled call's argument groups (wbc.runner.state_kernel.state_metrics), built once:
-        # their arrays are updated in place
-        self._limits = (self.qi.astype(np.int64), self.vi.astype(np.int64), self.q_lo, self.q_hi,
-                        _NO_VALUES if self.v_hi is None else self.v_hi, np.asarray(robot.actuated_idx, dtype=np.int64),
-                        self.tau_hi, float(mu_max))
-        self._watched = np.zeros(len(contacts), dtype=np.bool_)
+        # the compiled call's held arguments (wbc.runner.state_kernel.state_metrics_packed) in three
+        # arrays, built once; the running figures and flags below are views of them, updated in place
         groups = [np.asarray(pts_of[c.name], dtype=np.int64) for c in contacts]
-        self._contact_points = (_offsets(groups), _joined(groups), self._watched)
-        self._pair = (*cm.pair_points, False)
-        self._acc = (self.viol_counts, self.slip2, self.lifted, cm.fn_min, cm.edge_min, cm.inside, cm.loaded,
-                     float(cm.min_force))
+        (self._ints, self._floats, self._flags), held = pack_state({
+            **dict(zip(("sole_ptr", "sole_idx", "sole_vptr", "sole_verts"), cm.soles, strict=True)), "qi": self.qi,
+            "vi": self.vi, "actuated": robot.actuated_idx, "contact_ptr": _offsets(groups), "contact_idx": _joined(groups),
+            "pair_a": cm.pair_points[0], "pair_b": cm.pair_points[1], "viol": self.viol_counts, "inside": cm.inside,
+            "loaded": cm.loaded, "q_lo": self.q_lo, "q_hi": self.q_hi, "v_hi": _NO_VALUES if self.v_hi is None else self.v_hi,
+            "tau_hi": self.tau_hi, "mu_max": mu_max, "min_force": cm.min_force, "p0": self.p0, "slip2": self.slip2,
+            "fn_min": cm.fn_min, "edge_min": cm.edge_min, "contact_watched": np.zeros(len(contacts)),
+            "sole_watched": cm.watched, "lifted": self.lifted, "both": False})
+        self.viol_counts, self.slip2, self.lifted, self._watched, self._both, self.p0 = (
+            held["viol"], held["slip2"], held["lifted"], held["contact_watched"], held["both"], held["p0"])
+        cm.fn_min, cm.edge_min, cm.inside, cm.loaded, cm.watched = (held[k] for k in ("fn_min", "edge_min", "inside",
+                                                                                     "loaded", "sole_watched"))
         self._support: tuple = (-1, _NO_POINTS, ())     # (stack version, support point indices, as a tuple)
         self.relaxed_cycles = self.saturated_cycles = 0
         #: per level, cycles whose σ_min fell below the damping threshold (index: level)
@@ -375,8 +377,7 @@ class RunMetrics:
         self.watched_names = {name for name, _ in self.watched}
         for k, c in enumerate(self.contacts):
             self._watched[k] = c.name in self.watched_names
-        both = self.contact_metrics.watch(self.watched_names)
-        self._pair = (*self._pair[:2], both)
+        self._both[0] = self.contact_metrics.watch(self.watched_names)
 
     def record_command(self, sol) -> None:
         """The cycle's solution: relaxed/saturated, torque ratios (sent and asked), task
@@ -421,7 +422,7 @@ class RunMetrics:
     def record_state(self, t: float, sim, sol, stack) -> None:
         """The true (simulated) state after the step: limits, contacts, soles, the internal
         force and the CoM's support margin in one compiled call
-        (:func:`~wbc.runner.state_kernel.state_metrics`)."""
+        (:func:`~wbc.runner.state_kernel.state_metrics_packed`)."""
         qs, vs = sim.q, sim.v
         pf = sim.point_forces
         pts = sim.point_positions()
@@ -430,12 +431,11 @@ class RunMetrics:
         if len(idx):
             # true CoM, the simulator's model and data (its own com(): the kinematics point_positions ran)
             robot_com = sim.com() if hasattr(sim, "com") else pin.centerOfMass(sim.model, sim.data, qs)
-            verts = self.hull.vertices(support[2], idx, pts)
-            where = (idx, verts, float(robot_com[0]), float(robot_com[1]))
+            verts, cx, cy = self.hull.vertices(support[2], idx, pts), float(robot_com[0]), float(robot_com[1])
         else:
-            where = (idx, _NO_POINTS, 0.0, 0.0)
-        s, finite, margin = state_metrics(qs, vs, sol.tau_full, pf, pts, self.p0, self._limits, self._contact_points,
-                                          self.contact_metrics.soles, self._pair, where, self._acc)
+            verts, cx, cy = _NO_POINTS, 0.0, 0.0
+        s, finite, margin = state_metrics_packed(qs, vs, sol.tau_full, pf, pts, self._ints, self._floats, self._flags, idx,
+                                                 verts, cx, cy)
         if math.isfinite(s):    # NaN: the pair not watched, or its contacts coincide
             self.contact_metrics.internal.add(s)
         if len(idx):
