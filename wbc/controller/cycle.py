@@ -400,7 +400,8 @@ class Controller:
                       for name, sl in layout.contact_slices.items()}
             x = np.concatenate([qdd] + [forces[name] for name in layout.contact_slices])
         else:
-            forces = {name: f[a:b].copy() for name, a, b in self._force_spans(layout)}
+            fc = f.copy()                  # one copy of f: each contact's forces a disjoint view of it
+            forces = {name: fc[a:b] for name, a, b in self._force_spans(layout)}
         saturated = n_sat > 0
         if saturated:
             lim = robot.tau_max[robot.actuated_idx]

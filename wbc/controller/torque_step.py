@@ -179,7 +179,8 @@ class ProfiledStep:
         L = len(problem.levels)
         if k != L:
             return solver.profiled_result(problem, k, x, (ints, floats)), None
-        res = solver.profiled_result(problem, k, x, (ints, floats), (certified, [j for j in range(L) if damped >> j & 1]))
+        res = solver.profiled_result(problem, k, x, (ints, floats),
+                                     (certified, [j for j in range(L) if damped >> j & 1] if damped else []))
         if res.x is not x:                        # not the run's answer (a replaced entry): not its outputs
             return res, None
         return res, (tau, finite, values, ratio, n_sat)
