@@ -1,6 +1,7 @@
 """What a simulator touches and pushes: a robot's contact points (both simulators), a push,
 small pinocchio models for simulator tests and demos (a free-floating box), and the joints-only
-copy of a model the own simulator's dynamics calls take (:func:`dynamics_model`)."""
+copy of a model the own simulator's dynamics calls take (:func:`dynamics_model`), the driver's torque
+limits per dof (:func:`full_limits`)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+
+from ..errors import WbcError
 
 
 def box_model(size=(0.2, 0.2, 0.2), mass: float = 5.0) -> tuple[pin.Model, list[tuple[str, np.ndarray]]]:
@@ -89,3 +92,24 @@ class Push:
 
     def active(self, t: float) -> bool:
         return self.start <= t < self.start + self.duration
+
+
+def full_limits(tau_limits, actuated: np.ndarray) -> np.ndarray | None:
+    """The driver's torque limits ``tau_limits`` (na or nv, N·m; None: none) as an nv vector,
+    inf on the unactuated dofs of the mask ``actuated`` (nv bool); WbcError on another size or
+    a negative or NaN limit."""
+    if tau_limits is None:
+        return None
+    lim = np.asarray(tau_limits, dtype=float).ravel()
+    nv, na = actuated.shape[0], int(actuated.sum())
+    full = np.full(nv, np.inf)
+    if lim.shape[0] == nv:
+        full[actuated] = lim[actuated]
+    elif lim.shape[0] == na:
+        full[actuated] = lim
+    else:
+        raise WbcError(f"simulator: tau_limits has {lim.shape[0]} entries, expected {na} (actuated) "
+                       f"or {nv} (dofs)")
+    if np.any(np.isnan(full)) or np.any(full < 0.0):
+        raise WbcError("simulator: tau_limits must be >= 0 (inf for no limit)")
+    return full

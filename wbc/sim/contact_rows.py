@@ -27,7 +27,8 @@ from .pgs import pgs_solve
 
 __all__ = ["shape_table", "find_contacts", "point_positions", "contact_jacobian", "contact_velocity", "delassus", "point_forces",
            "symmetrise_upper", "supports",
-           "contact_step", "free_acceleration", "driver_torque", "free_velocity", "free_motion"]
+           "contact_step", "free_acceleration", "driver_torque", "free_velocity", "free_motion", "contact_motion",
+           "find_contacts_and_spin"]
 
 
 def supports(model, joints) -> np.ndarray:
@@ -288,3 +289,42 @@ def free_motion(Minv, tau, nle, v, h, free_flyer):
     """:func:`free_acceleration` then :func:`free_velocity` in one call (the same operations):
     (v_free, u, w) of the acceleration M⁻¹ (τ − h), ``nle`` the nonlinear effects h (N·m)."""
     return free_velocity(v, free_acceleration(Minv, tau, nle), h, free_flyer)
+
+
+@nb.njit(cache=True)
+def contact_motion(k, contacts, dynamics, settings, state):
+    """One step's velocity after the contacts, in one call: :func:`free_motion`, the free-flyer
+    root's rotation of its linear velocity (``v_free[:3] = R u``, :meth:`Simulator._substep`),
+    then :func:`contact_step` on the first ``k`` contacts :func:`find_contacts` found (k ≥ 1).
+    The same operations as those calls made one by one.
+
+    The arguments, grouped (plain tuples): ``contacts`` = (J, depths, frames, ids, shape_of,
+    shape_mu), :func:`find_contacts`'s buffers and the shapes' μ (:func:`shape_table`);
+    ``dynamics`` = (M⁻¹ (upper triangle), τ, h (N·m), v, R), R = exp₃(−ω h) from pinocchio for
+    a free-flyer root (any 3 × 3 otherwise); ``settings`` = :func:`contact_step`'s six and
+    ``free_flyer``; ``state`` = (warm, forces), :func:`contact_step`'s. Returns (v⁺, h v⁺, sweeps,
+    finite): h v⁺ the step's displacement (numpy's ``v * h``)."""
+    J, depths, frames, ids, shape_of, shape_mu = contacts
+    Minv, tau, nle, v, R = dynamics
+    baumgarte, h, over_relax, max_sweeps, abs_tol, rel_tol, free_flyer = settings
+    v_free, u, _ = free_motion(Minv, tau, nle, v, h, free_flyer)
+    if free_flyer:
+        v_free[:3] = R @ u
+    mus = np.empty(k)
+    for c in range(k):
+        mus[c] = shape_mu[shape_of[c]]
+    v_new, sweeps, _, finite = contact_step((J[:3 * k], depths[:k], mus, frames[:k], ids[:k]), Minv, v_free,
+                                            (baumgarte, h, over_relax, max_sweeps, abs_tol, rel_tol), state)
+    return v_new, v_new * h, sweeps, finite
+
+
+@nb.njit(cache=True)
+def find_contacts_and_spin(points, shapes, margin, Jw, out, spin):
+    """:func:`find_contacts` (returns k), and ``w`` = −ω h of a free-flyer root (``spin`` = (v, h,
+    free_flyer, w), w written when ``free_flyer``; each (−ω_i) h, as :func:`free_velocity`): the
+    argument of the root's exp₃ (:meth:`Simulator._substep`)."""
+    v, h, free_flyer, w = spin
+    if free_flyer:
+        for i in range(3):
+            w[i] = (-v[3 + i]) * h
+    return find_contacts(points, shapes, margin, Jw, out)

@@ -48,7 +48,7 @@ import pinocchio as pin
 
 from ..errors import WbcError
 from . import contact_rows as cr
-from .bodies import Push, contact_points, dynamics_model
+from .bodies import Push, contact_points, dynamics_model, full_limits
 from .contact_solver import ContactSolver, solver_class
 from .joint_dynamics import JointDynamics, eliminate_lateral
 from .options import SimOptions
@@ -140,6 +140,11 @@ class Simulator:
         self._point_args = (self._rot, self._trans, self._slot, self._offsets, self._support)
         self._contact_out = (self._P, self._ids, self._shape_of, self._depths, self._frames, self._J)
         self._shape_args = None if self._shapes is None else self._shapes[:5]
+        # contact_motion's buffers (the contacts find_contacts writes, the shapes' μ) and the
+        # rotation it is given when the root is not a free flyer (unused then)
+        self._motion_args = None if self._shapes is None else (self._J, self._depths, self._frames, self._ids,
+                                                               self._shape_of, self._shapes[5])
+        self._no_rotation, self._w = np.eye(3), np.zeros(3)
         self._tau = np.zeros(model.nv)             # the driver's torque of the current step
         self._fused = contact_solver == "compiled"   # the contact step in one compiled call
         self.pgs_sweeps = 0         # the last contact solve's sweeps (compiled PGS)
@@ -152,28 +157,10 @@ class Simulator:
         self._delay: deque = deque(maxlen=o.latency_steps + 1)
         self.solver_failures = 0
         self._free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
-        self.tau_limits = self._full_limits(o.tau_limits)
+        self.tau_limits = full_limits(o.tau_limits, self.actuated)
         self._no_limits = np.empty(0)
         self.saturated_steps = 0    # control periods in which the driver clipped τ
         self.joint_dynamics = JointDynamics.of_model(model) if o.joint_dynamics else None
-
-    def _full_limits(self, tau_limits) -> np.ndarray | None:
-        """``tau_limits`` (na or nv, N·m) as an nv vector, inf on the unactuated dofs."""
-        if tau_limits is None:
-            return None
-        lim = np.asarray(tau_limits, dtype=float).ravel()
-        na = int(self.actuated.sum())
-        full = np.full(self.model.nv, np.inf)
-        if lim.shape[0] == self.model.nv:
-            full[self.actuated] = lim[self.actuated]
-        elif lim.shape[0] == na:
-            full[self.actuated] = lim
-        else:
-            raise WbcError(f"simulator: tau_limits has {lim.shape[0]} entries, expected {na} (actuated) "
-                           f"or {self.model.nv} (dofs)")
-        if np.any(np.isnan(full)) or np.any(full < 0.0):
-            raise WbcError("simulator: tau_limits must be >= 0 (inf for no limit)")
-        return full
 
     # ----------------------------------------------------------- construction
     @classmethod
@@ -266,8 +253,16 @@ class Simulator:
         else:
             pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
-        fext = self._external_forces()
-        J, frames, depths, mus, ids = self._contact_rows()
+        fext = self._external_forces() if self.pushes else None
+        k = None
+        if fext is None and self._fused and self._shapes is not None and self.joint_dynamics is None \
+                and not self.differential_drive:
+            k = cr.find_contacts_and_spin(self._point_args, self._shape_args, self.margin, self._Jw,
+                                          self._contact_out, (v, h, self._free_flyer, self._w))
+            if k:
+                self._contact_motion(k, tau)
+                return
+        J, frames, depths, mus, ids = self._contact_rows(k)
         rows = ids.size > 0
         nh = self.differential_drive
         jd = self.joint_dynamics
@@ -318,6 +313,26 @@ class Simulator:
             self._keep_impulses(None, frames, ids)
         self.v = v
         self.q = pin.integrate(m, q, v * h)
+        self.t += h
+
+    def _contact_motion(self, k: int, tau: np.ndarray) -> None:
+        """The step from (q, v) with ``k`` ≥ 1 contacts found (:func:`~wbc.sim.contact_rows.find_contacts`),
+        no push, no joint dynamics and no differential drive: M⁻¹ and h from pinocchio, exp₃(−ω h)
+        of a free-flyer root, then the free motion, the contact step and v⁺ in one compiled call
+        (:func:`~wbc.sim.contact_rows.contact_motion`: the same operations as the general path's
+        calls), q⁺ = q ⊕ h v⁺."""
+        m, h, q, v = self.model, self.h, self.q, self.v
+        Minv = pin.computeMinverse(self._dyn_model, self._dyn_data, q)
+        nle = pin.nonLinearEffects(m, self.data, q, v)
+        R = pin.exp3(self._w) if self._free_flyer else self._no_rotation    # w = −ω h (find_contacts_and_spin)
+        settings = (self.baumgarte, h, self.over_relax, PGS_MAX_ITERATIONS, PGS_ABSOLUTE_PRECISION,
+                    PGS_RELATIVE_PRECISION, self._free_flyer)
+        v, dq, self.pgs_sweeps, finite = cr.contact_motion(k, self._motion_args, (Minv, tau, nle, v, R), settings,
+                                                           self._pgs_state)
+        if not finite:
+            self.solver_failures += 1
+        self.v = v
+        self.q = pin.integrate(m, q, dq)
         self.t += h
 
     def _free_motion(self, q, v, tau, fext, need_minv: bool):
@@ -374,15 +389,18 @@ class Simulator:
         cr.point_positions(self._rot, self._trans, self._slot, self._offsets, self._P)
         return self._P
 
-    def _contact_rows(self):
+    def _contact_rows(self, k: int | None = None):
         """Points in (or within ``margin`` of) contact, each with the surface it touches
         (the deepest; the first listed of equally deep ones): the rows of their velocity
         Jacobians in the contact frames (t1, t2, n) (3k × nv), the frames (k × 3 × 3), the
-        depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills."""
+        depths (k, m), μ (k) and the points' indices (k); views of buffers the next call refills.
+        ``k``: the count of a :func:`~wbc.sim.contact_rows.find_contacts` just run (its buffers
+        hold the contacts then), None: search."""
         Jw = self._Jw
         if self._shapes is not None:
             shape_mu = self._shapes[5]
-            k = cr.find_contacts(self._point_args, self._shape_args, self.margin, Jw, self._contact_out)
+            if k is None:
+                k = cr.find_contacts(self._point_args, self._shape_args, self.margin, Jw, self._contact_out)
             return self._J[:3 * k], self._frames[:k], self._depths[:k], shape_mu[self._shape_of[:k]], self._ids[:k]
         P = self._point_positions()
         best = np.full(P.shape[0], -1)
