@@ -310,7 +310,7 @@ class ScenarioRun:
             driven: Any = sim                # both back-ends' step_position (position servos)
             driven.step_position(vsol.q_next, vsol.qd, *self.servo, gravity_feedforward(self.robot, self.servo_data, q))
         qs, vs = sim.q, sim.v
-        if type(qs) is np.ndarray is type(vs) and qs.dtype is _FLOAT is vs.dtype and qs.ndim == 1 == vs.ndim:
+        if type(qs) is np.ndarray is type(vs) and qs.dtype == _FLOAT == vs.dtype and qs.ndim == 1 == vs.ndim:
             # the divergence and the fall in one compiled pass over the state the step left (as
             # simulation_diverged and fallen: the same comparisons on the same values)
             finite, speed, reach, fell = step_checks(qs, vs, self.z_fall, FALL_TILT, self.base_z0 is not None)
