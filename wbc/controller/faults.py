@@ -243,7 +243,19 @@ def diverged(q: np.ndarray, v: np.ndarray) -> str:
         q = np.asarray(q, dtype=float).reshape(-1)
     if not (type(v) is np.ndarray and v.dtype is _FLOAT and v.ndim == 1):
         v = np.asarray(v, dtype=float).reshape(-1)
-    finite, speed, reach = _extent(q, v)        # one compiled pass (the runner checks every cycle)
+    finite, speed, reach = state_extent(q, v)        # one compiled pass (the runner checks every cycle)
+    return diverged_reason(finite, speed, reach, v)
+
+
+def diverged_reason(finite: bool, speed: float, reach: float, v: np.ndarray) -> str:
+    """:func:`diverged`'s answer from :func:`state_extent`'s of (q, v).
+
+    Args:
+        finite: whether q and v are all finite.
+        speed: max |v_i| (m/s, rad/s).
+        reach: max |q_i| (m, rad).
+        v: the velocity (nv), to name the fastest dof.
+    """
     if not finite:
         return "simulated state not finite"
     if speed > DIVERGED_SPEED:
@@ -254,8 +266,8 @@ def diverged(q: np.ndarray, v: np.ndarray) -> str:
 
 
 @nb.njit(cache=True)
-def _extent(q, v):
-    """(whether q and v are all finite, max |v_i|, max |q_i|; 0 for none)."""
+def state_extent(q, v):
+    """(whether q and v are all finite, max |v_i|, max |q_i|; 0 for none): one pass, v first."""
     speed = reach = 0.0
     for x in v:
         if not math.isfinite(x):

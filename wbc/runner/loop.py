@@ -42,6 +42,7 @@ filled at the start, so a run's memory does not grow with its length.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from typing import Any
@@ -51,14 +52,14 @@ import pinocchio as pin
 
 from wbc.blas import blas_threads
 from wbc.controller.cycle import Controller
-from wbc.controller.faults import FaultPolicy, diverged, simulation_diverged
+from wbc.controller.faults import FaultPolicy, diverged, diverged_reason, simulation_diverged
 from wbc.controller.solution import Solution
 from wbc.errors import ConfigError
 from wbc.interaction.external_force import ExternalForceRun
 from wbc.interaction.measurement import InteractionRun
 from wbc.robot.servo import gravity_feedforward, servo_gains
 from wbc.runner.compile_notice import CompileNotice
-from wbc.runner.metrics import RunMetrics, Series, fallen
+from wbc.runner.metrics import FALL_HEIGHT_FRACTION, FALL_TILT, RunMetrics, Series, fallen
 from wbc.runner.observers import (
     CallbackObserver,
     CollisionObserver,
@@ -69,6 +70,7 @@ from wbc.runner.observers import (
     RunObserver,
 )
 from wbc.runner.options import RunOptions
+from wbc.runner.state_kernel import step_checks
 from wbc.runner.walking import WalkObserver
 from wbc.scenario.loader import Scenario
 from wbc.scenario.sections import duration_value
@@ -79,6 +81,8 @@ from wbc.tasks.com import CoM
 from wbc.tasks.contact import Contact
 from wbc.tasks.frame import Frame, to_se3
 from wbc.trajectories.position import frame_reference
+
+_FLOAT = np.dtype(float)
 
 
 def _apply_event(ev, ctrl, robot, measured, refs, start, t, switched) -> None:
@@ -186,6 +190,8 @@ class ScenarioRun:
             jid = m.frames[robot.frame_id(robot.contact(c.contact).frame)].parentJoint
             pts_of[c.name] = [i for i, (j, _) in enumerate(sim.points) if j == jid]
         self.base_z0 = sim.q[2] if robot.root == "free_flyer" else None
+        #: the base's height below which the robot has fallen (m; metrics.fallen's), NaN without a free flyer
+        self.z_fall = FALL_HEIGHT_FRACTION * self.base_z0 if self.base_z0 is not None else math.nan
         mu_max = max(s.mu for s in sc.environment) if sc.environment else 0.0
         self.contact_points = pts_of      # contact task name -> indices of its simulator points
         series = Series(self.n, sc.dt, robot, stack, [c.name for c in contacts], mu_max,
@@ -200,6 +206,7 @@ class ScenarioRun:
         self.refs = {name: (traj, absolute, 0.0) for name, (traj, absolute) in sc.references.items()}
         self.pending = list(sc.events)
         self.switched: set[str] = set()
+        self._named: tuple = (-1, {})       # (stack version, {name: task}) of the referenced tasks (cycle)
 
     def _observers(self, o: RunOptions) -> list[RunObserver]:
         """The run's observers, in calling order (:mod:`wbc.runner.observers`): the force tasks'
@@ -259,11 +266,16 @@ class ScenarioRun:
                 _apply_event(pending.pop(0), ctrl, self.robot, (q, v), self.refs, self.start, t, self.switched)
             for o in observers:             # what the metrics watch changes only at events
                 o.after_events(c)
+        named = self._named
+        if named[0] != stack.version:       # the referenced tasks by name, found once per stack structure
+            named = self._named = (stack.version, {})
         for tname, (traj, absolute, t0) in self.refs.items():
-            try:
-                task: Any = stack[tname]    # a CoM or Frame task (the scenario loader checked)
-            except KeyError:                # disabled from a live page: its trajectory waits
-                continue
+            task: Any = named[1].get(tname)
+            if task is None:
+                try:
+                    task = named[1][tname] = stack[tname]   # a CoM or Frame task (the scenario loader checked)
+                except KeyError:            # disabled from a live page: its trajectory waits
+                    continue
             x, dx, ddx = traj.sample(t - t0)
             if isinstance(task, CoM):
                 task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
@@ -297,7 +309,17 @@ class ScenarioRun:
             self.q_cmd = vsol.q_next
             driven: Any = sim                # both back-ends' step_position (position servos)
             driven.step_position(vsol.q_next, vsol.qd, *self.servo, gravity_feedforward(self.robot, self.servo_data, q))
-        why = simulation_diverged(sim, self.sim_failures)
+        qs, vs = sim.q, sim.v
+        if type(qs) is np.ndarray is type(vs) and qs.dtype == _FLOAT == vs.dtype and qs.ndim == 1 == vs.ndim:
+            # the divergence and the fall in one compiled pass over the state the step left (as
+            # simulation_diverged and fallen: the same comparisons on the same values)
+            finite, speed, reach, fell = step_checks(qs, vs, self.z_fall, FALL_TILT, self.base_z0 is not None)
+            why = diverged_reason(finite, speed, reach, vs)
+            if not why and getattr(sim, "solver_failures", 0) > self.sim_failures:
+                why = simulation_diverged(sim, self.sim_failures)
+        else:                               # a wrapped simulator's state of another kind
+            why = simulation_diverged(sim, self.sim_failures)
+            fell = None
         if why:
             self.stopped = {"time": t + sc.dt, "by": "simulator", "reason": f"simulation diverged: {why}"}
             return False
@@ -308,8 +330,9 @@ class ScenarioRun:
                 self.stopped = {"time": t + sc.dt, "by": "observer", "reason": o.stop_reason}
                 self.fell = fallen(sim.q, self.base_z0) if self.base_z0 is not None else False
                 return False
-        qs = sim.q
-        if self.base_z0 is not None and fallen(qs, self.base_z0):
+        if fell is None and self.base_z0 is not None:
+            fell = fallen(sim.q, self.base_z0)
+        if fell:
             self.fell = True
             return False
         if self.progress and (k % 500 == 0 or k == self.n - 1):

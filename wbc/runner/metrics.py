@@ -372,7 +372,10 @@ class RunMetrics:
     def watch(self, stack, switched: set) -> None:
         """What the metrics watch, after events: the tasks still in the stack and the
         contacts not switched during the run."""
-        self.err_live = [(name, task, name in stack) for name, task in self.err_tasks]
+        # per task: (the task, whether it is in the stack, its Running, its units' parts or None)
+        split, parts = self.err_split, self.err_parts
+        self.err_live = [(task, name in stack, self.errs[name], [(i, parts[name][u]) for u, i in split.get(name, ())]
+                          or None) for name, task in self.err_tasks]
         self.watched = [(c.name, np.asarray(self.pts_of[c.name])) for c in self.contacts if c.name not in switched]
         self.watched_names = {name for name, _ in self.watched}
         for k, c in enumerate(self.contacts):
@@ -386,19 +389,18 @@ class RunMetrics:
         self.saturated_cycles += sol.saturated
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
         self.tau_ratio_max = max(self.tau_ratio_max, ratio_max(sol.tau, self.inv_tau_max))
-        errs, robot = self.errs, self.robot
-        split, parts = self.err_split, self.err_parts
-        for name, task, live in self.err_live:
+        robot = self.robot
+        for task, live, running, parts in self.err_live:
             if live:
                 e = task.error(robot)
-                errs[name].add(math.sqrt(float(e.dot(e))))     # (e @ e's bits: numpy's one ddot, with less around it)
-                if name in split:
-                    for unit, idx in split[name]:
+                running.add(math.sqrt(e.dot(e)))     # (e @ e's bits: numpy's one ddot, with less around it)
+                if parts is not None:
+                    for idx, r in parts:
                         ei = e[idx]
-                        parts[name][unit].add(math.sqrt(float(ei.dot(ei))))
-            elif errs[name]:     # a task removed by an event keeps its last value
-                errs[name].add(errs[name].last)
-                for r in parts.get(name, {}).values():
+                        r.add(math.sqrt(ei.dot(ei)))
+            elif running:        # a task removed by an event keeps its last value
+                running.add(running.last)
+                for _, r in parts or ():
                     r.add(r.last)
 
     def record_singular(self, t: float, sol) -> None:
@@ -426,7 +428,7 @@ class RunMetrics:
         qs, vs = sim.q, sim.v
         pf = sim.point_forces
         pts = sim.point_positions()
-        support = self._support_points(stack)
+        support = self._support if self._support[0] == stack.version else self._support_points(stack)
         idx = support[1]
         if len(idx):
             # true CoM, the simulator's model and data (its own com(): the kinematics point_positions ran)

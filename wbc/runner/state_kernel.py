@@ -23,6 +23,8 @@ import math
 import numba as nb
 import numpy as np
 
+from wbc.controller.faults import state_extent
+
 #: (joint_position, joint_velocity, torque, friction, unilateral): the violation counters' order
 VIOLATIONS = ("joint_position", "joint_velocity", "torque", "friction", "unilateral")
 
@@ -142,6 +144,17 @@ def fallen_state(q, z_min, tilt_max):
         if not math.isfinite(x):
             return True
     return q[2] < z_min or tilt(q) > tilt_max
+
+
+@nb.njit(cache=True)
+def step_checks(q, v, z_min, tilt_max, fall):
+    """The runner's checks of the simulated state after a step, in one compiled call:
+    (:func:`~wbc.controller.faults.state_extent` of (q, v): finite, max |v_i|, max |q_i|; and,
+    ``fall`` (a free-flyer base) with q finite, whether :func:`fallen_state` (q, ``z_min``,
+    ``tilt_max``) holds: the same comparisons on the same values)."""
+    finite, speed, reach = state_extent(q, v)
+    fell = fall and finite and (q[2] < z_min or tilt(q) > tilt_max)
+    return finite, speed, reach, fell
 
 
 @nb.njit(cache=True)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbc.validation.schema import show
@@ -11,6 +13,7 @@ from ..problem.rows import Layout, Rows, RowSlot
 from .base import TASK_CHANGES, MotionTask, Watched, as_vector, eq_rows, motion_rows
 
 _AXES = "xyz"
+_FLOAT = np.dtype(float)
 
 
 class CoM(MotionTask):
@@ -59,7 +62,21 @@ class CoM(MotionTask):
         TASK_CHANGES[0] += 1
 
     def set_reference(self, position, velocity=None, acceleration=None) -> None:
-        """Set position (m), velocity (m/s) and acceleration (m/s²) references at once."""
+        """Set position (m), velocity (m/s) and acceleration (m/s²) references at once.
+
+        Three float64 arrays of shape (3,) whose nine entries sum to a finite number are all
+        finite (a NaN or an inf makes the sum so) and are kept as they are, as the setters below
+        would keep them, with one sum instead of three checks (a trajectory's references, every
+        cycle: #26); anything else takes the setters' checks."""
+        if type(position) is np.ndarray and type(velocity) is np.ndarray and type(acceleration) is np.ndarray \
+                and position.dtype is _FLOAT and velocity.dtype is _FLOAT and acceleration.dtype is _FLOAT \
+                and position.shape == velocity.shape == acceleration.shape == (3,) \
+                and math.isfinite(sum(position.tolist() + velocity.tolist() + acceleration.tolist())):
+            self._target = position
+            TASK_CHANGES[0] += 1                    # (the target's setter's count)
+            self.target_velocity = velocity         # (Watched: counted)
+            self.target_acceleration = acceleration
+            return
         self.target = position
         self.target_velocity = np.zeros(3) if velocity is None else as_vector(self.name, "velocity", velocity, 3)
         self.target_acceleration = (np.zeros(3) if acceleration is None
