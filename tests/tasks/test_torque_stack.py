@@ -105,8 +105,10 @@ def test_the_plans_rows_equal_the_tasks_rows(case):
         assert not set(calls) - {"contact_regularization"}, calls
         _assert_fresh(ctrl.levels, groups, robot, ctrl.layout)
         _assert_forces(ctrl, stack, robot)
-    # J_f left to the plan where nothing else reads it first (a regularisation in ``rest`` may)
-    assert stack._plan[1].fills_forces == (not stack._plan[1].rest)
+    # J_f left to the plan where nothing called through its rows reads it (the contact regularisation
+    # in ``rest`` does not: it reads the layout's sizes only; TIAGo's differential drive may)
+    rest = {type(t).__name__ for t, *_ in stack._plan[1].rest}
+    assert stack._plan[1].fills_forces == (rest <= {"ContactRegularization"})
 
 
 @pytest.mark.parametrize("make", [talos_stack, bench_stack])
@@ -224,3 +226,32 @@ def test_a_target_of_another_size_is_refused_the_cycle_it_is_set():
     q, v = random_state(robot, rng, speed=1.0)
     sol = ctrl.solve(q, v)
     assert sol.fault or sol.status == "failed", sol.status
+
+
+class _ReadsForces(wbc.tasks.ContactRegularization):
+    """A rows-called task that reads J_f: what it saw kept (``seen``)."""
+
+    reads_force_jacobian = True
+
+    def rows(self, robot, layout, out=None):
+        self.seen = layout.force_jacobian.copy()
+        return super().rows(robot, layout, out)
+
+
+def test_a_rows_called_task_that_reads_forces_sees_this_states_jf():
+    """A task called through its rows that reads J_f (``reads_force_jacobian``): the plan leaves J_f to
+    the layout's refill (``fills_forces`` False), so the task sees this state's J_f, bit for bit, every
+    cycle; the contact regularisation alone (which does not read it) leaves it to the plan."""
+    reg = _ReadsForces()
+    robot, stack, ctrl, rng, calls = _planned("talos", talos_stack(), 5)
+    assert stack._plan[1].fills_forces
+    ctrl = wbc.Controller(robot, stack, contact_regularization=reg)
+    for k in range(5):
+        _cycle(ctrl, stack, robot, rng, calls)
+        if k > 1:
+            assert stack._plan is not None and not stack._plan[1].fills_forces
+        assert np.array_equal(reg.seen, ctrl.layout.force_jacobian)
+        for c in stack.contacts():
+            sl = ctrl.layout.contact_slices[c.name]
+            assert np.array_equal(reg.seen[sl.start - ctrl.layout.nv:sl.stop - ctrl.layout.nv],
+                                  c.force_jacobian(robot)), c.name

@@ -97,6 +97,10 @@ class Task(ABC):
     layout_only_A: bool = False
     #: a regularisation: its rows are not meant to be met (never reported as sacrificed)
     regularizer: bool = False
+    #: its ``rows`` may read the layout's J_f (``Layout.force_jacobian``); False: they never do (a
+    #: torque plan then writes J_f in its compiled call even with this task called through its rows,
+    #: :attr:`wbc.tasks.torque_stack.TorquePlan.fills_forces`)
+    reads_force_jacobian: bool = True
     #: its rows are the unactuated rows of the equation of motion (5.26), met by the forces
     #: in a solver that finds them after q̈ (``RowBlock.equation_of_motion``)
     equation_of_motion: bool = False

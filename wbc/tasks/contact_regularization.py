@@ -101,6 +101,7 @@ class ContactRegularization(Task):
     on_forces = True
     layout_only_A = True
     regularizer = True
+    reads_force_jacobian = False           # W on the force variables: the layout's sizes only
 
     def __init__(self, weight: float = 1.0, normal_weight: float = 2.0, name: str = "contact_regularization") -> None:
         super().__init__(name, weight)

@@ -333,8 +333,8 @@ class TorquePlan:
 
     def finish(self) -> None:
         """The tables as arrays, the gains copied in."""
-        if self.rest or self.jf_rows != self.layout.nf:
-            self.front, self.jf_rows = [], 0       # J_f stays the layout's refill (a rest task may read it)
+        if not self.fills_forces:                  # J_f stays the layout's refill (a rest task may read it)
+            self.front, self.jf_rows = [], 0
         self.at_ = np.array(self.at, dtype=np.int64)
         self.rec_ = np.array(self.front + self.rec, dtype=np.int64).reshape(-1, _W)
         self.iv_ = np.array(self.iv, dtype=np.int64)
@@ -383,10 +383,10 @@ class TorquePlan:
 
     @property
     def fills_forces(self) -> bool:
-        """Whether :meth:`write` writes all of the layout's J_f before any row that reads it (every
-        contact planned, no task called through its own rows): ``Stack.layout(robot,
-        deferred=True)`` then leaves the refill to it."""
-        return not self.rest and self.jf_rows == self.layout.nf
+        """Whether :meth:`write` writes all of the layout's J_f (every contact planned, no task called
+        through its rows reads J_f: ``Task.reads_force_jacobian``): ``Stack.layout(robot, deferred=True)``
+        then leaves the refill to it."""
+        return self.jf_rows == self.layout.nf and not any(t.reads_force_jacobian for t, *_ in self.rest)
 
     # ------------------------------------------------------------------ each cycle
     def write(self, robot, layout) -> bool:
