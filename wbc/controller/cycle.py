@@ -43,7 +43,6 @@ from wbc.controller.faults import FaultMonitor, hold_torque
 from wbc.controller.force_ramps import ForceRamp, advance_ramps
 from wbc.controller.kernel_loading import load_first
 from wbc.controller.options import ControllerOptions
-from wbc.controller.reference_call import ReferenceCall, reference_at
 from wbc.controller.singular import velocity_names
 from wbc.controller.solution import Solution, SolutionReport, solve_status
 from wbc.controller.solver_names import SOLVERS
@@ -187,7 +186,6 @@ class Controller:
         self._nominal_weights_of = self.regularization or ContactRegularization()
         self._lowest_for: tuple | None = None   # (stack version, tasks added below the stack, weights' task)
         self._x_ref: np.ndarray | None = None
-        self._reference_call = ReferenceCall()      # x₀'s compiled call, its arrays held by address
         self._last_forces: dict[str, np.ndarray] = {}
         self.dt = float(o.dt)
         self._ramps: dict[str, ForceRamp] = {}   # contact task name -> its normal-force bound's ramp
@@ -296,14 +294,9 @@ class Controller:
         idx, lo, hi = box if box is not None else (_NO_INDEX, _NO_BOUNDS, _NO_BOUNDS)
         # inside the bounds by the margin the solver's QPs keep (a point on a bound sends
         # the next level's step across it), in one compiled call with f₀
-        # (the arrays held by address: a call of two arguments, reference_call)
-        args = (layout.force_jacobian if forces else _NO_FORCES, robot.h, robot.unactuated_idx,
-                weights_of.force_weights(layout) if forces else _NO_BOUNDS)
-        at = self._reference_call.table(x, layout.nv, (idx, lo, hi), args)
-        if at is None:
-            reference_point(x, layout.nv, idx, lo, hi, ROW_MARGIN, *args)
-        else:
-            reference_at(at, ROW_MARGIN)
+        reference_point(x, layout.nv, idx, lo, hi, ROW_MARGIN,
+                        layout.force_jacobian if forces else _NO_FORCES, robot.h, robot.unactuated_idx,
+                        weights_of.force_weights(layout) if forces else _NO_BOUNDS)
         return x
 
     def solve(self, q: np.ndarray, v: np.ndarray, external_torque: np.ndarray | None = None) -> Solution:
