@@ -457,19 +457,21 @@ class Simulator:
 
     def contact_wrench(self, frame: str) -> np.ndarray:
         """Wrench (f, τ) in the frame ``frame`` (N, N·m) of the contact forces on the
-        points of that frame's joint: what a 6-axis force sensor there reads."""
+        points of that frame's joint: what a 6-axis force sensor there reads. f_F = Rᵀ f with R the
+        frame's orientation where the step solved the forces (its start, ``data.oMf``), τ = Σ p_F × f_F
+        about each point's fixed offset p_F = ʲM_f⁻¹ r (never ``data.oMi``: a read of the points moves it)."""
         m, d = self.model, self.data
         fid = m.getFrameId(frame)
         jid = m.frames[fid].parentJoint
-        oMf = d.oMf[fid]
+        jMf = m.frames[fid].placement
+        Rt = d.oMf[fid].rotation.T
         w = np.zeros(6)
         for (j, r), f in zip(self.points, self.point_forces):
             if j != jid or not f.any():
                 continue
-            p = d.oMi[j].act(r)
-            fl = oMf.rotation.T @ f
+            fl = Rt @ f
             w[:3] += fl
-            w[3:] += np.cross(oMf.actInv(p), fl)
+            w[3:] += np.cross(jMf.actInv(r), fl)
         return w
 
     def _kinematics(self) -> None:
