@@ -32,15 +32,11 @@ def _note(key: str, t0: int) -> int:
     return t1
 
 
-def timed_substep(self, tau):
-    """The default path of :meth:`Simulator._substep`, piece by piece (its other paths: the original)."""
-    if self.joint_dynamics is not None or self.differential_drive or not self._fused or self.pushes:
-        return ORIGINAL(self, tau)
-    if hasattr(self, "_contact_motion"):
-        return _timed_one_call(self, tau)
+def _timed_kinematics(self):
+    """Both paths' start, timed: the joint Jacobians (without forward kinematics when the data is
+    at q already) and the frames' placements; (the start's clock, the last lap's)."""
     t_start = t = time.perf_counter_ns()
-    m, d, h = self.model, self.data, self.h
-    q, v = self.q, self.v
+    m, d, q = self.model, self.data, self.q
     if self._kin_q is not None and self._kin_q == q.tobytes():
         t = _note("(kin key)", t)
         pin.computeJointJacobians(m, d)
@@ -50,7 +46,18 @@ def timed_substep(self, tau):
         pin.computeJointJacobians(m, d, q)
         t = _note("computeJointJacobians(q)", t)
     pin.updateFramePlacements(m, d)
-    t = _note("updateFramePlacements", t)
+    return t_start, _note("updateFramePlacements", t)
+
+
+def timed_substep(self, tau):
+    """The default path of :meth:`Simulator._substep`, piece by piece (its other paths: the original)."""
+    if self.joint_dynamics is not None or self.differential_drive or not self._fused or self.pushes:
+        return ORIGINAL(self, tau)
+    if hasattr(self, "_contact_motion"):
+        return _timed_one_call(self, tau)
+    t_start, t = _timed_kinematics(self)
+    m, d, h = self.model, self.data, self.h
+    q, v = self.q, self.v
     self._external_forces()
     t = _note("_external_forces", t)
     J, frames, depths, mus, ids = self._contact_rows()
@@ -83,19 +90,9 @@ def timed_substep(self, tau):
 def _timed_one_call(self, tau):
     """The same, for a tree whose step has one compiled call after the contact search (#26,
     branch sim3: ``Simulator._contact_motion``)."""
-    t_start = t = time.perf_counter_ns()
+    t_start, t = _timed_kinematics(self)
     m, d, h = self.model, self.data, self.h
     q, v = self.q, self.v
-    if self._kin_q is not None and self._kin_q == q.tobytes():
-        t = _note("(kin key)", t)
-        pin.computeJointJacobians(m, d)
-        t = _note("computeJointJacobians", t)
-    else:
-        t = _note("(kin key)", t)
-        pin.computeJointJacobians(m, d, q)
-        t = _note("computeJointJacobians(q)", t)
-    pin.updateFramePlacements(m, d)
-    t = _note("updateFramePlacements", t)
     k = simmod.cr.find_contacts_and_spin(self._point_args, self._shape_args, self.margin, self._Jw,
                                          self._contact_out, (v, h, self._free_flyer, self._w))
     t = _note("find_contacts_and_spin", t)

@@ -1,11 +1,10 @@
 """The own simulator's step with one compiled call after the contact search (``_contact_motion``:
 the free motion, the free-flyer root's rotation, the contact step and v⁺ in
-:func:`wbc.sim.contact_rows.contact_motion`) is the former step's numbers bit for bit: the same
-operations, the rotation's 3 × 3 product by the same BLAS routine (#26)."""
+:func:`wbc.sim.contact_rows.contact_motion`) is the general path's numbers bit for bit (the same
+simulator with the one call off: the step as it was before it, b407b67): the same operations, the
+rotation's 3 × 3 product by the same BLAS routine (#26)."""
 
 from __future__ import annotations
-
-import types
 
 import numpy as np
 import pinocchio as pin
@@ -15,73 +14,7 @@ from wbc.sim import simulator as S
 from wbc.sim.backends import make_simulator
 from wbc.sim.bodies import box_model
 from wbc.sim.environment import Box, ground
-from wbc.sim.simulator import PGS_ABSOLUTE_PRECISION, PGS_MAX_ITERATIONS, PGS_RELATIVE_PRECISION, Simulator, cr
-
-
-def _former_substep(self, tau: np.ndarray) -> None:
-    """``Simulator._substep`` as it was before the one-call path (main b407b67), verbatim."""
-    m, d, h = self.model, self.data, self.h
-    q, v = self.q, self.v
-    if self._kin_q is not None and self._kin_q == q.tobytes():
-        # data's joint placements are at q already (_kinematics, for the metrics read after the
-        # last step): the Jacobians from them, the same products without forward kinematics again
-        pin.computeJointJacobians(m, d)
-    else:
-        pin.computeJointJacobians(m, d, q)
-    pin.updateFramePlacements(m, d)
-    fext = self._external_forces()
-    J, frames, depths, mus, ids = self._contact_rows()
-    rows = ids.size > 0
-    nh = self.differential_drive
-    jd = self.joint_dynamics
-    if jd is not None:          # damped: M̃⁻¹ = (M + hD)⁻¹ in the free motion and every impulse
-        Minv, a_free = jd.free_motion(m, d, q, v, tau, fext, h)
-        v_free, u, w = cr.free_velocity(v, a_free, h, self._free_flyer)
-    else:
-        Minv, v_free, u, w = self._free_motion(q, v, tau, fext, bool(rows or nh))
-    if self._free_flyer:
-        # The root's linear velocity is in the body frame: its rate holds the term
-        # −ω × v, which explicit Euler turns into energy gain for a spinning body.
-        # Integrate that rotation exactly instead: v⁺ = exp(−[ω] h)(v + h(a + ω × v)).
-        v_free[:3] = pin.exp3(w) @ u            # w = −ω h
-
-    if jd is not None and jd.friction_idx.size:
-        v = self._with_joint_friction(v_free, Minv, J, frames, depths, mus, ids)
-    elif rows and not nh and self._fused:
-        settings = (self.baumgarte, h, self.over_relax, PGS_MAX_ITERATIONS, PGS_ABSOLUTE_PRECISION,
-                    PGS_RELATIVE_PRECISION)
-        v, self.pgs_sweeps, _, finite = cr.contact_step((J, depths, mus, frames, ids), Minv, v_free, settings,
-                                                        self._pgs_state)
-        if not finite:
-            self.solver_failures += 1
-    elif rows or nh:
-        v_new = v_free
-        if rows:
-            G = cr.delassus(J, Minv)
-            g = cr.contact_velocity(J, v_free, depths, self.baumgarte, h)
-            lam = self._warm[ids].reshape(-1)
-            solver = self._pgs_for(mus)
-            if nh:
-                lam = self._solve_with_nonholonomic(G, g, J, Minv, v_free, lam, solver)
-            else:
-                lam = solver.solve(G, g, lam)
-            if not np.all(np.isfinite(lam)):
-                self.solver_failures += 1
-                lam = np.zeros_like(g)
-            v_new = v_free + Minv @ (J.T @ lam)
-            if nh:
-                v_new = self._lateral_projection(v_new, Minv)
-            self._keep_impulses(lam, frames, ids)
-        else:
-            v_new = self._lateral_projection(v_free, Minv)
-            self._keep_impulses(None, frames, ids)
-        v = v_new
-    else:
-        v = v_free
-        self._keep_impulses(None, frames, ids)
-    self.v = v
-    self.q = pin.integrate(m, q, v * h)
-    self.t += h
+from wbc.sim.simulator import Simulator, cr
 
 
 class _Counted:
@@ -107,12 +40,12 @@ def _states(sim) -> list[bytes]:
 
 
 def _compare(new, old, torques, monkeypatch) -> int:
-    """Steps both simulators (``old`` with the former step) with each torque, asserting their
+    """Steps both simulators (``old`` through the general path: no one call) with each torque, asserting their
     states, velocities, contact forces, warm starts and sweeps equal bit for bit; the one-call
     path's calls."""
     counted = _Counted()
     monkeypatch.setattr(S, "cr", counted)
-    monkeypatch.setattr(old, "_substep", types.MethodType(_former_substep, old))
+    monkeypatch.setattr(old, "_one_call", False)
     for i, tau in enumerate(torques):
         new.step(tau)
         old.step(tau)
@@ -126,7 +59,7 @@ def _compare(new, old, torques, monkeypatch) -> int:
 
 def test_talos_steps_equal_the_former_step(talos, monkeypatch):
     """300 steps of a standing Talos under gravity compensation with noise (eight corners in
-    contact, some lifting) equal the former step's bit for bit, every one through the one call."""
+    contact, some lifting) equal the general path's bit for bit, every one through the one call."""
     sc = load_config("talos_balance")
     new, old = (make_simulator("pinocchio", talos, sc.environment, dt=1e-3, tau_limits=talos.tau_max)
                 for _ in range(2))
@@ -143,8 +76,8 @@ def test_talos_steps_equal_the_former_step(talos, monkeypatch):
 
 def test_a_spinning_box_sliding_on_a_table_equals_the_former_step(monkeypatch):
     """A box thrown spinning onto a table (its μ 0.3, the ground's 0.8: the μ each contact takes
-    matters): the flight (no contact: the former path), the impact and the slide (the one call)
-    equal the former step's bit for bit."""
+    matters): the flight (no contact: the general path), the impact and the slide (the one call)
+    equal the general path's bit for bit."""
     model, pts = box_model()
     env = [ground(mu=0.8), Box(np.array([0.0, 0.0, 0.25]), np.array([4.0, 4.0, 0.5]), mu=0.3)]
     q0 = pin.neutral(model)

@@ -147,6 +147,7 @@ class Simulator:
         self._no_rotation, self._w = np.eye(3), np.zeros(3)
         self._tau = np.zeros(model.nv)             # the driver's torque of the current step
         self._fused = contact_solver == "compiled"   # the contact step in one compiled call
+        self._one_call = self._fused    # and, where it applies, the whole step after the search (contact_motion)
         self.pgs_sweeps = 0         # the last contact solve's sweeps (compiled PGS)
         self.pushes: list[Push] = []
         self.point_forces = np.zeros((len(self.points), 3))   # world frame, N, last step
@@ -255,7 +256,7 @@ class Simulator:
         pin.updateFramePlacements(m, d)
         fext = self._external_forces() if self.pushes else None
         k = None
-        if fext is None and self._fused and self._shapes is not None and self.joint_dynamics is None \
+        if fext is None and self._one_call and self._shapes is not None and self.joint_dynamics is None \
                 and not self.differential_drive:
             k = cr.find_contacts_and_spin(self._point_args, self._shape_args, self.margin, self._Jw,
                                           self._contact_out, (v, h, self._free_flyer, self._w))
