@@ -10,7 +10,7 @@ import pytest
 from wbc.robot.loader import available_robots, load_robot
 from wbc.scenario.loader import load_config
 from wbc.sim.backends import make_simulator
-from wbc.sim.bodies import dynamics_model
+from wbc.sim.bodies import binding_copies_model, dynamics_model
 
 
 @pytest.mark.parametrize("name", available_robots())
@@ -32,6 +32,23 @@ def test_minverse_and_aba_bit_for_bit_on_the_joints_only_copy(name):
         assert pin.computeMinverse(lean, ld, q).tobytes() == pin.computeMinverse(m, d, q).tobytes()
         assert pin.aba(lean, ld, q, v, tau).tobytes() == pin.aba(m, d, q, v, tau).tobytes()
         assert pin.aba(lean, ld, q, v, tau, fext).tobytes() == pin.aba(m, d, q, v, tau, fext).tobytes()
+
+
+@pytest.mark.parametrize("name", available_robots())
+def test_the_copy_leaves_the_topology_tables_empty_only_where_the_bindings_copy_it(name):
+    """On pinocchio 3 (its computeMinverse and aba bindings copy the model at every call) the copy
+    holds no children, supports nor subtree lists (what its per-call copy costs), and ABA's and
+    M⁻¹'s bits are still the full model's (the test above) on a Data built from it; on pinocchio 4
+    (no copy) the tables are the model's."""
+    m = load_robot(name).model
+    lean = dynamics_model(m)
+    tables = ("children", "supports", "mimic_joint_supports", "subtrees")
+    if binding_copies_model():
+        assert pin.__version__.startswith("3.")
+        assert all(len(getattr(lean, t)) == 0 for t in tables if hasattr(lean, t))
+        assert list(lean.parents) == list(m.parents)
+    else:
+        assert all(list(map(list, getattr(lean, t))) == list(map(list, getattr(m, t))) for t in tables if hasattr(m, t))
 
 
 def test_the_copy_follows_the_models_parameters(talos):
