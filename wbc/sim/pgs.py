@@ -31,7 +31,8 @@ and a result object per step, and its generic constraint visitor per contact):
   or after ``max_iterations`` sweeps. A sweep stops working out the residuals at the first
   contact above the tolerance (the absolute test has failed then), and each contact's two step
   sizes are divided out once per solve: the same decisions and numbers, ~20 % less time a sweep
-  (#26).
+  (#26); a tangential trial certainly inside its disc (squared norms compared with a margin above
+  the rounding) skips the square root of ‖λ_t‖: the same decision, ~7 % less a sweep (#26).
 
 The sweeps, the stopping tests and their order are pinocchio 4's; what differs is the
 rounding of the products (Eigen's vectorised row product against a plain loop here), so
@@ -54,6 +55,9 @@ __all__ = ["CompiledPGS", "pgs_solve"]
 
 #: Eigen's NumTraits<double>::dummy_precision(): the smallest diagonal of G a step divides by
 EPS_DIAGONAL = 1e-12
+#: a tangential trial whose squared norm is below (μ λ_n)² times this is inside the friction disc whatever the
+#: rounding (tt < b²(1 − 1e-12)(1 + 3ε) < b² gives fl(√tt) ≤ b): the sweep skips its square root
+INSIDE_DISC = 1.0 - 1e-12
 
 
 @nb.njit(cache=True)
@@ -135,12 +139,17 @@ def pgs_solve(G, g, mus, lam, over_relax, max_sweeps, abs_tol, rel_tol, Gs, lam_
             step = step_t[c]
             t0 = t0_prev - step * s0
             t1 = t1_prev - step * s1
-            tn = np.sqrt(t0 * t0 + t1 * t1)
+            # ‖λ_t‖ > μ λ_n decides the projection; a trial certainly inside the disc (its squared norm
+            # below (μ λ_n)² by more than both sides' rounding: then √ ≤ μ λ_n after rounding) skips the √
+            # on the sweep's critical path; any other (near the edge, NaN, ∞) takes the √ as before
+            tt = t0 * t0 + t1 * t1
             mu_fz = mu * fz
-            if tn > mu_fz:
-                k = mu_fz / tn
-                t0 *= k
-                t1 *= k
+            if not tt < (mu_fz * mu_fz) * INSIDE_DISC:
+                tn = np.sqrt(tt)
+                if tn > mu_fz:
+                    k = mu_fz / tn
+                    t0 *= k
+                    t1 *= k
             lam[r] = t0
             lam[r + 1] = t1
             d0 = t0 - t0_prev
