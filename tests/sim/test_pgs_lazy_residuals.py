@@ -164,3 +164,28 @@ def test_the_sweep_equals_the_former_one_on_a_standing_talos():
             solved += 1
         sim.step(rng.normal(scale=20.0, size=robot.model.nv))
     assert solved > 100
+
+
+def test_the_disc_projection_near_the_edge_equals_the_former_one():
+    """One contact from rest (G diagonal, so the first trial λ_t = −ω g_t / G_tt and λ_n = −ω g_n / G_nn),
+    μ set so that ‖λ_t‖ is within 1e-16 to 1e-6 (relative) of μ λ_n, inside and outside the disc: the
+    sweep's squared-norm pre-test projects exactly when the former √ does, bit for bit, on the first sweep
+    and on the whole solve."""
+    rng = np.random.default_rng(29)
+    projected = inside = 0
+    for _ in range(3000):
+        d = rng.uniform(0.5, 2.0, 3)
+        G = np.diag([d[0], d[0], d[2]])
+        g = np.array([rng.normal(), rng.normal(), -rng.uniform(0.1, 2.0)])
+        t = -(0.6 / d[0]) * g[:2]
+        fz = -(0.6 / d[2]) * g[2]
+        rel = 10.0 ** rng.uniform(-16, -6) * rng.choice([-1.0, 1.0])
+        mus = np.array([np.sqrt(t @ t) / fz * (1.0 + rel)])
+        for sweeps in (1, PGS_MAX_ITERATIONS):
+            a, b = _both(G, g, mus, np.zeros(3), (0.6, sweeps, PGS_ABSOLUTE_PRECISION, PGS_RELATIVE_PRECISION))
+            assert _same(a, b), (mus, rel, a[2], b[2])
+            if sweeps == 1:
+                scaled = np.sqrt(b[2][:2] @ b[2][:2]) < np.sqrt(t @ t)
+                projected += scaled
+                inside += not scaled
+    assert projected > 500 and inside > 500
