@@ -151,3 +151,15 @@ def test_frame_velocity_after_point_positions_uses_fresh_com_quantities():
     got = sim.frame_velocity("left_sole_link")
     mujoco.mj_forward(sim.mj_model, sim.mj_data)
     assert np.array_equal(got, sim.frame_velocity("left_sole_link"))
+
+
+def test_step_without_pushes_clears_a_wrench_written_from_outside():
+    """No pushes: every step starts with xfrc_applied zeroed (now in the compiled command), so
+    a wrench written into MuJoCo's data beforehand acts on no step."""
+    a, b = _sim("talos", "talos_balance"), _sim("talos", "talos_balance")
+    a.mj_data.xfrc_applied[3] = 50.0
+    for _ in range(3):
+        a.step(np.zeros(a.model.nv))
+        b.step(np.zeros(b.model.nv))
+        assert not a.mj_data.xfrc_applied.any()
+    assert _same(a.q, b.q) and _same(a.v, b.v)
