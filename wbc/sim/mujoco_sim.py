@@ -81,7 +81,7 @@ from .bodies import Push, contact_points
 from .environment import Box, HalfSpace
 from .mujoco_contacts import GeomPoints, read_contacts
 from .mujoco_model import build_model
-from .mujoco_state import q_of_qpos
+from .mujoco_state import Coordinates, StateReader, command
 from .options import SimOptions
 
 if TYPE_CHECKING:
@@ -92,7 +92,7 @@ _BAD = np.array([mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQ
                 dtype=np.int64)
 _BAD_IDS = tuple(int(k) for k in _BAD)
 
-class MujocoSimulator:
+class MujocoSimulator(Coordinates):
     """:class:`wbc.sim.Simulator`'s interface on MuJoCo (module docstring). Units: s, m, rad, N, N·m.
 
     As Simulator's: ``model``, ``data`` (pinocchio, owned), ``q``, ``v`` (pinocchio coordinates,
@@ -100,7 +100,7 @@ class MujocoSimulator:
     offset in its frame)), ``point_forces`` (world, N, last step), ``pushes``, ``env``,
     ``solver_failures`` (MuJoCo's resets of a bad position, velocity or acceleration),
     ``saturated_steps``;
-    MuJoCo's ``mj_model``, ``mj_data``.
+    MuJoCo's ``mj_model``, ``mj_data``; the coordinate maps of :class:`~wbc.sim.mujoco_state.Coordinates`.
     """
 
     def __init__(self, robot: RobotModel, environment: Sequence[HalfSpace | Box], q0: np.ndarray | None = None,
@@ -161,6 +161,14 @@ class MujocoSimulator:
         self._T0: np.ndarray | None = None      # velocity_map's constant part
         self._T: np.ndarray | None = None       # v_from_qvel's T(q)
         self._act_v = np.asarray(robot.actuated_idx, int)   # actuator k drives pinocchio dof _act_v[k]
+        self._act_limits = self.tau_limits[self._act_v]     # the motors' ±τ_max (N·m, N), in actuator order
+        self._ctrl, self._xfrc = self.mj_data.ctrl, self.mj_data.xfrc_applied     # views, held
+        # the compiled state read-out (mujoco_state.read_state): a free-flyer or fixed root, and
+        # only where it reproduces the general path on this host
+        reader = StateReader(np.array([self._root_q, self._root_v, self.root == "free_flyer"], dtype=np.int64),
+                             (self._qi, self._qm, self._vi, self._vm), self._cont, m.nq, m.nv)
+        self._reader = (reader if self.root in ("free_flyer", "fixed") and reader.holds(self._general_state, mm.nq, mm.nv)
+                        else None)
         gp: dict[int, list] = {}
         for i, (_, r, kind, _, cname) in enumerate(pts):
             g = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_GEOM,
@@ -197,84 +205,6 @@ class MujocoSimulator:
         ``seed``), and ``joint_limits``, ``inertias``, ``v0``, ``joint_dynamics``."""
         return cls(robot, environment, q0, v0, extra_points, SimOptions.of(options, settings, "MujocoSimulator"))
 
-    # ----------------------------------------------------------- conversions
-    def _root_rotation(self, q: np.ndarray) -> np.ndarray:
-        if self.root == "free_flyer":
-            return pin.Quaternion(q[6], q[3], q[4], q[5]).normalized().matrix()
-        c, s = np.array([q[2], q[3]]) / math.hypot(q[2], q[3])
-        return np.array([[c, -s], [s, c]])
-
-    def qpos_from_q(self, q: np.ndarray) -> np.ndarray:
-        """MuJoCo's qpos of the pinocchio configuration q."""
-        qpos, a = np.zeros(self.mj_model.nq), self._root_q
-        if self.root == "free_flyer":
-            qpos[a: a + 3] = q[:3]
-            qpos[a + 3: a + 7] = np.array([q[6], q[3], q[4], q[5]]) / np.linalg.norm(q[3:7])
-        elif self.root == "planar":
-            qpos[a: a + 3] = q[0], q[1], math.atan2(q[3], q[2])
-        qpos[self._qm] = q[self._qi]
-        for iq, im in self._cont:
-            qpos[im] = math.atan2(q[iq + 1], q[iq])
-        return qpos
-
-    def q_from_qpos(self, qpos: np.ndarray) -> np.ndarray:
-        """pinocchio's configuration of a MuJoCo qpos."""
-        q, a = np.zeros(self.model.nq), self._root_q
-        free = self.root == "free_flyer"
-        if free:
-            quat = qpos[a + 3: a + 7]
-            s = math.sqrt(quat.dot(quat))        # np.linalg.norm's arithmetic, without its checks
-        else:
-            s = 1.0
-            if self.root == "planar":
-                q[:4] = qpos[a], qpos[a + 1], math.cos(qpos[a + 2]), math.sin(qpos[a + 2])
-        q_of_qpos(qpos, a, s, free, self._qi, self._qm, q)     # the free-flyer root and the 1-dof joints
-        for iq, im in self._cont:
-            q[iq], q[iq + 1] = math.cos(qpos[im]), math.sin(qpos[im])
-        return q
-
-    def velocity_map(self, q: np.ndarray) -> np.ndarray:
-        """T(q) (nv × nv, orthogonal): qvel = T v."""
-        T0 = self._T0
-        if T0 is None:      # the part that does not depend on q, built once
-            T0, a, n = np.zeros((self.mj_model.nv, self.model.nv)), self._root_v, self._n_root
-            if n:
-                T0[a: a + n, :n] = np.eye(n)
-            T0[self._vm, self._vi] = 1.0
-            self._T0 = T0
-        T = T0.copy()
-        self._root_block(T, q)
-        return T
-
-    def _root_block(self, T: np.ndarray, q: np.ndarray) -> None:
-        """T's root block (its only part that depends on q) written for q."""
-        if self._n_root:
-            a, k = self._root_v, (3 if self.root == "free_flyer" else 2)
-            T[a: a + k, :k] = self._root_rotation(q)
-
-    def velocity_map_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Ṫ v (MuJoCo's nv, m/s² and rad/s²): q̈_mj = T v̇ + Ṫ v."""
-        out, a = np.zeros(self.mj_model.nv), self._root_v
-        if self.root == "free_flyer":
-            out[a: a + 3] = self._root_rotation(q) @ np.cross(v[3:6], v[:3])
-        elif self.root == "planar":
-            out[a: a + 2] = v[2] * (self._root_rotation(q) @ np.array([-v[1], v[0]]))
-        return out
-
-    def qvel_from_v(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """MuJoCo's qvel of the pinocchio velocity v at q."""
-        return self.velocity_map(q) @ v
-
-    def v_from_qvel(self, q: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-        """pinocchio's velocity of a MuJoCo qvel at q (Tᵀ qvel, T(q) in a matrix held for it: its
-        constant part written once, its root block at each call)."""
-        T = self._T
-        if T is None:
-            T = self._T = self.velocity_map(q)
-        else:
-            self._root_block(T, q)
-        return T.T @ qvel
-
     # ----------------------------------------------------------- state, frames
     def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
         """Set MuJoCo's state from pinocchio's (q, v) and run ``mj_forward``."""
@@ -285,16 +215,28 @@ class MujocoSimulator:
         self._read_state()
 
     def _read_state(self) -> None:
-        self.q = self.q_from_qpos(self.mj_data.qpos)
-        self.v = self.v_from_qvel(self.q, self.mj_data.qvel)
-        self._fresh = False
+        """q, v of MuJoCo's qpos, qvel: one compiled call (:class:`~wbc.sim.mujoco_state.StateReader`)
+        where it holds, else (and at a non-finite qvel) :meth:`q_from_qpos`, :meth:`v_from_qvel`."""
+        d = self.mj_data
+        self._fresh = 0
+        got = self._reader.read(d.qpos, d.qvel) if self._reader is not None else None
+        if got is not None:
+            self.q, self.v = got
+        else:
+            self.q = self.q_from_qpos(d.qpos)
+            self.v = self.v_from_qvel(self.q, d.qvel)
 
-    def _kinematics(self) -> None:
-        """Kinematics of the current qpos (mj_step leaves those of the state it integrated from)."""
-        if not self._fresh:
+    def _kinematics(self, com_pos: bool = False) -> None:
+        """Kinematics of the current qpos (mj_step leaves those of the state it integrated from):
+        the bodies' and sites' placements (``mj_kinematics``), and with ``com_pos`` the subtree
+        CoMs and motion dofs ``mj_jac`` reads (``mj_comPos``). ``_fresh``: 0 none, 1 the
+        placements, 2 both."""
+        if self._fresh < 1:
             mujoco.mj_kinematics(self.mj_model, self.mj_data)
+            self._fresh = 1
+        if com_pos and self._fresh < 2:
             mujoco.mj_comPos(self.mj_model, self.mj_data)
-            self._fresh = True
+            self._fresh = 2
 
     def _frame(self, frame: str) -> pin.Frame:
         if not self.model.existFrame(frame):
@@ -312,6 +254,7 @@ class MujocoSimulator:
         """(linear, angular) velocity (m/s, rad/s) of a frame's origin in world axes (pinocchio's
         LOCAL_WORLD_ALIGNED), from MuJoCo's point Jacobian and qvel."""
         p = self.frame_placement(frame).translation
+        self._kinematics(com_pos=True)
         jp, jr = np.zeros((3, self.mj_model.nv)), np.zeros((3, self.mj_model.nv))
         mujoco.mj_jac(self.mj_model, self.mj_data, jp, jr, p, self._body[self._frame(frame).parentJoint])
         return np.concatenate([jp @ self.mj_data.qvel, jr @ self.mj_data.qvel])
@@ -340,6 +283,14 @@ class MujocoSimulator:
         """Advance one control period with joint torques ``tau`` (N·m or N; nv, or na actuated),
         saturated by the motors' ``ctrlrange``."""
         tau = np.asarray(tau, dtype=float)
+        if tau.ndim == 1 and tau.shape[0] in (self.model.nv, self._ctrl.shape[0]):
+            # one compiled call: ctrl, the saturation count, xfrc_applied zeroed (mujoco_state.command)
+            s = command(tau, tau.shape[0] == self.model.nv, self._act_v, self._act_limits, self._ctrl, self._xfrc)
+            if s < 0:
+                raise WbcError("simulator: non-finite torque")
+            self.saturated_steps += s
+            self._advance(zeroed=True)
+            return
         if tau.shape[0] == self.model.nv:
             tau = tau[self._act_v]
         if not np.all(np.isfinite(tau)):
@@ -389,11 +340,18 @@ class MujocoSimulator:
         d.ctrl[:] = ctrl
         self._advance()
 
-    def _advance(self) -> None:
-        """``substeps`` MuJoCo steps at the current ctrl, then the contacts and the state read."""
+    def _advance(self, zeroed: bool = False) -> None:
+        """``substeps`` MuJoCo steps at the current ctrl, then the contacts and the state read.
+
+        Args:
+            zeroed: ``xfrc_applied`` already zeroed for the first step (:func:`~wbc.sim.mujoco_state.command`).
+        """
         mm, d = self.mj_model, self.mj_data
-        for _ in range(self.substeps):
-            d.xfrc_applied[:] = self.push_wrenches(self.t) if self.pushes else 0.0
+        for k in range(self.substeps):
+            if self.pushes:
+                d.xfrc_applied[:] = self.push_wrenches(self.t)
+            elif k or not zeroed:
+                d.xfrc_applied[:] = 0.0
             if self.differential_drive:
                 d.qfrc_applied[:] = 0.0
                 mujoco.mj_forward(mm, d)
@@ -401,7 +359,7 @@ class MujocoSimulator:
                 d.qfrc_applied[:] = e * (-(e @ (d.qvel + self.h * d.qacc)) / (self.h * (e @ Me)))
             n_bad = self._bad_warnings()
             mujoco.mj_step(mm, d)
-            self._fresh = False
+            self._fresh = 0
             if self.differential_drive:       # the impulse along the new heading's lateral axis
                 e, Me = self._lateral()
                 d.qvel[:] -= Me * ((e @ d.qvel) / (e @ Me))
@@ -483,7 +441,7 @@ class MujocoSimulator:
     def point_positions(self) -> np.ndarray:
         """World positions (m) of the contact points at the current state."""
         self._kinematics()
-        return self.mj_data.site_xpos[self._sites].copy().reshape(-1, 3)
+        return self.mj_data.site_xpos[self._sites]       # (an index array: a copy)
 
     def com(self) -> np.ndarray:
         """World position (m) of the centre of mass at the current state (pinocchio's model
