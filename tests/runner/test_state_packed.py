@@ -14,6 +14,7 @@ from wbc.runner import metrics as metrics_module
 from wbc.runner.loop import ScenarioRun
 from wbc.runner.metrics import _joined, _offsets
 from wbc.runner.state_kernel import pack_state, state_metrics, state_metrics_packed
+from wbc.runner.stats import Running
 from wbc.scenario.loader import load_config
 
 
@@ -73,8 +74,9 @@ def test_random_cycles_give_the_tuples_figures():
 
 def test_a_run_with_a_released_foot_gives_the_tuples_figures(monkeypatch):
     """``talos_step`` to 2.2 s (the right foot released at 1.5 s: the contact and the pair no
-    longer watched, the support one foot): each cycle's packed call returns what the former
-    tuples return on their own accumulators, and the run's figures are theirs."""
+    longer watched, the support one foot): each cycle's compiled call returns what the former
+    tuples return on their own accumulators, and the run's figures are theirs (the internal
+    force's and the support margin's running figures as ``Running`` gives them from those values)."""
     sc = load_config("talos_step")
     r = ScenarioRun(sc, solver="hqp", simulator="pinocchio", duration=2.2)
     m, cm = r.measured, r.measured.contact_metrics
@@ -90,21 +92,27 @@ def test_a_run_with_a_released_foot_gives_the_tuples_figures(monkeypatch):
               "contact_watched": np.zeros(len(m.contacts), np.bool_), "sole_watched": np.zeros(len(cm.index), np.bool_),
               "lifted": np.zeros(len(m.contacts), np.bool_), "both": False}
     p0, limits, contacts, soles, pair, acc = _tuples(former)
-    real, calls = metrics_module.state_metrics_packed, []
+    real, calls = metrics_module.state_cycle, []
+    internal, margins = Running(), Running()        # the former running figures, from the tuples' values
 
-    def both(q, v, tau, pf, pts, ints, floats, flags, idx, verts, cx, cy):
-        got = real(q, v, tau, pf, pts, ints, floats, flags, idx, verts, cx, cy)
+    def both(q, v, tau, pf, pts, ints, floats, flags, support, run_stats):
+        idx, verts, com = support
+        cx, cy = (float(com[0]), float(com[1])) if len(idx) else (0.0, 0.0)
+        got = (math.nan, *real(q, v, tau, pf, pts, ints, floats, flags, support, run_stats))
         watched = {name for name, _ in m.watched}          # the former code's flags, from the run's watch()
         contacts[2][:] = [c.name in watched for c in m.contacts]
         soles[4][:] = [name in watched for name in cm.index]
         pair[2] = cm.pair is not None and all(n in watched for n in cm.pair)
         want = state_metrics(q, v, tau, pf, pts, p0, limits, contacts, soles, tuple(pair), (idx, verts, cx, cy), acc)
-        assert (math.isnan(got[0]) and math.isnan(want[0])) or got[0] == want[0], len(calls)
         assert got[1:] == want[1:], len(calls)
+        if math.isfinite(want[0]):
+            internal.add(want[0])
+        if len(idx):
+            margins.add(want[2])
         calls.append((pair[2], len(idx)))
-        return got
+        return got[1:]
 
-    monkeypatch.setattr(metrics_module, "state_metrics_packed", both)
+    monkeypatch.setattr(metrics_module, "state_cycle", both)
     for k in range(r.n):
         assert r.cycle(k)
     assert len(calls) == r.n and calls[0] == (True, 8) and calls[-1] == (False, 4)     # the release seen
@@ -112,3 +120,6 @@ def test_a_run_with_a_released_foot_gives_the_tuples_figures(monkeypatch):
     assert m.lifted.tolist() == acc[2].tolist()
     for got, want in ((cm.fn_min, acc[3]), (cm.edge_min, acc[4]), (cm.inside, acc[5]), (cm.loaded, acc[6])):
         assert got.tolist() == want.tolist()
+    for got_run, want_run in ((cm.internal, internal), (m.margins, margins)):     # state_cycle's running figures
+        assert want_run.n > 0
+        assert [getattr(got_run, a) for a in Running.__slots__] == [getattr(want_run, a) for a in Running.__slots__]

@@ -15,9 +15,9 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
-from wbc.runner.state_kernel import VIOLATIONS, fallen_state, hull_holds, pack_state, ratio_max, state_metrics_packed
-from wbc.runner.stats import Running
-from wbc.tasks.contact import Contact
+from wbc.runner.state_kernel import VIOLATIONS, fallen_state, hull_holds, pack_state, state_cycle
+from wbc.runner.stats import RunningRow
+from wbc.runner.task_errors import TaskErrors
 
 #: the metrics a run reports as true/false (flattened names, ``*`` one part): a sweep's
 #: ``survive:`` compares them only with a boolean (wbc.sweep.spec)
@@ -143,7 +143,10 @@ class ContactMetrics:
         self.pair = [c.name for c in contacts] if len(contacts) == 2 else None
         self.pair_points = tuple(np.asarray(pts_of[n], dtype=np.int64) for n in self.pair) if self.pair \
             else (_NO_POINTS, _NO_POINTS)
-        self.internal = Running()
+        #: the internal force's figures (row 0) and the CoM's support margin's (row 1), which
+        #: :func:`~wbc.runner.state_kernel.state_cycle` updates
+        self.run_stats = np.zeros((2, 7))
+        self.internal = RunningRow(self.run_stats, 0)
 
     def watch(self, watched: set) -> bool:
         """Watch the soles named in ``watched``; returns whether both contacts of the pair are."""
@@ -168,6 +171,7 @@ class ContactMetrics:
 
 _NO_POINTS = np.zeros(0, dtype=np.int64)
 _NO_VALUES = np.zeros(0)
+_NO_COM = np.zeros(3)
 
 
 def _offsets(groups: list) -> np.ndarray:
@@ -312,25 +316,15 @@ class RunMetrics:
         self.robot, self.contacts, self.pts_of, self.mu_max = robot, contacts, pts_of, mu_max
         pin.forwardKinematics(m, sim.data, sim.q)
         self.p0 = sim.point_positions()
-        self.errs: dict[str, Running] = {t.name: Running() for t in stack if t.error(robot) is not None
-                                         and not isinstance(t, Contact)}
-        self.err_tasks = [(name, stack[name]) for name in self.errs]
-        #: per task its error's unit ("m", "rad", "N", ...; "m+rad" for a pose) and, when it mixes
-        #: units, the components of each (their norms are recorded apart, in ``err_parts``)
-        self.err_units: dict[str, str] = {}
-        self.err_split: dict[str, list[tuple[str, np.ndarray]]] = {}
-        self.err_parts: dict[str, dict[str, Running]] = {}
-        for name, task in self.err_tasks:
-            units = task.error_units(robot)
-            kinds = list(dict.fromkeys(units))
-            self.err_units[name] = "+".join(kinds) if kinds else "unitless"
-            if len(kinds) > 1:
-                self.err_split[name] = [(u, np.flatnonzero([x == u for x in units])) for u in kinds]
-                self.err_parts[name] = {u: Running() for u in kinds}
+        #: the task errors' figures (:class:`~wbc.runner.task_errors.TaskErrors`): per task ``errs``,
+        #: ``err_units``; for a task that mixes units (a pose: m and rad) its components per unit
+        #: (``err_split``) and their norms' figures apart (``err_parts``)
+        te = self.task_errors = TaskErrors(robot, stack)
+        self.errs, self.err_tasks, self.err_units, self.err_split, self.err_parts = (
+            te.errs, te.tasks, te.units, te.split, te.parts)
         #: per cycle counts of :data:`~wbc.runner.state_kernel.VIOLATIONS`; per contact (``contacts``'
         #: order) the largest squared slip (m²) and whether it lifted
         self.viol_counts, self.slip2, self.lifted = np.zeros(len(VIOLATIONS)), np.zeros(len(contacts)), np.zeros(len(contacts))
-        self.margins = Running()
         self.lateral = 0.0
         self.qi = np.array([m.joints[j].idx_q for j in range(1, m.njoints) if m.joints[j].nq == 1])
         self.vi = np.array([m.joints[j].idx_v for j in range(1, m.njoints) if m.joints[j].nq == 1])
@@ -340,6 +334,7 @@ class RunMetrics:
         self.inv_tau_max = 1.0 / robot.tau_max[robot.actuated_idx]
         self.hull = SupportPolygon()
         cm = self.contact_metrics = ContactMetrics(contacts, pts_of, self.p0, robot.weight)
+        self.margins = RunningRow(cm.run_stats, 1)
         # the compiled call's held arguments (wbc.runner.state_kernel.state_metrics_packed) in three
         # arrays, built once; the running figures and flags below are views of them, updated in place
         groups = [np.asarray(pts_of[c.name], dtype=np.int64) for c in contacts]
@@ -365,17 +360,13 @@ class RunMetrics:
         self.rec = series
         if self.rec is not None:
             self.rec.error_names = list(self.errs)
-        self.err_live: list = []
         self.watched: list = []
         self.watched_names: set = set()
 
     def watch(self, stack, switched: set) -> None:
         """What the metrics watch, after events: the tasks still in the stack and the
         contacts not switched during the run."""
-        # per task: (the task, whether it is in the stack, its Running, its units' parts or None)
-        split, parts = self.err_split, self.err_parts
-        self.err_live = [(task, name in stack, self.errs[name], [(i, parts[name][u]) for u, i in split.get(name, ())]
-                          or None) for name, task in self.err_tasks]
+        self.task_errors.watch(stack)
         self.watched = [(c.name, np.asarray(self.pts_of[c.name])) for c in self.contacts if c.name not in switched]
         self.watched_names = {name for name, _ in self.watched}
         for k, c in enumerate(self.contacts):
@@ -388,20 +379,8 @@ class RunMetrics:
         self.relaxed_cycles += sol.relaxed
         self.saturated_cycles += sol.saturated
         self.tau_ratio_asked = max(self.tau_ratio_asked, sol.tau_ratio)
-        self.tau_ratio_max = max(self.tau_ratio_max, ratio_max(sol.tau, self.inv_tau_max))
-        robot = self.robot
-        for task, live, running, parts in self.err_live:
-            if live:
-                e = task.error(robot)
-                running.add(math.sqrt(e.dot(e)))     # (e @ e's bits: numpy's one ddot, with less around it)
-                if parts is not None:
-                    for idx, r in parts:
-                        ei = e[idx]
-                        r.add(math.sqrt(ei.dot(ei)))
-            elif running:        # a task removed by an event keeps its last value
-                running.add(running.last)
-                for _, r in parts or ():
-                    r.add(r.last)
+        # the task errors and the worst torque ratio sent in one compiled call
+        self.tau_ratio_max = max(self.tau_ratio_max, self.task_errors.record(sol.tau, self.inv_tau_max))
 
     def record_singular(self, t: float, sol) -> None:
         """Count the cycle's near-singular levels (``sol.singular_levels``); at a level's
@@ -423,8 +402,8 @@ class RunMetrics:
 
     def record_state(self, t: float, sim, sol, stack) -> None:
         """The true (simulated) state after the step: limits, contacts, soles, the internal
-        force and the CoM's support margin in one compiled call
-        (:func:`~wbc.runner.state_kernel.state_metrics_packed`)."""
+        force and the CoM's support margin, and their running figures, in one compiled call
+        (:func:`~wbc.runner.state_kernel.state_cycle`)."""
         qs, vs = sim.q, sim.v
         pf = sim.point_forces
         pts = sim.point_positions()
@@ -433,20 +412,17 @@ class RunMetrics:
         if len(idx):
             # true CoM, the simulator's model and data (its own com(): the kinematics point_positions ran)
             robot_com = sim.com() if hasattr(sim, "com") else pin.centerOfMass(sim.model, sim.data, qs)
-            verts, cx, cy = self.hull.vertices(support[2], idx, pts), float(robot_com[0]), float(robot_com[1])
+            verts = self.hull.vertices(support[2], idx, pts)
         else:
-            verts, cx, cy = _NO_POINTS, 0.0, 0.0
-        s, finite, margin = state_metrics_packed(qs, vs, sol.tau_full, pf, pts, self._ints, self._floats, self._flags, idx,
-                                                 verts, cx, cy)
-        if math.isfinite(s):    # NaN: the pair not watched, or its contacts coincide
-            self.contact_metrics.internal.add(s)
+            verts, robot_com = _NO_POINTS, _NO_COM
+        finite, margin = state_cycle(qs, vs, sol.tau_full, pf, pts, self._ints, self._floats, self._flags,
+                                     (idx, verts, robot_com), self.contact_metrics.run_stats)
         if len(idx):
             self.hull.counted(finite)
-            self.margins.add(margin)
         else:
             margin = np.nan
         if self.rec is not None:
-            self.rec.record(t, [e.last for e in self.errs.values()], sol,
+            self.rec.record(t, self.task_errors.lasts(), sol,
                             [pf[self.pts_of[c.name]].sum(axis=0) for c in self.contacts], margin)
         if self.robot.differential_drive:
             self.lateral = max(self.lateral, abs(vs[1]))
@@ -461,7 +437,7 @@ class RunMetrics:
             got = self._support = (stack.version, np.asarray(idx, dtype=np.int64), tuple(idx))
         return got
 
-    def _task_summary(self, name: str, err: Running) -> dict:
+    def _task_summary(self, name: str, err: RunningRow) -> dict:
         out = {**err.stats(), "unit": self.err_units[name]}
         if name in self.err_parts:
             out["parts"] = {u: {**r.stats(), "unit": u} for u, r in self.err_parts[name].items()}

@@ -24,6 +24,7 @@ import numba as nb
 import numpy as np
 
 from wbc.controller.faults import state_extent
+from wbc.runner.stats import add_value
 
 #: (joint_position, joint_velocity, torque, friction, unilateral): the violation counters' order
 VIOLATIONS = ("joint_position", "joint_velocity", "torque", "friction", "unilateral")
@@ -421,3 +422,28 @@ def state_metrics_packed(q, v, tau, pf, pts, ints, floats, flags, support_idx, v
     acc = (ints[i[11]:i[12]], floats[f[7]:f[8]], flags[b[2]:b[3]], floats[f[8]:f[9]], floats[f[9]:f[10]],
            ints[i[12]:i[13]], ints[i[13]:i[14]], floats[f[5]])
     return state_metrics(q, v, tau, pf, pts, p0, limits, contacts, soles, pair, (support_idx, verts, cx, cy), acc)
+
+
+@nb.njit(cache=True)
+def state_cycle(q, v, tau, pf, pts, ints, floats, flags, support, run_stats):
+    """:func:`state_metrics_packed` and the running figures of its two values in the same call:
+    the internal force into row 0 of ``run_stats`` when finite, the CoM's support margin into row 1
+    when there are support points (:func:`~wbc.runner.stats.add_value`, ``Running.add``'s bits).
+
+    Args:
+        q, v, tau, pf, pts, ints, floats, flags: as :func:`state_metrics_packed`.
+        support: (the support points' indices, the hull's vertices, the CoM (3, m; its x, y read
+            only with support points)).
+        run_stats: the two rows of running figures (:class:`~wbc.runner.stats.RunningRow`).
+
+    Returns:
+        (whether the support points are all finite, the CoM's support margin (m)).
+    """
+    idx, verts, com = support
+    cx, cy = (com[0], com[1]) if idx.shape[0] else (0.0, 0.0)
+    s, finite, margin = state_metrics_packed(q, v, tau, pf, pts, ints, floats, flags, idx, verts, cx, cy)
+    if math.isfinite(s):    # NaN: the pair not watched, or its contacts coincide
+        add_value(run_stats, 0, s)
+    if idx.shape[0]:
+        add_value(run_stats, 1, margin)
+    return finite, margin

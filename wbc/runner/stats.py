@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
+
 
 class Running:
     """One sequence of floats, seen a value at a time; ``bool(r)``: whether it has any."""
@@ -46,3 +48,74 @@ class Running:
     def stats(self) -> dict:
         """``{"rms", "max", "final"}`` (the runner's per-task summary; units of the values)."""
         return {"rms": math.sqrt(self.total_sq / self.n), "max": float(self.max), "final": float(self.last)}
+
+
+#: the columns of a table of running figures (:class:`RunningRow`): n, Σx, Σx², min, max, max |x|, last
+N, TOTAL, TOTAL_SQ, MIN, MAX, MAX_ABS, LAST = range(7)
+
+
+@nb.njit(cache=True)
+def add_value(table, r, x):
+    """:meth:`Running.add` of ``x`` on row ``r`` of ``table`` (:class:`RunningRow`'s columns): the
+    same float operations in the same order, so the same bits."""
+    table[r, N] += 1.0
+    table[r, TOTAL] += x
+    table[r, TOTAL_SQ] += x * x
+    if x < table[r, MIN]:
+        table[r, MIN] = x
+    if x > table[r, MAX]:
+        table[r, MAX] = x
+    if abs(x) > table[r, MAX_ABS]:
+        table[r, MAX_ABS] = abs(x)
+    table[r, LAST] = x
+
+
+class RunningRow:
+    """A :class:`Running` kept in row ``r`` of a float64 table (columns :data:`N` ... :data:`LAST`)
+    that compiled code updates (:func:`add_value`); the same reads as :class:`Running`.
+
+    Args:
+        table: the table (rows × 7), its row ``r`` set to the empty figures here.
+        r: the row.
+    """
+
+    __slots__ = ("table", "r")
+
+    def __init__(self, table, r: int) -> None:
+        self.table, self.r = table, r
+        table[r] = (0.0, 0.0, 0.0, math.inf, -math.inf, 0.0, math.nan)
+
+    def add(self, x: float) -> None:
+        """:meth:`Running.add` (Python's float operations on the row's values)."""
+        row = self.table[self.r]
+        n, total, total_sq, lo, hi, big = (float(v) for v in row[:6])
+        row[N], row[TOTAL], row[TOTAL_SQ] = n + 1.0, total + x, total_sq + x * x
+        if x < lo:
+            row[MIN] = x
+        if x > hi:
+            row[MAX] = x
+        if abs(x) > big:
+            row[MAX_ABS] = abs(x)
+        row[LAST] = x
+
+    def _get(self, c: int) -> float:
+        return float(self.table[self.r, c])
+
+    n = property(lambda self: int(self.table[self.r, N]))
+    total = property(lambda self: self._get(TOTAL))
+    total_sq = property(lambda self: self._get(TOTAL_SQ))
+    min = property(lambda self: self._get(MIN))
+    max = property(lambda self: self._get(MAX))
+    max_abs = property(lambda self: self._get(MAX_ABS))
+    last = property(lambda self: self._get(LAST))
+
+    def __bool__(self) -> bool:
+        return self.n > 0
+
+    @property
+    def mean(self) -> float:
+        return self.total / self.n
+
+    def stats(self) -> dict:
+        """``{"rms", "max", "final"}``, as :meth:`Running.stats`."""
+        return {"rms": math.sqrt(self.total_sq / self.n), "max": self.max, "final": self.last}
