@@ -19,7 +19,7 @@ from wbc.scenario.loader import load_config
 
 SCENARIO = """
 name: errors
-description: a CoM on two axes, a hand's pose, the torso's orientation, a posture
+description: a CoM on two axes (x and z, not the first two), a hand's pose, the torso's orientation, a posture
 robot: talos
 solver: {type: hqp, backend: daqp}
 control: {dt: 0.001}
@@ -28,7 +28,7 @@ environment:
   - {type: ground, mu: 0.8}
 stack:
   - [{type: joint_limits}, {type: contact, contact: left_foot}, {type: contact, contact: right_foot}]
-  - [{type: com, axes: xy, kp: 100.0}]
+  - [{type: com, axes: xz, kp: 100.0}]
   - [{type: frame, frame: right_hand, kp: 50.0, offset: [0.05, 0.0, 0.0]}]
   - [{type: frame, frame: torso, kp: 50.0, mask: orientation}]
   - [{type: posture, kp: 10.0}]
