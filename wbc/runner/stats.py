@@ -86,17 +86,8 @@ class RunningRow:
         table[r] = (0.0, 0.0, 0.0, math.inf, -math.inf, 0.0, math.nan)
 
     def add(self, x: float) -> None:
-        """:meth:`Running.add` (Python's float operations on the row's values)."""
-        row = self.table[self.r]
-        n, total, total_sq, lo, hi, big = (float(v) for v in row[:6])
-        row[N], row[TOTAL], row[TOTAL_SQ] = n + 1.0, total + x, total_sq + x * x
-        if x < lo:
-            row[MIN] = x
-        if x > hi:
-            row[MAX] = x
-        if abs(x) > big:
-            row[MAX_ABS] = abs(x)
-        row[LAST] = x
+        """:meth:`Running.add` of ``x``: :func:`add_value` on the row."""
+        add_value(self.table, self.r, float(x))
 
     def _get(self, c: int) -> float:
         return float(self.table[self.r, c])
