@@ -1,6 +1,6 @@
 """Same metrics before and after a change: every value of a run's metrics JSON compared.
 
-    python benchmarks/same_metrics.py record OUT.json [SCENARIO,...] [pinocchio,mujoco]
+    python benchmarks/same_metrics.py record OUT.json [SCENARIO,...] [pinocchio,mujoco] [ULP_SEED]
     python benchmarks/same_metrics.py compare BEFORE.json AFTER.json
 
 ``record`` runs, on the tree it is run from (PYTHONPATH), each scenario (default
@@ -10,6 +10,12 @@ simulator with the scenario's own solver, with ``series=True``, and stores its m
 figures left out (:data:`WALL_CLOCK`: ``cycle_time``, ``real_time_factor``, the walker's
 ``replan_time``), and prints every value that is not exactly equal (floats compared bit for
 bit, as JSON writes them: repr round-trips), then ``N/N identical``; exit 1 when any differs.
+
+With ULP_SEED (an integer), ``record`` runs the tree's controller with its rounding disturbed: every
+cycle, each non-zero component of the torque sent to the simulator is moved by one unit in the last
+place, up or down at random (seeded). Two such recordings, or one against an undisturbed one, show how
+far a scenario's metrics move under rounding alone: the yardstick for a change that moves the last bits
+of the controller's answers (``same_replay.py`` checks that change per cycle, open loop).
 """
 
 from __future__ import annotations
@@ -24,16 +30,36 @@ SCENARIOS = ("talos_balance", "talos_walk", "tiago_table_reach", "talos_glass")
 WALL_CLOCK = ("cycle_time", "real_time_factor", "replan_time")
 
 
-def record(path: str, scenarios: list[str], simulators: list[str]) -> None:
+def record(path: str, scenarios: list[str], simulators: list[str], ulp_seed: int | None = None) -> None:
+    from wbc.controller.cycle import Controller
     from wbc.runner.loop import run
     from wbc.scenario.loader import load_config
 
     warnings.simplefilter("ignore")
+    solve = Controller.solve
+    if ulp_seed is not None:
+        import numpy as np
+
+        rng = np.random.default_rng(ulp_seed)
+
+        def disturbed(self, *args, **kwargs):
+            sol = solve(self, *args, **kwargs)
+            tau = getattr(sol, "tau_full", None)
+            if tau is not None:
+                up = rng.random(tau.shape[0]) < 0.5
+                moved = np.where(up, np.nextafter(tau, np.inf), np.nextafter(tau, -np.inf))
+                tau[:] = np.where(tau != 0.0, moved, tau)
+            return sol
+
+        Controller.solve = disturbed                    # type: ignore[method-assign]
     out = {}
-    for name in scenarios:
-        for sim in simulators:
-            out[f"{name}/{sim}"] = run(load_config(name), simulator=sim, series=True)
-            print(f"{name}/{sim} recorded", flush=True)
+    try:
+        for name in scenarios:
+            for sim in simulators:
+                out[f"{name}/{sim}"] = run(load_config(name), simulator=sim, series=True)
+                print(f"{name}/{sim} recorded", flush=True)
+    finally:
+        Controller.solve = solve                        # type: ignore[method-assign]
     with open(path, "w") as f:
         json.dump(out, f, allow_nan=True)
 
@@ -80,7 +106,8 @@ def compare(before: str, after: str) -> int:
 if __name__ == "__main__":
     if len(sys.argv) >= 3 and sys.argv[1] == "record":
         record(sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else list(SCENARIOS),
-               sys.argv[4].split(",") if len(sys.argv) > 4 else ["pinocchio", "mujoco"])
+               sys.argv[4].split(",") if len(sys.argv) > 4 else ["pinocchio", "mujoco"],
+               int(sys.argv[5]) if len(sys.argv) > 5 else None)
     elif len(sys.argv) == 4 and sys.argv[1] == "compare":
         sys.exit(compare(sys.argv[2], sys.argv[3]))
     else:
