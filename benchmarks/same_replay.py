@@ -63,7 +63,7 @@ def _output(sol) -> np.ndarray:
     return (tau if tau is not None else sol.qd).copy()
 
 
-def _run(name: str, solver: str | None, seconds: float, sim: str, given: dict | None) -> dict:
+def run_case(name: str, solver: str | None, seconds: float, sim: str, given: dict | None) -> dict:
     """One case; ``given``: the recorded inputs to substitute (None: record the live ones)."""
     from wbc.controller.cycle import Controller
     from wbc.controller.velocity import VelocityController
@@ -119,7 +119,7 @@ def record(path: str, cases: list[tuple[str, str | None, float]], simulators: li
         for sim in simulators:
             if sim != "pinocchio" and name in OWN_SIMULATOR_ONLY:
                 continue
-            got = _run(name, solver, seconds, sim, None)
+            got = run_case(name, solver, seconds, sim, None)
             key = f"{name}/{sim}/{solver or 'default'}"
             out.update({f"{key}/{f}": a for f, a in got.items()})
             out[f"{key}/seconds"] = np.array([seconds])
@@ -134,7 +134,7 @@ def replay(recorded: str, path: str) -> None:
     for key in _keys(data):
         name, sim, solver = key.split("/")
         given = {f: data[f"{key}/{f}"] for f in ("q", "v", "tau_e", "has_tau_e")}
-        got = _run(name, None if solver == "default" else solver, float(data[f"{key}/seconds"][0]), sim, given)
+        got = run_case(name, None if solver == "default" else solver, float(data[f"{key}/seconds"][0]), sim, given)
         out[f"{key}/out"] = got["out"]
         print(f"{key:44s} {len(got['out'])} cycles replayed", flush=True)
     np.savez(path, **out)
