@@ -7,7 +7,7 @@ and its wrappers' own cost outside the timed calls lands in its "rest".
 
     PYTHONPATH=. python benchmarks/loop_rest_split.py [pinocchio|mujoco]
 
-The copy follows ``ScenarioRun.cycle`` as of the twenty-ninth pass (branch p38); a changed cycle needs
+The copy follows ``ScenarioRun.cycle`` as of the thirtieth pass (branch loop8); a changed cycle needs
 the copy changed too.
 """
 
@@ -27,6 +27,8 @@ from wbc.runner.loop import (
     CoM,
     Cycle,
     ScenarioRun,
+    Sinusoid,
+    SinusoidCycles,
     _apply_event,
     diverged_reason,
     fallen,
@@ -77,13 +79,22 @@ class TimedRun(ScenarioRun):
                     task = named[1][tname] = stack[tname]
                 except KeyError:
                     continue
-            x, dx, ddx = traj.sample(now - t0)
-            t = _note("trajectory sample", t)
-            if isinstance(task, CoM):
-                task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
-            else:
+            if not isinstance(task, CoM):
                 task.set_reference(*frame_reference(traj, absolute, self.start[tname], now - t0))
-            t = _note("set_reference (with start + x)", t)
+                t = _note("frame reference", t)
+            elif type(traj) is Sinusoid:
+                cycles = self._cycles.get(tname)
+                if cycles is None or cycles.traj is not traj or cycles.t0 != t0:
+                    cycles = self._cycles[tname] = SinusoidCycles(traj, sc.dt, t0)
+                values = cycles.values(k, None if absolute else self.start[tname])
+                t = _note("trajectory sample", t)
+                task.set_reference_values(*values)
+                t = _note("set_reference (with start + x)", t)
+            else:
+                x, dx, ddx = traj.sample(now - t0)
+                t = _note("trajectory sample", t)
+                task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
+                t = _note("set_reference (with start + x)", t)
         for o in observers:
             o.before_solve(c)
         t = _note("before_solve", t)
@@ -140,7 +151,8 @@ def main(simulator: str = "pinocchio") -> None:
                 break
     med = {key: float(np.median(x[50:])) / 1e3 for key, x in TIMES.items()}
     timed = ("sim.measure", "controller.solve", "sim.step", "step_checks", "after_solve (record_command, "
-             "record_singular)", "after_step (record_state)", "set_reference (with start + x)")
+             "record_singular)", "after_step (record_state)", "set_reference (with start + x)",
+             "frame reference")
     for key, m in med.items():
         print(f"{key:48s} {m:7.2f} µs")
     rest = sum(m for key, m in med.items() if key not in timed and key != "whole cycle")

@@ -81,6 +81,7 @@ from wbc.tasks.com import CoM
 from wbc.tasks.contact import Contact
 from wbc.tasks.frame import Frame, to_se3
 from wbc.trajectories.position import frame_reference
+from wbc.trajectories.profiles import Sinusoid, SinusoidCycles
 
 _FLOAT = np.dtype(float)
 
@@ -207,6 +208,7 @@ class ScenarioRun:
         self.pending = list(sc.events)
         self.switched: set[str] = set()
         self._named: tuple = (-1, {})       # (stack version, {name: task}) of the referenced tasks (cycle)
+        self._cycles: dict[str, SinusoidCycles] = {}     # a sinusoid reference's block of cycles, by task
 
     def _observers(self, o: RunOptions) -> list[RunObserver]:
         """The run's observers, in calling order (:mod:`wbc.runner.observers`): the force tasks'
@@ -276,11 +278,16 @@ class ScenarioRun:
                     task = named[1][tname] = stack[tname]   # a CoM or Frame task (the scenario loader checked)
                 except KeyError:            # disabled from a live page: its trajectory waits
                     continue
-            x, dx, ddx = traj.sample(t - t0)
-            if isinstance(task, CoM):
-                task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
-            else:                   # position and (a PoseTrajectory) orientation, with ω and ω̇
+            if not isinstance(task, CoM):   # position and (a PoseTrajectory) orientation, with ω and ω̇
                 task.set_reference(*frame_reference(traj, absolute, self.start[tname], t - t0))
+            elif type(traj) is Sinusoid:    # Python floats, the sin and cos a block of cycles at a time
+                cycles = self._cycles.get(tname)
+                if cycles is None or cycles.traj is not traj or cycles.t0 != t0:
+                    cycles = self._cycles[tname] = SinusoidCycles(traj, sc.dt, t0)
+                task.set_reference_values(*cycles.values(k, None if absolute else self.start[tname]))
+            else:
+                x, dx, ddx = traj.sample(t - t0)
+                task.set_reference(x if absolute else self.start[tname] + x, dx, ddx)
         for o in observers:
             o.before_solve(c)
         t0 = time.perf_counter()

@@ -82,6 +82,26 @@ class CoM(MotionTask):
         self.target_acceleration = (np.zeros(3) if acceleration is None
                                     else as_vector(self.name, "acceleration", acceleration, 3))
 
+    def set_reference_values(self, position: list, velocity: list, acceleration: list) -> None:
+        """Set the references from three lists of Python floats, as :meth:`set_reference` of
+        the three arrays ``np.array(values, float)`` would (a trajectory's values, every cycle:
+        #26): three lists of 3 numbers whose nine entries sum to a finite number are kept as
+        new arrays, with the one sum as the check; anything else goes through :meth:`set_reference`.
+
+        Args:
+            position: the CoM position reference (m, world frame), 3 numbers.
+            velocity: its velocity (m/s), 3 numbers.
+            acceleration: its acceleration (m/s²), 3 numbers."""
+        if type(position) is list is type(velocity) is type(acceleration) \
+                and len(position) == len(velocity) == len(acceleration) == 3 \
+                and math.isfinite(sum(position + velocity + acceleration)):
+            self._target = np.array(position, _FLOAT)
+            TASK_CHANGES[0] += 1                    # (the target's setter's count)
+            self.target_velocity = np.array(velocity, _FLOAT)       # (Watched: counted)
+            self.target_acceleration = np.array(acceleration, _FLOAT)
+            return
+        self.set_reference(np.array(position, _FLOAT), np.array(velocity, _FLOAT), np.array(acceleration, _FLOAT))
+
     def error(self, robot) -> np.ndarray:
         if self._target is None:
             self._target = robot.com.copy()

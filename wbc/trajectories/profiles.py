@@ -16,6 +16,9 @@ from wbc.validation.schema import number, sequence, show, vector
 MAX_POSITION = 1e3
 #: latest waypoint time (s): a run lasts at most an hour; beyond 10⁶ s the segment lengths' squares overflow
 MAX_TIME = 1e6
+_FLOAT = np.dtype(float)
+_THREE = (3,)
+_NUMBERS = (float, int)
 
 
 class Trajectory(Protocol):
@@ -55,13 +58,24 @@ class Sinusoid:
     phase: float | np.ndarray = 0.0
     ramp: float = 1.0
 
-    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        w = 2 * np.pi * self.frequency
+    def factors(self, t: float) -> tuple[Any, Any, Any]:
+        """r sin, its first and second derivatives at time ``t`` (s), before the amplitude:
+        Python floats for one phase (numpy's ``sin`` and ``cos`` of the angle, then Python's
+        products), arrays for a phase per axis.
+
+        Args:
+            t: time (s)."""
         if self.ramp > 0 and t < self.ramp:
             s, ds, dds = smoothstep(t / self.ramp)
             ds, dds = (ds / self.ramp, dds / self.ramp / self.ramp) if s > 0.0 else (0.0, 0.0)
         else:
             s, ds, dds = 1.0, 0.0, 0.0
+        return self._unit(t, s, ds, dds)
+
+    def _unit(self, t, s: float, ds: float, dds: float) -> tuple[Any, Any, Any]:
+        """The factors at ``t`` (s; a float, or an array of times, each then the same operations
+        elementwise) for the ramp's value s and derivatives ds, dds."""
+        w = 2 * np.pi * self.frequency
         arg = w * t + self.phase
         sn: Any = np.sin(arg)
         cs: Any = np.cos(arg)
@@ -70,7 +84,88 @@ class Sinusoid:
         x = s * sn
         dx = ds * sn + s * w * cs
         ddx = dds * sn + 2 * ds * w * cs - s * w * w * sn
+        return x, dx, ddx
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        x, dx, ddx = self.factors(t)
         return self.amplitude * x, self.amplitude * dx, self.amplitude * ddx
+
+    def reference_values(self, t: float, start: np.ndarray | None = None) -> tuple[list, list, list]:
+        """The position ``start + A x(t)`` (``A x(t)`` without a start), velocity ``A ẋ(t)`` and
+        acceleration ``A ẍ(t)`` as three lists of Python floats (m, m/s, m/s²): the values of
+        ``start + sample(t)[0]``, ``sample(t)[1]`` and ``sample(t)[2]``, bit for bit.
+
+        Args:
+            t: time (s).
+            start: the offset added to the position (a vector of the amplitude's length), or None."""
+        return self._values(start, *self.factors(t))
+
+    def _values(self, start, x, dx, ddx) -> tuple[list, list, list]:
+        """:meth:`reference_values` from the factors: for one phase and float64 3-vectors each
+        entry one Python product (and sum), the IEEE operation numpy's array product applies to
+        it, without the four array operations (#26: the CoM reference of every cycle);
+        otherwise the arrays' ``tolist()``."""
+        a = self.amplitude
+        if type(x) is float and type(a) is np.ndarray and a.shape == _THREE and a.dtype == _FLOAT:
+            a0, a1, a2 = a.tolist()
+            if start is None:
+                p = [a0 * x, a1 * x, a2 * x]
+            elif type(start) is np.ndarray and start.shape == _THREE and start.dtype == _FLOAT:
+                s0, s1, s2 = start.tolist()
+                p = [s0 + a0 * x, s1 + a1 * x, s2 + a2 * x]
+            else:
+                p = (start + a * x).tolist()
+            return p, [a0 * dx, a1 * dx, a2 * dx], [a0 * ddx, a1 * ddx, a2 * ddx]
+        p_arr = a * x if start is None else start + a * x
+        return p_arr.tolist(), (a * dx).tolist(), (a * ddx).tolist()
+
+
+#: control cycles whose sinusoid factors :class:`SinusoidCycles` computes in one vectorised call
+BLOCK = 250
+
+
+class SinusoidCycles:
+    """A sinusoid's references on a run's control cycles: cycle k at time k·dt − t₀ (s), as the
+    loop computes it (``k * dt`` then ``- t0``, Python floats). Past the ramp the factors of
+    :meth:`Sinusoid.factors` are computed for :data:`BLOCK` cycles at a time by one call of
+    numpy's ``sin`` and ``cos`` on the block's times and the same products elementwise (numpy's
+    array functions give each element the bits of the scalar call), kept as Python floats: one
+    cold ufunc call a block instead of two a cycle (#26). The values equal
+    ``traj.reference_values(k * dt - t0, start)`` bit for bit whatever the order of the cycles
+    asked; a sinusoid whose frequency, phase or ramp changes gets a new block, one with a phase
+    per axis, or a cycle inside the ramp, the per-cycle call.
+
+    Args:
+        traj: the sinusoid.
+        dt: the control period (s).
+        t0: the time (s) the trajectory starts at."""
+
+    def __init__(self, traj: Sinusoid, dt: float, t0: float) -> None:
+        self.traj, self.dt, self.t0 = traj, dt, t0
+        self._first = 0
+        self._key: tuple | None = None
+        self._x: list = []
+        self._dx: list = []
+        self._ddx: list = []
+
+    def values(self, k: int, start: np.ndarray | None = None) -> tuple[list, list, list]:
+        """Cycle ``k``'s (position, velocity, acceleration) lists, as :meth:`Sinusoid.reference_values`.
+
+        Args:
+            k: the control cycle (its time k·dt − t₀).
+            start: the offset added to the position, or None."""
+        traj = self.traj
+        i = k - self._first
+        if 0 <= i < len(self._x) and (traj.frequency, traj.phase, traj.ramp) == self._key:
+            return traj._values(start, self._x[i], self._dx[i], self._ddx[i])
+        t = k * self.dt - self.t0
+        if type(traj.phase) not in _NUMBERS or (traj.ramp > 0 and t < traj.ramp) or k < 0:
+            return traj.reference_values(t, start)
+        times = np.arange(k, k + BLOCK) * self.dt - self.t0
+        x, dx, ddx = traj._unit(times, 1.0, 0.0, 0.0)
+        self._first, self._key = k, (traj.frequency, traj.phase, traj.ramp)
+        self._x, self._dx, self._ddx = x.tolist(), dx.tolist(), ddx.tolist()
+        return traj._values(start, self._x[0], self._dx[0], self._ddx[0])
 
 
 @dataclass
