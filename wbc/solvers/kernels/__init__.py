@@ -3,6 +3,8 @@
 - :mod:`.factorizations`: one level's damped least-squares step x = x̂ + Z z and the next
   basis, by Gram/QR/COD/SVD (routes and their acceptance tests in its docstring);
 - :mod:`.cod`: the COD route of a rank-deficient level (its scratch in one array);
+- :mod:`.gram_cod`: the COD route of a tall rank-deficient level from its Gram matrix
+  (pivoted Cholesky), tried before :mod:`.cod`'s pivoted QR;
 - :mod:`.reflectors`: a LAPACK QR's Householder reflectors applied (a loop, or dormqr);
 - :mod:`.active_set`: a QP's optimum from a guessed active set, kept only with its KKT
   certificate;

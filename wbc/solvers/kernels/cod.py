@@ -1,6 +1,7 @@
 """A rank-deficient level's step by a complete orthogonal decomposition (LAPACK's xGELSY
 route), compiled: the COD route of :mod:`.factorizations` (its module docstring lists the
-routes), taken where the first route refuses and the rank can be proven."""
+routes), taken where the first route refuses and the rank can be proven (for a tall level, where
+:mod:`.gram_cod`'s decomposition from the Gram matrix did not prove it)."""
 
 from __future__ import annotations
 

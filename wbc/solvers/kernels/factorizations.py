@@ -26,8 +26,11 @@ solved exactly; the next basis Z · null(AZ); and x̂ + Z z. Routes, by shape:
   rotations), with a margin over the SVD's own rounding (:func:`.sigma_min.qr_accepted`: the SVD
   would decide the same);
 - ``COD`` (either shape, when the first route refuses): a complete orthogonal
-  decomposition from a column-pivoted QR, for rank-deficient levels whose rank
-  it can prove (a posture level has no say on the internal contact forces);
+  decomposition, for rank-deficient levels whose rank it can prove (a posture level
+  has no say on the internal contact forces): for a tall level first from the
+  Cholesky factor of (AZ)ᵀAZ with diagonal pivoting (:mod:`.gram_cod`, where what
+  it keeps is well conditioned), else from a column-pivoted QR (:mod:`.cod`), with
+  the same acceptance test;
 - ``SVD`` otherwise (near a singularity, damped, or rank not proven).
 """
 
@@ -38,6 +41,7 @@ import numpy as np
 
 from ..lapack import LEFT_TRANS, SIDE_TRANS, UPLO_DIAG, dgeqrf, dpotrf, dtrtri
 from .cod import cod_step
+from .gram_cod import gram_cod_step
 from .reflectors import apply_q, apply_reflectors
 from .sigma_min import qr_accepted, sum_squares
 
@@ -387,7 +391,11 @@ def step_from(AZ, r, x, Z, identity, path, strict, rank_tol, threshold, max_damp
             return False, QR, 0, 0.0, 0.0, 0.0, pack_step(np.zeros(k), x, np.empty((0, 0))), np.empty((n, 0))
         route = COD
     if route == COD:
-        ok, z, null, rank, T = cod_step(AZ, r, rank_tol, threshold)
+        ok = False
+        if m >= k:                               # from the Gram matrix first (.gram_cod)
+            ok, z, null, rank, T = gram_cod_step(AZ, r, rank_tol, threshold, gram_min_ratio)
+        if not ok:
+            ok, z, null, rank, T = cod_step(AZ, r, rank_tol, threshold)
         if ok:
             Z_next = null if identity else Z @ null
             return True, COD, rank, np.nan, np.nan, 0.0, pack_step(z, x + (z if identity else Z @ z), T), Z_next
