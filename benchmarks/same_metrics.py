@@ -1,6 +1,6 @@
 """Same metrics before and after a change: every value of a run's metrics JSON compared.
 
-    python benchmarks/same_metrics.py record OUT.json [SCENARIO,...] [pinocchio,mujoco] [ULP_SEED]
+    python benchmarks/same_metrics.py record OUT.json [SCENARIO,...] [pinocchio,mujoco] [ULP_SEED [ULPS]]
     python benchmarks/same_metrics.py compare BEFORE.json AFTER.json
 
 ``record`` runs, on the tree it is run from (PYTHONPATH), each scenario (default
@@ -13,7 +13,9 @@ bit, as JSON writes them: repr round-trips), then ``N/N identical``; exit 1 when
 
 With ULP_SEED (an integer), ``record`` runs the tree's controller with its rounding disturbed: every
 cycle, each non-zero component of the torque sent to the simulator is moved by one unit in the last
-place, up or down at random (seeded). Two such recordings, or one against an undisturbed one, show how
+place, up or down at random (seeded); with ULPS, by that many units (relative ULPS·2⁻⁵², the size of
+what ``same_replay.py compare`` reports for a change, so that the yardstick is as large as the
+change's own per-cycle difference). Two such recordings, or one against an undisturbed one, show how
 far a scenario's metrics move under rounding alone: the yardstick for a change that moves the last bits
 of the controller's answers (``same_replay.py`` checks that change per cycle, open loop).
 """
@@ -30,7 +32,8 @@ SCENARIOS = ("talos_balance", "talos_walk", "tiago_table_reach", "talos_glass")
 WALL_CLOCK = ("cycle_time", "real_time_factor", "replan_time")
 
 
-def record(path: str, scenarios: list[str], simulators: list[str], ulp_seed: int | None = None) -> None:
+def record(path: str, scenarios: list[str], simulators: list[str], ulp_seed: int | None = None,
+           ulps: int = 1) -> None:
     from wbc.controller.cycle import Controller
     from wbc.runner.loop import run
     from wbc.scenario.loader import load_config
@@ -47,7 +50,10 @@ def record(path: str, scenarios: list[str], simulators: list[str], ulp_seed: int
             tau = getattr(sol, "tau_full", None)
             if tau is not None:
                 up = rng.random(tau.shape[0]) < 0.5
-                moved = np.where(up, np.nextafter(tau, np.inf), np.nextafter(tau, -np.inf))
+                if ulps == 1:
+                    moved = np.where(up, np.nextafter(tau, np.inf), np.nextafter(tau, -np.inf))
+                else:
+                    moved = tau * (1.0 + np.where(up, ulps, -ulps) * np.finfo(float).eps)
                 tau[:] = np.where(tau != 0.0, moved, tau)
             return sol
 
@@ -107,7 +113,7 @@ if __name__ == "__main__":
     if len(sys.argv) >= 3 and sys.argv[1] == "record":
         record(sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else list(SCENARIOS),
                sys.argv[4].split(",") if len(sys.argv) > 4 else ["pinocchio", "mujoco"],
-               int(sys.argv[5]) if len(sys.argv) > 5 else None)
+               int(sys.argv[5]) if len(sys.argv) > 5 else None, int(sys.argv[6]) if len(sys.argv) > 6 else 1)
     elif len(sys.argv) == 4 and sys.argv[1] == "compare":
         sys.exit(compare(sys.argv[2], sys.argv[3]))
     else:
