@@ -12,16 +12,19 @@ carry a 1e-13 perturbation of the state to N·m within a second (``benchmarks/op
 perf11-13 and perf27), whatever the change. This script takes the plant out of that loop: ``record``
 runs each case on the base tree and stores, per cycle, what ``Controller.solve`` was given (q, v and
 the external torque) and what it returned; ``replay`` runs the same cases on the new tree with each
-cycle's ``Controller.solve`` given the recorded input instead of the live one, so that both trees'
-controllers see the same states; ``compare`` prints per case the largest |Δ| over the cycles relative
-to that cycle's largest |output| and fails (exit 1) above TOLERANCE (default 1e-9, the agreement
+cycle's ``Controller.solve`` given the recorded input instead of the live one, and each simulator step
+given the recorded torque instead of the new one (the plant then follows the recording: a run that
+the new torques, open loop, would end early by a fall runs whole), so that both trees' controllers
+see the same states; ``compare`` prints per case the largest |Δ| over the cycles relative to that
+cycle's largest |output| and fails (exit 1) above TOLERANCE (default 1e-9, the agreement
 issue #26 asks of a change of factorisation).
 
 Only the controller's own state (its warm starts, hint tables, force ramps) is carried from cycle to
-cycle in a replay, so its differences are the change's, not the plant's. Anything else the loop
-takes from the live plant (an event triggered by a measured contact) would show as a difference,
-never hide one. The same tree replayed against its own recording is identical (the check of this
-script). Outputs: τ (N·m) for the torque cases, q̇ (rad/s, m/s) for the velocity ones.
+cycle in a replay, so its differences are the change's, not the plant's. A velocity-mode case's
+position servos are not driven from the recording (their plant runs on the new commands); anything the
+loop takes from such a live plant would show as a difference, never hide one. The same tree replayed
+against its own recording is identical (the check of this script). Outputs: τ (N·m) for the torque
+cases, q̇ (rad/s, m/s) for the velocity ones.
 
 CASES: comma-separated ``scenario`` or ``scenario/solver`` (default: the scenarios of
 ``same_behaviour.py record`` with each solver, and g1_push, talos_hands_cross, panda_obstacle and
@@ -94,18 +97,47 @@ def run_case(name: str, solver: str | None, seconds: float, sim: str, given: dic
             return sol
         return replayed
 
+    sent: list = []
+
+    def sending(step):
+        def replayed_step(self, tau):
+            i = len(sent)
+            if given is not None and "sent" in given and i < len(given["sent"]):
+                tau = given["sent"][i].copy()     # the recorded command: the plant follows the recording
+            sent.append(np.array(tau, dtype=float))
+            return step(self, tau)
+        return replayed_step
+
     settings = {"duration": seconds, "simulator": sim}
     if solver is not None:
         settings["solver"] = solver
     solves = Controller.solve, VelocityController.solve
+    plants = _simulator_classes()
+    steps = [cls.step for cls in plants]
     Controller.solve = replaying(solves[0])           # type: ignore[method-assign]
     VelocityController.solve = replaying(solves[1])   # type: ignore[method-assign]
+    for cls, step in zip(plants, steps, strict=True):
+        cls.step = sending(step)
     try:
         run(load_config(name), **settings)
     finally:
         Controller.solve, VelocityController.solve = solves   # type: ignore[method-assign]
+        for cls, step in zip(plants, steps, strict=True):
+            cls.step = step
     return {"q": np.array(qs), "v": np.array(vs), "tau_e": np.array(taus_e), "has_tau_e": np.array(flags),
+            "sent": np.array(sent),
             "out": np.array(outs)}
+
+
+def _simulator_classes() -> list:
+    """The simulators whose ``step(tau)`` a replay drives with the recorded torques."""
+    from wbc.sim.simulator import Simulator
+
+    try:
+        from wbc.sim.mujoco_sim import MujocoSimulator
+    except ImportError:                                  # (an environment without MuJoCo)
+        return [Simulator]
+    return [Simulator, MujocoSimulator]
 
 
 def _keys(data) -> list[str]:
@@ -133,7 +165,7 @@ def replay(recorded: str, path: str) -> None:
     out: dict = {}
     for key in _keys(data):
         name, sim, solver = key.split("/")
-        given = {f: data[f"{key}/{f}"] for f in ("q", "v", "tau_e", "has_tau_e")}
+        given = {f: data[f"{key}/{f}"] for f in ("q", "v", "tau_e", "has_tau_e", "sent") if f"{key}/{f}" in data.files}
         got = run_case(name, None if solver == "default" else solver, float(data[f"{key}/seconds"][0]), sim, given)
         out[f"{key}/out"] = got["out"]
         print(f"{key:44s} {len(got['out'])} cycles replayed", flush=True)

@@ -48,3 +48,27 @@ def test_compare_fails_a_controller_change_above_the_tolerance_only(recorded, tm
     same_replay.replay(str(recorded), str(out))
     assert not np.array_equal(np.load(recorded)[KEY], np.load(out)[KEY])
     assert same_replay.compare(str(recorded), str(out)) == verdict
+
+
+def test_replay_drives_the_plant_with_the_recorded_torques(recorded, monkeypatch):
+    data = np.load(recorded)
+    key = KEY.rsplit("/", 1)[0]
+    given = {f: data[f"{key}/{f}"] for f in ("q", "v", "tau_e", "has_tau_e", "sent")}
+    solve, measure = Controller.solve, Simulator.measure
+    live: list = []
+
+    def pushed(self, *args, **kwargs):      # a controller whose torques alone would move the plant elsewhere
+        sol = solve(self, *args, **kwargs)
+        sol.tau_full = sol.tau_full * 1.5
+        return sol
+
+    def measured(self):
+        q, v = measure(self)
+        live.append(q.copy())
+        return q, v
+
+    monkeypatch.setattr(Controller, "solve", pushed)
+    monkeypatch.setattr(Simulator, "measure", measured)
+    same_replay.run_case("talos_balance", "hqp", 0.05, "pinocchio", given)
+    assert len(live) == 50
+    assert np.array_equal(np.array(live), given["q"])     # the live plant is the recording's, bit for bit
